@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# Installs the system packages lightlearn needs to build and test: a Vulkan loader, Mesa's
+# lavapipe (the CPU Vulkan driver CI renders on), the GLSL compiler, SPIR-V tools and the
+# Khronos validation layers (tests fail on any validation error). Idempotent: it installs only
+# what is missing, so running it again is cheap.
+set -euo pipefail
+
+packages=(
+  libvulkan1              # the Vulkan loader (ash loads it at run time)
+  mesa-vulkan-drivers     # lavapipe: Vulkan on the CPU, the CI device
+  vulkan-validationlayers # VK_LAYER_KHRONOS_validation, on in tests
+  glslang-tools           # glslangValidator: GLSL -> SPIR-V in build.rs
+  spirv-tools             # spirv-val / spirv-dis, for inspecting kernels
+  vulkan-tools            # vulkaninfo, to see which devices the loader finds
+  pkg-config
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if ((${#missing[@]})); then
+  echo "ci/setup.sh: installing ${missing[*]}"
+  if [ "$(id -u)" -ne 0 ]; then
+    if command -v sudo >/dev/null 2>&1; then
+      SUDO=sudo
+    else
+      echo "ci/setup.sh: not root and no sudo. Ask an administrator to run:" >&2
+      echo "  apt-get install -y ${missing[*]}" >&2
+      exit 1
+    fi
+  else
+    SUDO=
+  fi
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+else
+  echo "ci/setup.sh: system packages present"
+fi
+
+if ! command -v cargo >/dev/null 2>&1; then
+  echo "ci/setup.sh: cargo not found. Install Rust (https://rustup.rs) and run this again." >&2
+  exit 1
+fi
+
+# Lavapipe is the device CI renders on; say so when it is missing so a failing test is explained.
+if ! ls /usr/share/vulkan/icd.d/lvp_icd.*.json >/dev/null 2>&1; then
+  echo "ci/setup.sh: warning: lavapipe ICD not found under /usr/share/vulkan/icd.d" >&2
+fi

@@ -1,0 +1,92 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// One progressive pass of direct illumination: for every pixel one jittered camera ray, the
+// emission seen directly, and one next-event sample (light chosen by SAMPLER, point on it,
+// shadow ray, Lambertian BRDF). Sums of the sample and of its square go to `accum`.
+#include "types.glsl"
+#include "rng.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+// The light sampler, a closed set (src/render/sampler.rs LightSampler): 0 uniform, 1 power.
+layout(constant_id = 0) const uint SAMPLER = 0u;
+
+layout(std430, set = 0, binding = 0) readonly buffer Nodes { BvhNode bvh_nodes[]; };
+layout(std430, set = 0, binding = 1) readonly buffer Tris { BvhTri bvh_tris[]; };
+layout(std430, set = 0, binding = 2) readonly buffer TriMaterial { uint tri_material[]; };
+layout(std430, set = 0, binding = 3) readonly buffer Materials { GpuMaterial materials[]; };
+layout(std430, set = 0, binding = 4) readonly buffer Lights { GpuLight lights[]; };
+layout(std430, set = 0, binding = 5) readonly buffer Alias { AliasEntry alias_table[]; };
+layout(std430, set = 0, binding = 6) buffer Accum { PixelAccum accum[]; };
+// [0]: samples dropped because they were NaN or Inf (reported, never averaged in).
+layout(std430, set = 0, binding = 7) buffer Counters { uint counters[]; };
+
+layout(push_constant) uniform Push { RenderParams params; };
+
+#include "bvh.glsl"
+#include "lights.glsl"
+
+// Random-number dimensions of one pixel sample.
+#define DIM_JITTER_X 0u
+#define DIM_JITTER_Y 1u
+#define DIM_LIGHT 2u
+#define DIM_LIGHT_U 3u
+#define DIM_LIGHT_V 4u
+
+const float PI = 3.14159265358979;
+
+void main() {
+    uvec2 px = gl_GlobalInvocationID.xy;
+    if (px.x >= params.width || px.y >= params.height) return;
+    uint pixel = px.y * params.width + px.x;
+    uint s = params.sample_index;
+    uint seed = params.seed;
+
+    // Box filter: a uniform point in the pixel.
+    vec2 jitter = vec2(sample_rand(seed, pixel, s, DIM_JITTER_X), sample_rand(seed, pixel, s, DIM_JITTER_Y));
+    vec2 ndc = vec2((float(px.x) + jitter.x) / float(params.width) * 2.0 - 1.0,
+                    1.0 - (float(px.y) + jitter.y) / float(params.height) * 2.0);
+    vec3 dir = normalize(params.cam_w.xyz + ndc.x * params.cam_u.xyz + ndc.y * params.cam_v.xyz);
+    vec3 origin = params.cam_pos.xyz;
+
+    vec3 L = vec3(0.0);
+    float t;
+    uint slot = trace_ray(origin, dir, 0.0, 3.0e38, false, t);
+    if (slot != NO_HIT) {
+        BvhTri tri = bvh_tris[slot];
+        vec3 ng = normalize(cross(tri.e1, tri.e2));
+        bool front = dot(ng, dir) < 0.0;
+        GpuMaterial m = materials[tri_material[tri.prim]];
+        if (front || (m.flags & MATERIAL_TWO_SIDED) != 0u) L += m.emission;
+
+        // Reflection is two-sided: shade the side the camera sees.
+        vec3 n = front ? ng : -ng;
+        vec3 x = origin + t * dir;
+        float pmf;
+        uint li = pick_light(sample_rand(seed, pixel, s, DIM_LIGHT), params.light_count, pmf);
+        vec3 wi;
+        float dist;
+        vec2 u = vec2(sample_rand(seed, pixel, s, DIM_LIGHT_U), sample_rand(seed, pixel, s, DIM_LIGHT_V));
+        GpuLight light = lights[li];
+        vec3 Li = sample_light_point(light, x, u, wi, dist);
+        float cos_x = dot(n, wi);
+        if (cos_x > 0.0 && any(greaterThan(Li, vec3(0.0)))) {
+            float eps = params.ray_eps;
+            // Stop short of an area light's own surface; a point light has none.
+            float tmax = (light.kind & 0xffu) == LIGHT_TRIANGLE ? dist - eps : dist;
+            float ts;
+            if (trace_ray(x + n * eps, wi, 0.0, tmax, true, ts) == NO_HIT) {
+                L += m.base_color * (1.0 / PI) * Li * (cos_x / pmf);
+            }
+        }
+    }
+
+    if (any(isnan(L)) || any(isinf(L))) {
+        atomicAdd(counters[0], 1u);
+        L = vec3(0.0);
+    }
+    PixelAccum a = accum[pixel];
+    a.sum.xyz += L;
+    a.sum_sq.xyz += L * L;
+    accum[pixel] = a;
+}

@@ -1,0 +1,91 @@
+// BVH traversal. The including kernel declares `bvh_nodes` (BvhNode[]) and `bvh_tris`
+// (BvhTri[]). Same loop as Bvh::traverse in src/accel/bvh.rs.
+#ifndef BVH_GLSL
+#define BVH_GLSL
+
+#include "types.glsl"
+
+// Far children waiting to be visited; the builder caps the depth so this cannot overflow
+// (src/accel/bvh.rs MAX_DEPTH).
+#define STACK_SIZE 48
+#define NO_HIT 0xffffffffu
+
+// Entry distance of the box if hit within [tmin, tmax], else -1 (callers keep tmin >= 0).
+float slab(vec3 lo, vec3 hi, vec3 o, vec3 inv, float tmin, float tmax) {
+    vec3 t0 = (lo - o) * inv;
+    vec3 t1 = (hi - o) * inv;
+    vec3 tn = min(t0, t1);
+    vec3 tf = max(t0, t1);
+    float near = max(max(max(tn.x, tn.y), tn.z), tmin);
+    float far = min(min(min(tf.x, tf.y), tf.z), tmax);
+    return near <= far ? near : -1.0;
+}
+
+// Möller–Trumbore, both faces: t of the hit, or -1.
+float intersect_tri(BvhTri tri, vec3 o, vec3 d, float tmin, float tmax) {
+    vec3 p = cross(d, tri.e2);
+    float det = dot(tri.e1, p);
+    if (det == 0.0) return -1.0;
+    float inv_det = 1.0 / det;
+    vec3 s = o - tri.v0;
+    float u = dot(s, p) * inv_det;
+    if (u < 0.0 || u > 1.0) return -1.0;
+    vec3 q = cross(s, tri.e1);
+    float v = dot(d, q) * inv_det;
+    if (v < 0.0 || u + v > 1.0) return -1.0;
+    float t = dot(tri.e2, q) * inv_det;
+    return (t > tmin && t < tmax) ? t : -1.0;
+}
+
+// Closest hit (any_hit = false) or the first hit found (shadow rays) with t in (tmin, tmax).
+// Returns the index into bvh_tris of the hit triangle or NO_HIT; its distance in t_hit.
+uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t_hit) {
+    vec3 inv = 1.0 / d;
+    float best_t = tmax;
+    uint best = NO_HIT;
+    uint stack[STACK_SIZE];
+    uint sp = 0u;
+    uint node = 0u;
+    for (;;) {
+        BvhNode n = bvh_nodes[node];
+        float ta = slab(n.a_min, n.a_max, o, inv, tmin, best_t);
+        float tb = slab(n.b_min, n.b_max, o, inv, tmin, best_t);
+        bool hit_a = ta >= 0.0;
+        bool hit_b = tb >= 0.0;
+        if (hit_a && (n.a_ref & BVH_LEAF_BIT) != 0u) {
+            hit_a = false;
+            uint first = n.a_ref & ~BVH_LEAF_BIT;
+            for (uint i = first; i < first + n.a_count; ++i) {
+                float t = intersect_tri(bvh_tris[i], o, d, tmin, best_t);
+                if (t >= 0.0) { best_t = t; best = i; }
+            }
+            if (any_hit && best != NO_HIT) break;
+        }
+        if (hit_b && (n.b_ref & BVH_LEAF_BIT) != 0u) {
+            hit_b = false;
+            uint first = n.b_ref & ~BVH_LEAF_BIT;
+            for (uint i = first; i < first + n.b_count; ++i) {
+                float t = intersect_tri(bvh_tris[i], o, d, tmin, best_t);
+                if (t >= 0.0) { best_t = t; best = i; }
+            }
+            if (any_hit && best != NO_HIT) break;
+        }
+        if (hit_a && hit_b) {
+            bool a_first = ta <= tb;
+            stack[sp++] = a_first ? n.b_ref : n.a_ref;
+            node = a_first ? n.a_ref : n.b_ref;
+        } else if (hit_a) {
+            node = n.a_ref;
+        } else if (hit_b) {
+            node = n.b_ref;
+        } else if (sp == 0u) {
+            break;
+        } else {
+            node = stack[--sp];
+        }
+    }
+    t_hit = best_t;
+    return best;
+}
+
+#endif

@@ -1,0 +1,28 @@
+#version 460
+#extension GL_GOOGLE_include_directive : require
+// Traces a batch of rays through the BVH: the kernel behind the GPU-vs-CPU BVH test and the
+// ray-throughput benchmark. Closest hit, or any hit for shadow-ray timing.
+#include "types.glsl"
+
+layout(local_size_x = 64) in;
+
+layout(std430, set = 0, binding = 0) readonly buffer Nodes { BvhNode bvh_nodes[]; };
+layout(std430, set = 0, binding = 1) readonly buffer Tris { BvhTri bvh_tris[]; };
+layout(std430, set = 0, binding = 2) readonly buffer Rays { GpuRay rays[]; };
+layout(std430, set = 0, binding = 3) writeonly buffer Hits { GpuHit hits[]; };
+
+layout(push_constant) uniform Push { TraceParams params; };
+
+#include "bvh.glsl"
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= params.ray_count) return;
+    GpuRay r = rays[i];
+    float t;
+    uint slot = trace_ray(r.origin, r.dir, r.tmin, r.tmax, params.any_hit != 0u, t);
+    GpuHit h;
+    h.t = t;
+    h.prim = slot == NO_HIT ? NO_HIT : bvh_tris[slot].prim;
+    hits[i] = h;
+}

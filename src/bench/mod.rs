@@ -1,0 +1,3 @@
+//! Benchmarks: commands that measure, never tests (timings vary on shared machines).
+
+pub mod rays;

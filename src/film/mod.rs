@@ -1,0 +1,146 @@
+//! Images out: float32 RGB EXR (the result), tone-mapped sRGB PNG (for a quick look) and a
+//! JSON report. All three are written to temporary files first and renamed into place
+//! together, so a failure never leaves a half-written output.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, bail, Context, Result};
+
+/// The output paths derived from `--out FILE.exr`.
+#[derive(Clone, Debug)]
+pub struct OutputPaths {
+    pub exr: PathBuf,
+    pub png: PathBuf,
+    pub json: PathBuf,
+}
+
+impl OutputPaths {
+    /// Checks the name and that its folder exists, before any rendering work is done.
+    pub fn new(exr: &Path) -> Result<OutputPaths> {
+        if exr
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_lowercase)
+            != Some("exr".into())
+        {
+            bail!(
+                "--out '{}' must end in .exr (the PNG and JSON are written next to it)",
+                exr.display()
+            );
+        }
+        let dir = match exr.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        if !dir.is_dir() {
+            bail!(
+                "cannot write '{}': folder '{}' does not exist; create it first",
+                exr.display(),
+                dir.display()
+            );
+        }
+        Ok(OutputPaths {
+            exr: exr.to_path_buf(),
+            png: exr.with_extension("png"),
+            json: exr.with_extension("json"),
+        })
+    }
+}
+
+fn temp_path(p: &Path) -> PathBuf {
+    let name = p
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    p.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+}
+
+/// Writes EXR, PNG and JSON atomically (all three or none).
+pub fn write_outputs(
+    paths: &OutputPaths,
+    width: u32,
+    height: u32,
+    rgb: &[[f32; 3]],
+    report: &serde_json::Value,
+) -> Result<()> {
+    let tmp = [
+        temp_path(&paths.exr),
+        temp_path(&paths.png),
+        temp_path(&paths.json),
+    ];
+    let result = (|| -> Result<()> {
+        write_exr(&tmp[0], width, height, rgb)?;
+        write_png(&tmp[1], width, height, rgb)?;
+        let text = serde_json::to_string_pretty(report)? + "\n";
+        std::fs::write(&tmp[2], text)?;
+        for (t, p) in tmp.iter().zip([&paths.exr, &paths.png, &paths.json]) {
+            std::fs::rename(t, p)
+                .with_context(|| format!("cannot move the result into '{}'", p.display()))?;
+        }
+        Ok(())
+    })();
+    if result.is_err() {
+        for t in &tmp {
+            let _ = std::fs::remove_file(t);
+        }
+    }
+    result.with_context(|| format!("cannot write the render to '{}'", paths.exr.display()))
+}
+
+/// Float32 RGB OpenEXR.
+pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<()> {
+    let w = width as usize;
+    exr::prelude::write_rgb_file(path, w, height as usize, |x, y| {
+        let p = rgb[y * w + x];
+        (p[0], p[1], p[2])
+    })
+    .map_err(|e| anyhow!("EXR write failed: {e}"))
+}
+
+/// Reads a float RGB EXR written by [`write_exr`] (tests, `compare`).
+pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
+    use exr::prelude::*;
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |res, _| {
+            let w = res.width();
+            (w, vec![[0f32; 3]; w * res.height()])
+        },
+        |(w, px), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            px[pos.y() * *w + pos.x()] = [r, g, b];
+        },
+    )
+    .map_err(|e| anyhow!("cannot read EXR '{}': {e}", path.display()))?;
+    let size = image.layer_data.size;
+    let (_, px) = image.layer_data.channel_data.pixels;
+    Ok((size.width() as u32, size.height() as u32, px))
+}
+
+/// sRGB transfer function of a linear value clamped to [0, 1].
+fn srgb8(v: f32) -> u8 {
+    let v = if v.is_finite() {
+        v.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let s = if v <= 0.003_130_8 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    };
+    (s * 255.0 + 0.5) as u8
+}
+
+/// 8-bit sRGB PNG: linear radiance clamped to [0, 1] (no exposure change).
+pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<()> {
+    let file = std::fs::File::create(path)?;
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), width, height);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    let mut w = enc.write_header()?;
+    let data: Vec<u8> = rgb.iter().flat_map(|p| p.map(srgb8)).collect();
+    w.write_image_data(&data)?;
+    w.finish()?;
+    Ok(())
+}

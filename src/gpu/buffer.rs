@@ -1,0 +1,182 @@
+//! Storage buffers: device-local for what kernels read and write, filled and read back
+//! through host-visible staging buffers (a plain map on lavapipe's single heap, a PCIe copy on
+//! a discrete GPU).
+
+use std::sync::Arc;
+
+use anyhow::{Context as _, Result};
+use ash::vk;
+use bytemuck::Pod;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::MemoryLocation;
+
+use super::context::Context;
+
+pub struct Buffer {
+    ctx: Arc<Context>,
+    pub raw: vk::Buffer,
+    allocation: Option<Allocation>,
+    pub size: u64,
+}
+
+impl Buffer {
+    /// A buffer of `size` bytes (at least 16: Vulkan forbids empty buffers).
+    pub fn new(
+        ctx: &Arc<Context>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> Result<Buffer> {
+        let size = size.max(16);
+        let max = ctx.properties.limits.max_storage_buffer_range as u64;
+        if usage.contains(vk::BufferUsageFlags::STORAGE_BUFFER) && size > max {
+            anyhow::bail!(
+                "buffer '{name}' needs {size} bytes but this device allows storage buffers of at most {max}; use a smaller scene or image"
+            );
+        }
+        let info = vk::BufferCreateInfo::default()
+            .size(size)
+            .usage(usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let raw = unsafe { ctx.device.create_buffer(&info, None) }?;
+        let requirements = unsafe { ctx.device.get_buffer_memory_requirements(raw) };
+        let allocation = ctx
+            .allocator
+            .lock()
+            .expect("allocator")
+            .allocate(&AllocationCreateDesc {
+                name,
+                requirements,
+                location,
+                linear: true,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            });
+        let allocation = match allocation {
+            Ok(a) => a,
+            Err(e) => {
+                unsafe { ctx.device.destroy_buffer(raw, None) };
+                return Err(e)
+                    .with_context(|| format!("cannot allocate {size} bytes for '{name}'"));
+            }
+        };
+        unsafe {
+            ctx.device
+                .bind_buffer_memory(raw, allocation.memory(), allocation.offset())
+        }?;
+        Ok(Buffer {
+            ctx: ctx.clone(),
+            raw,
+            allocation: Some(allocation),
+            size,
+        })
+    }
+
+    /// A device-local storage buffer holding `data`.
+    pub fn from_slice<T: Pod>(ctx: &Arc<Context>, name: &str, data: &[T]) -> Result<Buffer> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let buf = Buffer::new(
+            ctx,
+            name,
+            bytes.len() as u64,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        if !bytes.is_empty() {
+            buf.write(bytes)?;
+        }
+        Ok(buf)
+    }
+
+    /// A zero-filled device-local storage buffer of `size` bytes.
+    pub fn zeroed(ctx: &Arc<Context>, name: &str, size: u64) -> Result<Buffer> {
+        let buf = Buffer::new(
+            ctx,
+            name,
+            size,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        buf.clear()?;
+        Ok(buf)
+    }
+
+    /// Fills the buffer with zeros.
+    pub fn clear(&self) -> Result<()> {
+        self.ctx.submit(|cmd| unsafe {
+            self.ctx
+                .device
+                .cmd_fill_buffer(cmd, self.raw, 0, vk::WHOLE_SIZE, 0);
+        })
+    }
+
+    /// Copies `bytes` to the start of the buffer through a staging buffer.
+    pub fn write(&self, bytes: &[u8]) -> Result<()> {
+        let mut staging = Buffer::new(
+            &self.ctx,
+            "staging upload",
+            bytes.len() as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
+        staging.mapped_mut()?[..bytes.len()].copy_from_slice(bytes);
+        let region = [vk::BufferCopy::default().size(bytes.len() as u64)];
+        self.ctx.submit(|cmd| unsafe {
+            self.ctx
+                .device
+                .cmd_copy_buffer(cmd, staging.raw, self.raw, &region)
+        })
+    }
+
+    /// Reads the whole buffer back as `T`s.
+    pub fn read<T: Pod>(&self) -> Result<Vec<T>> {
+        let staging = Buffer::new(
+            &self.ctx,
+            "staging readback",
+            self.size,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
+        let region = [vk::BufferCopy::default().size(self.size)];
+        self.ctx.submit(|cmd| unsafe {
+            self.ctx
+                .device
+                .cmd_copy_buffer(cmd, self.raw, staging.raw, &region)
+        })?;
+        let bytes = staging.mapped()?;
+        let n = bytes.len() / std::mem::size_of::<T>();
+        // The mapping may not be aligned for T: copy element-wise through pod_read_unaligned.
+        Ok((0..n)
+            .map(|i| {
+                bytemuck::pod_read_unaligned(
+                    &bytes[i * std::mem::size_of::<T>()..(i + 1) * std::mem::size_of::<T>()],
+                )
+            })
+            .collect())
+    }
+
+    fn mapped(&self) -> Result<&[u8]> {
+        let a = self.allocation.as_ref().expect("live buffer");
+        a.mapped_slice()
+            .context("buffer is not host-visible (internal error)")
+    }
+
+    fn mapped_mut(&mut self) -> Result<&mut [u8]> {
+        let a = self.allocation.as_mut().expect("live buffer");
+        a.mapped_slice_mut()
+            .context("buffer is not host-visible (internal error)")
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        if let Some(a) = self.allocation.take() {
+            let _ = self.ctx.allocator.lock().map(|mut al| al.free(a));
+        }
+        unsafe { self.ctx.device.destroy_buffer(self.raw, None) };
+    }
+}

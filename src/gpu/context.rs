@@ -1,0 +1,351 @@
+//! Headless Vulkan: instance (with the Khronos validation layer when asked), device choice,
+//! one compute queue, a gpu-allocator, and one-shot command submission.
+
+use std::ffi::{c_void, CStr, CString};
+use std::mem::ManuallyDrop;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use anyhow::{anyhow, bail, Context as _, Result};
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+
+/// Longest a single submission may run before we call the device lost. A render submits a
+/// few passes at a time (see `render::PASS_BATCH_SECONDS`), far below this.
+const SUBMIT_TIMEOUT: Duration = Duration::from_secs(600);
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+#[derive(Clone, Debug, Default)]
+pub struct ContextOptions {
+    /// Case-insensitive substring of the device name to use (`--device`).
+    pub device: Option<String>,
+    /// Enable the Khronos validation layer and fail on any validation error.
+    pub validation: bool,
+}
+
+pub struct Context {
+    _entry: ash::Entry,
+    pub instance: ash::Instance,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    /// Validation errors reported by the layer since the last check (boxed: the callback
+    /// holds a raw pointer to it).
+    validation_log: Box<Mutex<Vec<String>>>,
+    pub physical: vk::PhysicalDevice,
+    pub device: ash::Device,
+    pub queue: vk::Queue,
+    pub queue_family: u32,
+    pub allocator: ManuallyDrop<Mutex<Allocator>>,
+    command_pool: vk::CommandPool,
+    pub device_name: String,
+    pub device_type: vk::PhysicalDeviceType,
+    pub properties: vk::PhysicalDeviceProperties,
+}
+
+unsafe extern "system" fn debug_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user: *mut c_void,
+) -> vk::Bool32 {
+    if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) && !data.is_null() {
+        let msg = unsafe { (*data).message_as_c_str() }
+            .map(|m| m.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let log = unsafe { &*(user as *const Mutex<Vec<String>>) };
+        if let Ok(mut l) = log.lock() {
+            l.push(msg);
+        }
+    }
+    vk::FALSE
+}
+
+fn no_device_help() -> &'static str {
+    "Install a Vulkan driver: `ci/setup.sh` installs Mesa's lavapipe (package mesa-vulkan-drivers). \
+     If one is installed, check that VK_DRIVER_FILES / VK_ICD_FILENAMES point to existing files."
+}
+
+impl Context {
+    pub fn new(options: &ContextOptions) -> Result<Arc<Context>> {
+        let entry = unsafe { ash::Entry::load() }.map_err(|e| {
+            anyhow!("cannot load the Vulkan loader (libvulkan.so.1): {e}. Run `ci/setup.sh` (package libvulkan1).")
+        })?;
+        let app_name = c"lightlearn";
+        let app = vk::ApplicationInfo::default()
+            .application_name(app_name)
+            .engine_name(app_name)
+            .api_version(vk::API_VERSION_1_2);
+
+        let mut layers: Vec<*const i8> = Vec::new();
+        let mut extensions: Vec<*const i8> = Vec::new();
+        if options.validation {
+            let available = unsafe { entry.enumerate_instance_layer_properties() }?;
+            let found = available
+                .iter()
+                .any(|l| l.layer_name_as_c_str().ok() == Some(VALIDATION_LAYER));
+            if !found {
+                bail!("validation was requested but VK_LAYER_KHRONOS_validation is not installed; run `ci/setup.sh` (package vulkan-validationlayers)");
+            }
+            layers.push(VALIDATION_LAYER.as_ptr());
+            extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
+        let create = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_layer_names(&layers)
+            .enabled_extension_names(&extensions);
+        let instance = match unsafe { entry.create_instance(&create, None) } {
+            Ok(i) => i,
+            Err(vk::Result::ERROR_INCOMPATIBLE_DRIVER) => {
+                bail!("no Vulkan driver found. {}", no_device_help())
+            }
+            Err(e) => bail!("cannot create a Vulkan instance: {e}. {}", no_device_help()),
+        };
+
+        let validation_log: Box<Mutex<Vec<String>>> = Box::default();
+        let debug = if options.validation {
+            let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
+                )
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+                )
+                .pfn_user_callback(Some(debug_callback))
+                .user_data(&*validation_log as *const Mutex<Vec<String>> as *mut c_void);
+            let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }?;
+            Some((loader, messenger))
+        } else {
+            None
+        };
+
+        let (physical, queue_family, properties) = match pick_device(&instance, options) {
+            Ok(p) => p,
+            Err(e) => {
+                unsafe {
+                    if let Some((loader, m)) = &debug {
+                        loader.destroy_debug_utils_messenger(*m, None);
+                    }
+                    instance.destroy_instance(None);
+                }
+                return Err(e);
+            }
+        };
+        let device_name = properties
+            .device_name_as_c_str()
+            .map(|c| c.to_string_lossy().into_owned())
+            .unwrap_or_default();
+
+        let priorities = [1.0f32];
+        let queue_info = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&priorities)];
+        let device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
+        let device = unsafe { instance.create_device(physical, &device_info, None) }
+            .with_context(|| format!("cannot create a Vulkan device on '{device_name}'"))?;
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device: physical,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })
+        .context("cannot create the GPU memory allocator")?;
+
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        let command_pool = unsafe { device.create_command_pool(&pool_info, None) }?;
+
+        Ok(Arc::new(Context {
+            _entry: entry,
+            instance,
+            debug,
+            validation_log,
+            physical,
+            device,
+            queue,
+            queue_family,
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            command_pool,
+            device_name,
+            device_type: properties.device_type,
+            properties,
+        }))
+    }
+
+    /// Errors reported by the validation layer since the last call, as an `Err`.
+    pub fn check_validation(&self) -> Result<()> {
+        let mut log = self.validation_log.lock().expect("validation log");
+        if log.is_empty() {
+            return Ok(());
+        }
+        let msgs = std::mem::take(&mut *log);
+        bail!("Vulkan validation errors:\n{}", msgs.join("\n"))
+    }
+
+    /// Records commands with `record`, submits them, waits for completion and checks the
+    /// validation layer's verdict.
+    pub fn submit(&self, record: impl FnOnce(vk::CommandBuffer)) -> Result<()> {
+        let d = &self.device;
+        unsafe {
+            let alloc = vk::CommandBufferAllocateInfo::default()
+                .command_pool(self.command_pool)
+                .level(vk::CommandBufferLevel::PRIMARY)
+                .command_buffer_count(1);
+            let cmd = d.allocate_command_buffers(&alloc)?[0];
+            let begin = vk::CommandBufferBeginInfo::default()
+                .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            d.begin_command_buffer(cmd, &begin)?;
+            record(cmd);
+            d.end_command_buffer(cmd)?;
+            let fence = d.create_fence(&vk::FenceCreateInfo::default(), None)?;
+            let cmds = [cmd];
+            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+            let result = d
+                .queue_submit(self.queue, &submit, fence)
+                .and_then(|_| d.wait_for_fences(&[fence], true, SUBMIT_TIMEOUT.as_nanos() as u64));
+            d.destroy_fence(fence, None);
+            d.free_command_buffers(self.command_pool, &cmds);
+            match result {
+                Ok(()) => {}
+                Err(vk::Result::TIMEOUT) => bail!(
+                    "the GPU did not finish a submission within {} s; try a smaller image or scene",
+                    SUBMIT_TIMEOUT.as_secs()
+                ),
+                Err(e) => bail!("GPU submission failed: {e} (device lost?)"),
+            }
+        }
+        self.check_validation()
+    }
+
+    /// A full memory barrier between compute dispatches (and transfers) in one command buffer.
+    pub fn barrier(&self, cmd: vk::CommandBuffer) {
+        let barrier = [vk::MemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
+            .dst_access_mask(
+                vk::AccessFlags::SHADER_READ
+                    | vk::AccessFlags::SHADER_WRITE
+                    | vk::AccessFlags::TRANSFER_READ,
+            )];
+        unsafe {
+            self.device.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &barrier,
+                &[],
+                &[],
+            );
+        }
+    }
+
+    /// "NAME (discrete GPU, Vulkan 1.3.x)" for reports.
+    pub fn describe(&self) -> String {
+        let v = self.properties.api_version;
+        format!(
+            "{} ({}, Vulkan {}.{}.{})",
+            self.device_name,
+            type_name(self.device_type),
+            vk::api_version_major(v),
+            vk::api_version_minor(v),
+            vk::api_version_patch(v)
+        )
+    }
+}
+
+impl Drop for Context {
+    fn drop(&mut self) {
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            self.device.destroy_command_pool(self.command_pool, None);
+            ManuallyDrop::drop(&mut self.allocator);
+            self.device.destroy_device(None);
+            if let Some((loader, m)) = &self.debug {
+                loader.destroy_debug_utils_messenger(*m, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+
+fn type_name(t: vk::PhysicalDeviceType) -> &'static str {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => "discrete GPU",
+        vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated GPU",
+        vk::PhysicalDeviceType::VIRTUAL_GPU => "virtual GPU",
+        vk::PhysicalDeviceType::CPU => "CPU",
+        _ => "other",
+    }
+}
+
+/// Prefers a discrete GPU, then integrated, virtual, and last a CPU device (lavapipe).
+fn pick_device(
+    instance: &ash::Instance,
+    options: &ContextOptions,
+) -> Result<(vk::PhysicalDevice, u32, vk::PhysicalDeviceProperties)> {
+    let devices = unsafe { instance.enumerate_physical_devices() }?;
+    if devices.is_empty() {
+        bail!("no Vulkan device found. {}", no_device_help());
+    }
+    let mut usable = Vec::new();
+    let mut names = Vec::new();
+    for pd in devices {
+        let props = unsafe { instance.get_physical_device_properties(pd) };
+        let name = props
+            .device_name_as_c_str()
+            .map(|c| c.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        names.push(name.clone());
+        if props.api_version < vk::API_VERSION_1_2 {
+            continue;
+        }
+        let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+        let Some(qf) = families
+            .iter()
+            .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+        else {
+            continue;
+        };
+        if let Some(want) = &options.device {
+            if !name.to_lowercase().contains(&want.to_lowercase()) {
+                continue;
+            }
+        }
+        let rank = match props.device_type {
+            vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+            vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+            vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+            vk::PhysicalDeviceType::CPU => 3,
+            _ => 4,
+        };
+        usable.push((rank, pd, qf as u32, props));
+    }
+    usable.sort_by_key(|u| u.0);
+    match usable.into_iter().next() {
+        Some((_, pd, qf, props)) => Ok((pd, qf, props)),
+        None => match &options.device {
+            Some(want) => bail!(
+                "no Vulkan 1.2 compute device matches --device '{want}'. Available: {}",
+                names.join(", ")
+            ),
+            None => bail!(
+                "no Vulkan 1.2 device with a compute queue (found: {}). {}",
+                names.join(", "),
+                no_device_help()
+            ),
+        },
+    }
+}
+
+/// Turns a name into a C string for Vulkan debug names (interior NULs dropped).
+pub fn c_name(s: &str) -> CString {
+    CString::new(s.replace('\0', "")).expect("no interior NUL")
+}

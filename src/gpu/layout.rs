@@ -1,0 +1,145 @@
+//! Every struct the host shares with the kernels. Each is mirrored field by field in
+//! `shaders/shared/types.glsl` (same names), and `tests/layout.rs` reads the compiled SPIR-V
+//! and fails on any offset or size mismatch.
+//!
+//! std430 rules: a vec3 is 16-byte aligned but 12 bytes long, so a scalar packs into its
+//! fourth word; every struct here is a multiple of 16 bytes.
+
+use bytemuck::{Pod, Zeroable};
+
+/// Marks a child reference in [`BvhNode`] as a leaf; the low bits are then the first triangle.
+pub const BVH_LEAF_BIT: u32 = 0x8000_0000;
+
+/// A BVH2 node that stores the boxes of both children, so one 64-byte fetch tests two boxes
+/// and the nearer child is visited first.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BvhNode {
+    pub a_min: [f32; 3],
+    /// Interior child: node index. Leaf: `BVH_LEAF_BIT | first triangle`.
+    pub a_ref: u32,
+    pub a_max: [f32; 3],
+    /// Leaf: number of triangles (0 for an empty child). Interior: 0.
+    pub a_count: u32,
+    pub b_min: [f32; 3],
+    pub b_ref: u32,
+    pub b_max: [f32; 3],
+    pub b_count: u32,
+}
+
+/// A triangle in BVH leaf order, pre-transformed for Möller–Trumbore (v0 and two edges).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BvhTri {
+    pub v0: [f32; 3],
+    /// Index of the triangle in `Scene::triangles`.
+    pub prim: u32,
+    pub e1: [f32; 3],
+    pub pad0: u32,
+    pub e2: [f32; 3],
+    pub pad1: u32,
+}
+
+pub const LIGHT_POINT: u32 = 0;
+pub const LIGHT_SPOT: u32 = 1;
+pub const LIGHT_TRIANGLE: u32 = 2;
+/// Added to `LIGHT_TRIANGLE` when the triangle emits from both faces.
+pub const LIGHT_TWO_SIDED: u32 = 0x100;
+
+/// One light. Point: `p0` position, `radiance` intensity (W/sr). Spot: additionally `p1` the
+/// unit axis and the cone cosines. Triangle: vertices `p0..p2` (CCW front), `radiance`
+/// emitted radiance, `area`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuLight {
+    pub p0: [f32; 3],
+    pub kind: u32,
+    pub p1: [f32; 3],
+    pub cos_outer: f32,
+    pub p2: [f32; 3],
+    pub cos_inner: f32,
+    pub radiance: [f32; 3],
+    pub area: f32,
+}
+
+/// One entry of the power sampler's alias table (Walker/Vose): pick entry i uniformly, keep i
+/// with probability `q`, else take `alias`. `pmf` is light i's selection probability.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct AliasEntry {
+    pub q: f32,
+    pub alias: u32,
+    pub pmf: f32,
+    pub pad: u32,
+}
+
+pub const MATERIAL_TWO_SIDED: u32 = 1;
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuMaterial {
+    pub base_color: [f32; 3],
+    /// `MATERIAL_TWO_SIDED` when emission leaves both faces.
+    pub flags: u32,
+    pub emission: [f32; 3],
+    pub pad: u32,
+}
+
+/// Push constants of `render.comp` (96 of the 128 bytes every device guarantees).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RenderParams {
+    pub cam_pos: [f32; 4],
+    /// Camera right × tan(yfov/2) × aspect.
+    pub cam_u: [f32; 4],
+    /// Camera up × tan(yfov/2).
+    pub cam_v: [f32; 4],
+    /// Camera forward.
+    pub cam_w: [f32; 4],
+    pub width: u32,
+    pub height: u32,
+    pub sample_index: u32,
+    pub seed: u32,
+    pub light_count: u32,
+    /// Offset of secondary ray origins, relative to the scene size.
+    pub ray_eps: f32,
+    pub pad0: u32,
+    pub pad1: u32,
+}
+
+/// A ray for `trace.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuRay {
+    pub origin: [f32; 3],
+    pub tmin: f32,
+    pub dir: [f32; 3],
+    pub tmax: f32,
+}
+
+/// Result of `trace.comp`: `prim` is the hit triangle (`u32::MAX` for a miss).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuHit {
+    pub t: f32,
+    pub prim: u32,
+}
+
+/// Push constants of `trace.comp`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct TraceParams {
+    pub ray_count: u32,
+    /// 0: closest hit; 1: any hit (shadow rays).
+    pub any_hit: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+}
+
+/// Per-pixel accumulator: sum and sum of squares of the pixel samples (rgb; w unused).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct PixelAccum {
+    pub sum: [f32; 4],
+    pub sum_sq: [f32; 4],
+}

@@ -1,0 +1,16 @@
+//! Vulkan through ash: context, buffers, compute pipelines, and the host/shader struct layouts.
+
+pub mod buffer;
+pub mod context;
+pub mod layout;
+pub mod pipeline;
+
+pub use buffer::Buffer;
+pub use context::{Context, ContextOptions};
+pub use pipeline::ComputePipeline;
+
+/// Compiled kernels (build.rs runs glslangValidator on shaders/*.comp).
+pub mod kernels {
+    pub const RENDER: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/render.spv"));
+    pub const TRACE: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace.spv"));
+}

@@ -1,0 +1,17 @@
+//! lightlearn: a GPU many-light renderer (Vulkan compute) built around Bayesian online
+//! learning of light selection. See README.md and shared design notes for the method.
+
+pub mod accel;
+pub mod bench;
+pub mod film;
+pub mod gpu;
+pub mod lights;
+pub mod reference;
+pub mod render;
+pub mod rng;
+pub mod scene;
+
+/// The committed default scene, built into the binary so `lightlearn render` works from any
+/// folder (source: scenes/default.glb, see scenes/README.md).
+pub const DEFAULT_SCENE: &[u8] = include_bytes!("../scenes/default.glb");
+pub const DEFAULT_SCENE_NAME: &str = "scenes/default.glb";

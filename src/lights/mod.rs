@@ -1,0 +1,127 @@
+//! The light list as the kernels see it, and the light-selection pmfs of the non-learning
+//! samplers (`uniform`, `power`).
+
+use crate::gpu::layout::{
+    AliasEntry, GpuLight, LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE, LIGHT_TWO_SIDED,
+};
+use crate::scene::{Light, Scene};
+
+/// The GPU form of every light, in `Scene::lights` order.
+pub fn gpu_lights(scene: &Scene) -> Vec<GpuLight> {
+    scene
+        .lights
+        .iter()
+        .map(|l| match *l {
+            Light::Point {
+                position,
+                intensity,
+            } => GpuLight {
+                p0: position.to_array(),
+                kind: LIGHT_POINT,
+                radiance: intensity.to_array(),
+                ..Default::default()
+            },
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                cos_inner,
+                cos_outer,
+            } => GpuLight {
+                p0: position.to_array(),
+                kind: LIGHT_SPOT,
+                p1: direction.to_array(),
+                cos_outer,
+                cos_inner,
+                radiance: intensity.to_array(),
+                ..Default::default()
+            },
+            Light::Triangle { triangle } => {
+                let [a, b, c] = scene.triangles[triangle as usize];
+                let (emission, two) = scene.triangle_emission(triangle);
+                GpuLight {
+                    p0: a.to_array(),
+                    kind: LIGHT_TRIANGLE | if two { LIGHT_TWO_SIDED } else { 0 },
+                    p1: b.to_array(),
+                    p2: c.to_array(),
+                    radiance: emission.to_array(),
+                    area: 0.5 * (b - a).cross(c - a).length(),
+                    ..Default::default()
+                }
+            }
+        })
+        .collect()
+}
+
+/// Walker/Vose alias table for picking light i with probability weights[i] / Σ weights.
+/// Built in f64 so that the stored `q` values are as exact as f32 allows.
+pub fn alias_table(weights: &[f64]) -> Vec<AliasEntry> {
+    let n = weights.len();
+    let total: f64 = weights.iter().sum();
+    assert!(n > 0 && total > 0.0, "alias table needs positive weights");
+    let mut scaled: Vec<f64> = weights.iter().map(|w| w / total * n as f64).collect();
+    let mut table: Vec<AliasEntry> = weights
+        .iter()
+        .enumerate()
+        .map(|(i, w)| AliasEntry {
+            q: 1.0,
+            alias: i as u32,
+            pmf: (w / total) as f32,
+            pad: 0,
+        })
+        .collect();
+    let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| scaled[i] < 1.0);
+    while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
+        table[s].q = scaled[s] as f32;
+        table[s].alias = l as u32;
+        scaled[l] -= 1.0 - scaled[s];
+        if scaled[l] < 1.0 {
+            large.pop();
+            small.push(l);
+        }
+    }
+    // Whatever is left has scaled weight 1 up to rounding: keep it always.
+    table
+}
+
+/// Light-selection weights of the `power` sampler: emitted power as luminance.
+pub fn power_weights(scene: &Scene) -> Vec<f64> {
+    scene
+        .lights
+        .iter()
+        .map(|l| scene.light_power(l) as f64)
+        .collect()
+}
+
+/// The probability that the alias table returns each entry (what sampling really does,
+/// for tests).
+pub fn alias_pmf(table: &[AliasEntry]) -> Vec<f64> {
+    let n = table.len() as f64;
+    let mut p = vec![0.0; table.len()];
+    for (i, e) in table.iter().enumerate() {
+        p[i] += e.q as f64 / n;
+        p[e.alias as usize] += (1.0 - e.q as f64) / n;
+    }
+    p
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn alias_table_realises_the_weights() {
+        let w = [1.0, 1e-6, 3.0, 0.5, 7.0, 1e3, 2.0];
+        let t = alias_table(&w);
+        let total: f64 = w.iter().sum();
+        for (i, p) in alias_pmf(&t).iter().enumerate() {
+            let want = w[i] / total;
+            assert!(
+                (p - want).abs() <= 1e-6 * want + 1e-9,
+                "light {i}: {p} vs {want}"
+            );
+            assert!(*p > 0.0, "every light keeps a non-zero probability");
+            assert!((t[i].pmf as f64 - want).abs() <= 1e-6 * want);
+        }
+    }
+}

@@ -1,0 +1,160 @@
+//! A small, obviously correct CPU integrator for tests: the same image as `render.comp`
+//! (box-filtered direct illumination, Lambertian, two-sided reflection), computed with an
+//! exact sum over point and spot lights and many area samples per triangle light. It shares
+//! only the scene and the CPU BVH traversal with the GPU path, and its own random numbers.
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::accel::Bvh;
+use crate::render::{camera_params, ray_epsilon};
+use crate::rng::SplitMix64;
+use crate::scene::{spot_falloff, Light, Scene};
+
+pub struct ReferenceImage {
+    pub width: u32,
+    pub height: u32,
+    pub mean: Vec<[f64; 3]>,
+    /// Variance of each pixel's mean (sample variance over pixel samples / their number).
+    pub variance_of_mean: Vec<[f64; 3]>,
+}
+
+/// `pixel_samples` jittered camera rays per pixel; at each hit every point/spot light is
+/// summed exactly and every triangle light with `area_samples` uniform area samples.
+pub fn render(
+    scene: &Scene,
+    bvh: &Bvh,
+    width: u32,
+    height: u32,
+    pixel_samples: u32,
+    area_samples: u32,
+    seed: u64,
+) -> ReferenceImage {
+    let cam = camera_params(scene, width, height);
+    let eps = ray_epsilon(scene);
+    let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+    let (pos, cu, cv, cw) = (v(cam.cam_pos), v(cam.cam_u), v(cam.cam_v), v(cam.cam_w));
+    let results: Vec<([f64; 3], [f64; 3])> = (0..width * height)
+        .into_par_iter()
+        .map(|p| {
+            let (px, py) = (p % width, p / width);
+            let mut rng = SplitMix64(seed ^ (p as u64).wrapping_mul(0x2545_f491_4f6c_dd1d));
+            let mut sum = [0f64; 3];
+            let mut sum_sq = [0f64; 3];
+            for _ in 0..pixel_samples {
+                let nx = (px as f32 + rng.f32()) / width as f32 * 2.0 - 1.0;
+                let ny = 1.0 - (py as f32 + rng.f32()) / height as f32 * 2.0;
+                let dir = (cw + nx * cu + ny * cv).normalize();
+                let l = radiance(scene, bvh, pos, dir, eps, area_samples, &mut rng);
+                for k in 0..3 {
+                    sum[k] += l[k] as f64;
+                    sum_sq[k] += (l[k] as f64).powi(2);
+                }
+            }
+            let n = pixel_samples as f64;
+            let mut mean = [0f64; 3];
+            let mut var = [0f64; 3];
+            for k in 0..3 {
+                mean[k] = sum[k] / n;
+                var[k] =
+                    ((sum_sq[k] / n - mean[k] * mean[k]) * n / (n - 1.0).max(1.0)).max(0.0) / n;
+            }
+            (mean, var)
+        })
+        .collect();
+    ReferenceImage {
+        width,
+        height,
+        mean: results.iter().map(|r| r.0).collect(),
+        variance_of_mean: results.iter().map(|r| r.1).collect(),
+    }
+}
+
+fn radiance(
+    scene: &Scene,
+    bvh: &Bvh,
+    o: Vec3,
+    d: Vec3,
+    eps: f32,
+    area_samples: u32,
+    rng: &mut SplitMix64,
+) -> Vec3 {
+    let Some((t, prim)) = bvh.intersect(o, d, 0.0, f32::INFINITY) else {
+        return Vec3::ZERO;
+    };
+    let [a, b, c] = scene.triangles[prim as usize];
+    let ng = (b - a).cross(c - a).normalize();
+    let front = ng.dot(d) < 0.0;
+    let m = &scene.materials[scene.triangle_material[prim as usize] as usize];
+    let mut l = if front || m.double_sided {
+        m.emission
+    } else {
+        Vec3::ZERO
+    };
+    let n = if front { ng } else { -ng };
+    let x = o + t * d;
+    let brdf = m.base_color / std::f32::consts::PI;
+    // Unoccluded contribution of a point y with "intensity" term `e` (already / r²).
+    let visible = |y: Vec3, area: bool| -> Option<(Vec3, f32, f32)> {
+        let to = y - x;
+        let dist = to.length();
+        let wi = to / dist;
+        let cos_x = n.dot(wi);
+        if cos_x <= 0.0 {
+            return None;
+        }
+        let tmax = if area { dist - eps } else { dist };
+        if bvh.occluded(x + n * eps, wi, 0.0, tmax) {
+            return None;
+        }
+        Some((wi, dist, cos_x))
+    };
+    for light in &scene.lights {
+        match *light {
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                if let Some((_, dist, cos_x)) = visible(position, false) {
+                    l += brdf * intensity * cos_x / (dist * dist);
+                }
+            }
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                cos_inner,
+                cos_outer,
+            } => {
+                if let Some((wi, dist, cos_x)) = visible(position, false) {
+                    let f = spot_falloff(direction.dot(-wi), cos_inner, cos_outer);
+                    l += brdf * intensity * f * cos_x / (dist * dist);
+                }
+            }
+            Light::Triangle { triangle } => {
+                let [p0, p1, p2] = scene.triangles[triangle as usize];
+                let cross = (p1 - p0).cross(p2 - p0);
+                let area = 0.5 * cross.length();
+                let ny = cross.normalize();
+                let (emission, two) = scene.triangle_emission(triangle);
+                let mut acc = Vec3::ZERO;
+                for _ in 0..area_samples {
+                    let su = rng.f32().sqrt();
+                    let (b0, b1) = (1.0 - su, rng.f32() * su);
+                    let y = b0 * p0 + b1 * p1 + (1.0 - b0 - b1) * p2;
+                    if let Some((wi, dist, cos_x)) = visible(y, true) {
+                        let mut cos_y = ny.dot(-wi);
+                        if two {
+                            cos_y = cos_y.abs();
+                        }
+                        if cos_y > 0.0 {
+                            acc += emission * cos_x * cos_y * area / (dist * dist);
+                        }
+                    }
+                }
+                l += brdf * acc / area_samples as f32;
+            }
+        }
+    }
+    l
+}

@@ -1,0 +1,403 @@
+//! glTF 2.0 loading (.gltf with external or `data:` buffers, and .glb).
+//!
+//! Conventions (also in the README):
+//! - KHR_lights_punctual `intensity × color` is radiant intensity in W/sr; `range` is ignored
+//!   (physically based falloff only), directional lights are skipped with a warning.
+//! - Emission `emissiveFactor × KHR_materials_emissive_strength` is radiance, emitted from the
+//!   counter-clockwise front face, from both faces when the material is `doubleSided`. Every
+//!   triangle with non-zero emission is an area light.
+//! - Point and line primitives are skipped with a warning (an error if nothing else is left);
+//!   triangle strips and fans are converted to triangles.
+//! - The first camera in the scene is used, else a default camera that frames the scene.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, bail, Context, Result};
+use base64::Engine;
+use glam::{Mat4, Vec3, Vec4Swizzles};
+use gltf::mesh::Mode;
+
+use super::{Camera, Light, Material, Scene};
+
+/// Largest scene we accept, so a corrupt index count cannot exhaust memory. The GPU BVH and
+/// light buffers must fit lavapipe's 128 MiB storage-buffer limit: 48 B per triangle.
+pub const MAX_TRIANGLES: usize = 2_500_000;
+
+/// Load a glTF/GLB file. Warnings (skipped primitives, unsupported lights) go to `warn`.
+pub fn load(path: &Path, warn: &mut dyn FnMut(String)) -> Result<Scene> {
+    let bytes = std::fs::read(path).map_err(|e| {
+        anyhow!(
+            "cannot read scene file '{}': {e}. Check the path (run `lightlearn render --help` for usage).",
+            path.display()
+        )
+    })?;
+    let name = path.display().to_string();
+    let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    // The gltf crate indexes with unwrap in a few places after validation; a malformed file
+    // that slips past validation must still give an error, never a panic.
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        load_bytes(&bytes, &name, &base, warn)
+    }));
+    match result {
+        Ok(r) => r,
+        Err(_) => bail!(
+            "'{name}': the glTF file is malformed in a way the parser could not report; \
+             check it with the Khronos glTF validator"
+        ),
+    }
+}
+
+/// Load from bytes; `name` is used in messages and `base` resolves relative buffer URIs.
+pub fn load_bytes(
+    bytes: &[u8],
+    name: &str,
+    base: &Path,
+    warn: &mut dyn FnMut(String),
+) -> Result<Scene> {
+    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| {
+        anyhow!(
+            "'{name}' is not a valid glTF 2.0 file (.gltf or .glb): {e}. \
+             Export it again or check it with the Khronos glTF validator."
+        )
+    })?;
+    let buffers = load_buffers(&gltf, name, base)?;
+    let doc = &gltf.document;
+
+    let gltf_scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| anyhow!("'{name}' has no scene (glTF `scenes` is empty); add a scene that lists the root nodes"))?;
+
+    let mut materials: Vec<Material> = Vec::new();
+    let mut material_index: HashMap<Option<usize>, u32> = HashMap::new();
+    let mut scene = Scene {
+        triangles: Vec::new(),
+        triangle_material: Vec::new(),
+        materials: Vec::new(),
+        lights: Vec::new(),
+        camera: Camera::framing(Vec3::ZERO, Vec3::ONE),
+        source: name.to_string(),
+    };
+    let mut camera: Option<Camera> = None;
+    let mut skipped_primitives = 0usize;
+
+    // Depth-first over the node hierarchy with accumulated world transforms.
+    let mut stack: Vec<(gltf::Node, Mat4)> =
+        gltf_scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
+    let mut visited = 0usize;
+    while let Some((node, parent)) = stack.pop() {
+        visited += 1;
+        if visited > 1_000_000 {
+            bail!("'{name}': the node hierarchy is too deep or cyclic");
+        }
+        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent * local;
+        let node_label = node_label(&node);
+        if !world.is_finite() {
+            bail!("'{name}': {node_label} has a non-finite transform (NaN or Inf); fix its matrix/TRS");
+        }
+
+        if let Some(mesh) = node.mesh() {
+            // Negative determinant mirrors the mesh and flips its winding (glTF 2.0 §3.7.4).
+            let flip = world.determinant() < 0.0;
+            for prim in mesh.primitives() {
+                let mesh_label = format!(
+                    "mesh {} ('{}') primitive {}",
+                    mesh.index(),
+                    mesh.name().unwrap_or(""),
+                    prim.index()
+                );
+                let mode = prim.mode();
+                if matches!(
+                    mode,
+                    Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip
+                ) {
+                    skipped_primitives += 1;
+                    warn(format!(
+                        "'{name}': {mesh_label} has mode {mode:?}, not triangles; skipped"
+                    ));
+                    continue;
+                }
+                let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
+                let positions: Vec<[f32; 3]> = reader
+                    .read_positions()
+                    .ok_or_else(|| {
+                        anyhow!("'{name}': {mesh_label} has no readable POSITION attribute (missing, or its buffer view lies outside the buffer)")
+                    })?
+                    .collect();
+                let indices: Vec<u32> = match reader.read_indices() {
+                    Some(i) => i.into_u32().collect(),
+                    None if prim.indices().is_some() => {
+                        bail!("'{name}': {mesh_label}: its index accessor lies outside its buffer")
+                    }
+                    None => (0..positions.len() as u32).collect(),
+                };
+                let tris = triangulate(mode, &indices);
+                let world_pos: Vec<Vec3> = positions
+                    .iter()
+                    .map(|p| (world * Vec3::from(*p).extend(1.0)).xyz())
+                    .collect();
+                if let Some(bad) = world_pos.iter().position(|p| !p.is_finite()) {
+                    bail!(
+                        "'{name}': {mesh_label} vertex {bad} has a non-finite position (NaN or Inf); fix the mesh data"
+                    );
+                }
+                let mat =
+                    material_slot(&prim.material(), name, &mut materials, &mut material_index)?;
+                for [a, b, c] in tris {
+                    let get = |i: u32| {
+                        world_pos.get(i as usize).copied().ok_or_else(|| {
+                            anyhow!(
+                                "'{name}': {mesh_label} index {i} is out of range ({} vertices)",
+                                world_pos.len()
+                            )
+                        })
+                    };
+                    let (va, vb, vc) = (get(a)?, get(b)?, get(c)?);
+                    let tri = if flip { [va, vc, vb] } else { [va, vb, vc] };
+                    // Degenerate triangles can never be hit and have no area to emit from.
+                    if (tri[1] - tri[0]).cross(tri[2] - tri[0]).length_squared() == 0.0 {
+                        continue;
+                    }
+                    scene.triangles.push(tri);
+                    scene.triangle_material.push(mat);
+                    if scene.triangles.len() > MAX_TRIANGLES {
+                        bail!(
+                            "'{name}' has more than {MAX_TRIANGLES} triangles, the most lightlearn supports; simplify the scene"
+                        );
+                    }
+                }
+            }
+        }
+
+        if camera.is_none() {
+            if let Some(cam) = node.camera() {
+                match cam.projection() {
+                    gltf::camera::Projection::Perspective(p) => {
+                        let position = (world * glam::Vec4::new(0.0, 0.0, 0.0, 1.0)).xyz();
+                        let forward = (world * glam::Vec4::new(0.0, 0.0, -1.0, 0.0)).xyz();
+                        let up = (world * glam::Vec4::new(0.0, 1.0, 0.0, 0.0)).xyz();
+                        let yfov = p.yfov();
+                        if !(yfov > 1e-4 && yfov < std::f32::consts::PI - 1e-4)
+                            || forward.length_squared() == 0.0
+                        {
+                            bail!("'{name}': camera {} has an invalid yfov ({yfov}) or a degenerate transform; use 0 < yfov < π", cam.index());
+                        }
+                        camera = Some(Camera::look_at(
+                            position,
+                            position + forward.normalize(),
+                            up.normalize(),
+                            yfov,
+                        ));
+                    }
+                    gltf::camera::Projection::Orthographic(_) => warn(format!(
+                        "'{name}': camera {} is orthographic, which is not supported; ignored",
+                        cam.index()
+                    )),
+                }
+            }
+        }
+
+        if let Some(light) = node.light() {
+            let label = format!("light {} ('{}')", light.index(), light.name().unwrap_or(""));
+            let intensity = Vec3::from(light.color()) * light.intensity();
+            if !intensity.is_finite() || intensity.min_element() < 0.0 {
+                bail!("'{name}': {label} has a non-finite or negative color × intensity ({intensity}); use finite values ≥ 0");
+            }
+            let position = (world * glam::Vec4::new(0.0, 0.0, 0.0, 1.0)).xyz();
+            let direction = (world * glam::Vec4::new(0.0, 0.0, -1.0, 0.0)).xyz();
+            if intensity.max_element() == 0.0 {
+                warn(format!("'{name}': {label} has zero intensity; skipped"));
+            } else {
+                match light.kind() {
+                    gltf::khr_lights_punctual::Kind::Point => scene.lights.push(Light::Point {
+                        position,
+                        intensity,
+                    }),
+                    gltf::khr_lights_punctual::Kind::Spot {
+                        inner_cone_angle,
+                        outer_cone_angle,
+                    } => {
+                        if direction.length_squared() == 0.0 {
+                            bail!("'{name}': {label} sits on a node with a degenerate transform; its direction is undefined");
+                        }
+                        let outer = outer_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2);
+                        let inner = inner_cone_angle.clamp(0.0, outer);
+                        scene.lights.push(Light::Spot {
+                            position,
+                            direction: direction.normalize(),
+                            intensity,
+                            cos_inner: inner.cos(),
+                            cos_outer: outer.cos(),
+                        })
+                    }
+                    gltf::khr_lights_punctual::Kind::Directional => warn(format!(
+                        "'{name}': {label} is directional, which lightlearn does not support yet; skipped (use an emissive quad or point lights)"
+                    )),
+                }
+            }
+        }
+
+        for child in node.children() {
+            stack.push((child, world));
+        }
+    }
+
+    if scene.triangles.is_empty() {
+        let extra = if skipped_primitives > 0 {
+            format!(" ({skipped_primitives} point/line primitives were skipped)")
+        } else {
+            String::new()
+        };
+        bail!("'{name}' has no triangles{extra}; lightlearn needs triangle meshes to render");
+    }
+
+    // Every emissive triangle is an area light.
+    for (i, &m) in scene.triangle_material.iter().enumerate() {
+        if materials[m as usize].emission.max_element() > 0.0 {
+            scene.lights.push(Light::Triangle { triangle: i as u32 });
+        }
+    }
+    scene.materials = materials;
+    if scene.lights.is_empty() {
+        bail!(
+            "'{name}' has no lights: add KHR_lights_punctual point/spot lights or give a material a non-zero emissiveFactor"
+        );
+    }
+    let (lo, hi) = scene.bounds();
+    scene.camera = camera.unwrap_or_else(|| Camera::framing(lo, hi));
+    Ok(scene)
+}
+
+fn node_label(node: &gltf::Node) -> String {
+    format!("node {} ('{}')", node.index(), node.name().unwrap_or(""))
+}
+
+/// Index of our material for a glTF material (the default material gets its own slot).
+fn material_slot(
+    m: &gltf::Material,
+    file: &str,
+    materials: &mut Vec<Material>,
+    index: &mut HashMap<Option<usize>, u32>,
+) -> Result<u32> {
+    if let Some(&i) = index.get(&m.index()) {
+        return Ok(i);
+    }
+    let label = match m.index() {
+        Some(i) => format!("material {i} ('{}')", m.name().unwrap_or("")),
+        None => "the default material".to_string(),
+    };
+    let base = m.pbr_metallic_roughness().base_color_factor();
+    let strength = m.emissive_strength().unwrap_or(1.0);
+    let emission = Vec3::from(m.emissive_factor()) * strength;
+    let base_color = Vec3::new(base[0], base[1], base[2]);
+    if !emission.is_finite() || emission.min_element() < 0.0 {
+        bail!("'{file}': {label} has a non-finite or negative emission (emissiveFactor × emissiveStrength = {emission}); use finite values ≥ 0");
+    }
+    if !base_color.is_finite() || base_color.min_element() < 0.0 {
+        bail!(
+            "'{file}': {label} has a non-finite or negative baseColorFactor; use values in [0, 1]"
+        );
+    }
+    if m.pbr_metallic_roughness().base_color_texture().is_some() {
+        // Textures are not sampled yet; say so instead of silently rendering a flat colour.
+        eprintln!("warning: '{file}': {label} has a base colour texture; lightlearn uses baseColorFactor only");
+    }
+    let slot = materials.len() as u32;
+    materials.push(Material {
+        name: m.name().unwrap_or("").to_string(),
+        base_color: base_color.clamp(Vec3::ZERO, Vec3::ONE),
+        emission,
+        double_sided: m.double_sided(),
+    });
+    index.insert(m.index(), slot);
+    Ok(slot)
+}
+
+/// Triangles of a primitive as index triples.
+fn triangulate(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
+    match mode {
+        Mode::Triangles => idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        Mode::TriangleStrip => (2..idx.len())
+            .map(|i| {
+                if i % 2 == 0 {
+                    [idx[i - 2], idx[i - 1], idx[i]]
+                } else {
+                    [idx[i - 1], idx[i - 2], idx[i]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (2..idx.len())
+            .map(|i| [idx[0], idx[i - 1], idx[i]])
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+fn load_buffers(gltf: &gltf::Gltf, name: &str, base: &Path) -> Result<Vec<Vec<u8>>> {
+    let mut out = Vec::new();
+    for buffer in gltf.document.buffers() {
+        let data = match buffer.source() {
+            gltf::buffer::Source::Bin => gltf.blob.clone().ok_or_else(|| {
+                anyhow!(
+                    "'{name}': buffer {} refers to the GLB binary chunk, but the file has none",
+                    buffer.index()
+                )
+            })?,
+            gltf::buffer::Source::Uri(uri) => {
+                if let Some(rest) = uri.strip_prefix("data:") {
+                    let (_, payload) = rest.split_once(";base64,").ok_or_else(|| {
+                        anyhow!(
+                            "'{name}': buffer {} has a data: URI that is not base64",
+                            buffer.index()
+                        )
+                    })?;
+                    base64::engine::general_purpose::STANDARD
+                        .decode(payload)
+                        .map_err(|e| {
+                            anyhow!("'{name}': buffer {}: bad base64 data ({e})", buffer.index())
+                        })?
+                } else {
+                    let path: PathBuf = base.join(percent_decode(uri));
+                    std::fs::read(&path).with_context(|| {
+                        format!(
+                            "'{name}': cannot read buffer {} from '{}'; keep the .bin file next to the .gltf",
+                            buffer.index(),
+                            path.display()
+                        )
+                    })?
+                }
+            }
+        };
+        if data.len() < buffer.length() {
+            bail!(
+                "'{name}': buffer {} holds {} bytes but declares {}; the file is truncated",
+                buffer.index(),
+                data.len(),
+                buffer.length()
+            );
+        }
+        out.push(data);
+    }
+    Ok(out)
+}
+
+fn percent_decode(s: &str) -> String {
+    let b = s.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' && i + 2 < b.len() {
+            let hex = std::str::from_utf8(&b[i + 1..i + 3]).ok();
+            if let Some(v) = hex.and_then(|h| u8::from_str_radix(h, 16).ok()) {
+                out.push(v);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}

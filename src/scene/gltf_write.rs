@@ -1,0 +1,261 @@
+//! A small glTF 2.0 writer: the procedural scenes and the tests build their scenes through it,
+//! so every scene we render is also a file any other renderer can open.
+//!
+//! Output is deterministic: JSON objects are key-sorted (serde_json's default map) and the
+//! binary buffer is laid out in call order, so the same calls give byte-identical files.
+
+use glam::{Mat3, Quat, Vec3};
+use serde_json::{json, Value};
+
+#[derive(Default)]
+pub struct GltfBuilder {
+    bin: Vec<u8>,
+    buffer_views: Vec<Value>,
+    accessors: Vec<Value>,
+    materials: Vec<Value>,
+    meshes: Vec<Value>,
+    nodes: Vec<Value>,
+    lights: Vec<Value>,
+    cameras: Vec<Value>,
+}
+
+impl GltfBuilder {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds a material; `emission` is radiance, stored as emissiveFactor (max component ≤ 1)
+    /// × KHR_materials_emissive_strength.
+    pub fn material(
+        &mut self,
+        name: &str,
+        base_color: Vec3,
+        emission: Vec3,
+        double_sided: bool,
+    ) -> usize {
+        let strength = emission.max_element().max(1.0);
+        let factor = emission / strength;
+        let mut m = json!({
+            "name": name,
+            "pbrMetallicRoughness": {
+                "baseColorFactor": [base_color.x, base_color.y, base_color.z, 1.0],
+                "metallicFactor": 0.0,
+                "roughnessFactor": 1.0
+            },
+            "emissiveFactor": [factor.x, factor.y, factor.z],
+            "doubleSided": double_sided
+        });
+        if strength != 1.0 {
+            m["extensions"] =
+                json!({"KHR_materials_emissive_strength": {"emissiveStrength": strength}});
+        }
+        self.materials.push(m);
+        self.materials.len() - 1
+    }
+
+    fn push_view(&mut self, bytes: &[u8], target: u32) -> usize {
+        while self.bin.len() % 4 != 0 {
+            self.bin.push(0);
+        }
+        let offset = self.bin.len();
+        self.bin.extend_from_slice(bytes);
+        self.buffer_views.push(json!({
+            "buffer": 0, "byteOffset": offset, "byteLength": bytes.len(), "target": target
+        }));
+        self.buffer_views.len() - 1
+    }
+
+    /// Adds a triangle mesh in world space (on a node with the identity transform).
+    pub fn mesh(&mut self, name: &str, positions: &[Vec3], indices: &[u32], material: usize) {
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        for p in positions {
+            for k in 0..3 {
+                if p[k].is_finite() {
+                    lo[k] = lo[k].min(p[k]);
+                    hi[k] = hi[k].max(p[k]);
+                }
+            }
+        }
+        let pos_bytes: Vec<u8> = positions
+            .iter()
+            .flat_map(|p| p.to_array())
+            .flat_map(f32::to_le_bytes)
+            .collect();
+        let idx_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
+        let pv = self.push_view(&pos_bytes, 34962);
+        let iv = self.push_view(&idx_bytes, 34963);
+        self.accessors.push(json!({
+            "bufferView": pv, "componentType": 5126, "count": positions.len(),
+            "type": "VEC3", "min": lo, "max": hi
+        }));
+        self.accessors.push(json!({
+            "bufferView": iv, "componentType": 5125, "count": indices.len(), "type": "SCALAR"
+        }));
+        let pa = self.accessors.len() - 2;
+        self.meshes.push(json!({
+            "name": name,
+            "primitives": [{"attributes": {"POSITION": pa}, "indices": pa + 1, "material": material, "mode": 4}]
+        }));
+        self.nodes
+            .push(json!({"name": name, "mesh": self.meshes.len() - 1}));
+    }
+
+    /// A quad with corners in counter-clockwise order seen from its front.
+    pub fn quad(&mut self, name: &str, c: [Vec3; 4], material: usize) {
+        self.mesh(name, &c, &[0, 1, 2, 0, 2, 3], material);
+    }
+
+    /// An axis-aligned box with outward-facing (CCW from outside) faces.
+    pub fn cuboid(&mut self, name: &str, lo: Vec3, hi: Vec3, material: usize) {
+        let (p, i) = box_mesh(lo, hi);
+        self.mesh(name, &p, &i, material);
+    }
+
+    pub fn point_light(&mut self, name: &str, position: Vec3, color: Vec3, intensity: f32) {
+        self.lights.push(json!({
+            "name": name, "type": "point", "color": color.to_array(), "intensity": intensity
+        }));
+        self.nodes.push(json!({
+            "name": name, "translation": position.to_array(),
+            "extensions": {"KHR_lights_punctual": {"light": self.lights.len() - 1}}
+        }));
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    pub fn spot_light(
+        &mut self,
+        name: &str,
+        position: Vec3,
+        direction: Vec3,
+        color: Vec3,
+        intensity: f32,
+        inner_cone: f32,
+        outer_cone: f32,
+    ) {
+        self.lights.push(json!({
+            "name": name, "type": "spot", "color": color.to_array(), "intensity": intensity,
+            "spot": {"innerConeAngle": inner_cone, "outerConeAngle": outer_cone}
+        }));
+        let rot = Quat::from_rotation_arc(Vec3::NEG_Z, direction.normalize());
+        self.nodes.push(json!({
+            "name": name, "translation": position.to_array(), "rotation": rot.to_array(),
+            "extensions": {"KHR_lights_punctual": {"light": self.lights.len() - 1}}
+        }));
+    }
+
+    /// A perspective camera at `position` looking at `target` (world up +Y).
+    pub fn camera(&mut self, position: Vec3, target: Vec3, yfov: f32) {
+        let f = (target - position).normalize();
+        let r = f.cross(Vec3::Y).normalize();
+        let u = r.cross(f);
+        let rot = Quat::from_mat3(&Mat3::from_cols(r, u, -f)).normalize();
+        self.cameras.push(json!({
+            "type": "perspective",
+            "perspective": {"yfov": yfov, "znear": 0.01}
+        }));
+        self.nodes.push(json!({
+            "name": "camera", "camera": self.cameras.len() - 1,
+            "translation": position.to_array(), "rotation": rot.to_array()
+        }));
+    }
+
+    fn document(&self, buffer_uri: Option<String>) -> Value {
+        let mut buffer = json!({"byteLength": self.padded_bin().len()});
+        if let Some(uri) = buffer_uri {
+            buffer["uri"] = json!(uri);
+        }
+        let mut doc = json!({
+            "asset": {"version": "2.0", "generator": "lightlearn"},
+            "scene": 0,
+            "scenes": [{"nodes": (0..self.nodes.len()).collect::<Vec<_>>()}],
+            "nodes": self.nodes,
+            "meshes": self.meshes,
+            "materials": self.materials,
+            "accessors": self.accessors,
+            "bufferViews": self.buffer_views,
+            "buffers": [buffer],
+        });
+        let mut used = Vec::new();
+        if !self.cameras.is_empty() {
+            doc["cameras"] = json!(self.cameras);
+        }
+        if !self.lights.is_empty() {
+            doc["extensions"] = json!({"KHR_lights_punctual": {"lights": self.lights}});
+            used.push("KHR_lights_punctual");
+        }
+        if self.materials.iter().any(|m| m.get("extensions").is_some()) {
+            used.push("KHR_materials_emissive_strength");
+        }
+        if !used.is_empty() {
+            doc["extensionsUsed"] = json!(used);
+        }
+        doc
+    }
+
+    fn padded_bin(&self) -> Vec<u8> {
+        let mut b = self.bin.clone();
+        while b.len() % 4 != 0 {
+            b.push(0);
+        }
+        b
+    }
+
+    /// Binary glTF (.glb).
+    pub fn to_glb(&self) -> Vec<u8> {
+        let mut json = serde_json::to_vec(&self.document(None)).expect("JSON of plain values");
+        while json.len() % 4 != 0 {
+            json.push(b' ');
+        }
+        let bin = self.padded_bin();
+        let total = 12 + 8 + json.len() + 8 + bin.len();
+        let mut out = Vec::with_capacity(total);
+        out.extend_from_slice(b"glTF");
+        out.extend_from_slice(&2u32.to_le_bytes());
+        out.extend_from_slice(&(total as u32).to_le_bytes());
+        out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"JSON");
+        out.extend_from_slice(&json);
+        out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"BIN\0");
+        out.extend_from_slice(&bin);
+        out
+    }
+
+    /// Text glTF with the buffer embedded as a base64 `data:` URI.
+    pub fn to_gltf_embedded(&self) -> String {
+        use base64::Engine;
+        let uri = format!(
+            "data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(self.padded_bin())
+        );
+        serde_json::to_string_pretty(&self.document(Some(uri))).expect("JSON of plain values")
+    }
+}
+
+/// Vertices and CCW-outward indices of an axis-aligned box.
+pub fn box_mesh(lo: Vec3, hi: Vec3) -> (Vec<Vec3>, Vec<u32>) {
+    let p = (0..8)
+        .map(|i| {
+            Vec3::new(
+                if i & 1 != 0 { hi.x } else { lo.x },
+                if i & 2 != 0 { hi.y } else { lo.y },
+                if i & 4 != 0 { hi.z } else { lo.z },
+            )
+        })
+        .collect();
+    // Faces as quads (CCW seen from outside): -x, +x, -y, +y, -z, +z.
+    let quads = [
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+    ];
+    let idx = quads
+        .iter()
+        .flat_map(|q| [q[0], q[1], q[2], q[0], q[2], q[3]])
+        .collect();
+    (p, idx)
+}

@@ -1,0 +1,154 @@
+//! The scene as the renderer sees it: world-space triangles, materials, lights and a camera.
+//!
+//! Everything is flattened at load time (node transforms applied, winding normalised to
+//! counter-clockwise = front), so the BVH builder, the light list and the CPU reference all
+//! read the same plain arrays.
+
+pub mod default_scene;
+pub mod gltf_load;
+pub mod gltf_write;
+
+use glam::Vec3;
+
+/// Rec. 709 luminance: the scalar "power" of a colour used by the power sampler.
+pub fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Lambertian albedo (glTF baseColorFactor, rgb).
+    pub base_color: Vec3,
+    /// Emitted radiance (emissiveFactor × KHR_materials_emissive_strength).
+    pub emission: Vec3,
+    /// Emits from both faces (glTF `doubleSided`); otherwise only from the CCW front face.
+    pub double_sided: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Light {
+    /// Radiant intensity `intensity` (W/sr, rgb) from a point.
+    Point { position: Vec3, intensity: Vec3 },
+    /// glTF spot light: intensity on the axis, smooth falloff between the cone angles.
+    Spot {
+        position: Vec3,
+        direction: Vec3,
+        intensity: Vec3,
+        cos_inner: f32,
+        cos_outer: f32,
+    },
+    /// An emissive scene triangle (index into `Scene::triangles`).
+    Triangle { triangle: u32 },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    /// Unit view direction.
+    pub forward: Vec3,
+    /// Unit up vector, orthogonal to `forward`.
+    pub up: Vec3,
+    /// Vertical field of view in radians.
+    pub yfov: f32,
+}
+
+impl Camera {
+    /// A camera that looks at the centre of `[lo, hi]` from the front-above, far enough back
+    /// that the bounding sphere fits in a 45° vertical field of view.
+    pub fn framing(lo: Vec3, hi: Vec3) -> Camera {
+        let centre = 0.5 * (lo + hi);
+        let radius = (0.5 * (hi - lo).length()).max(1e-3);
+        let yfov = 45f32.to_radians();
+        let dir = Vec3::new(0.0, 0.35, 1.0).normalize();
+        let distance = radius / (0.5 * yfov).sin();
+        let position = centre + dir * distance;
+        Camera::look_at(position, centre, Vec3::Y, yfov)
+    }
+
+    pub fn look_at(position: Vec3, target: Vec3, up: Vec3, yfov: f32) -> Camera {
+        let forward = (target - position).normalize();
+        let right = forward.cross(up).normalize();
+        Camera {
+            position,
+            forward,
+            up: right.cross(forward),
+            yfov,
+        }
+    }
+}
+
+/// A loaded scene. `triangles[i]` uses `materials[triangle_material[i]]`.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub triangles: Vec<[Vec3; 3]>,
+    pub triangle_material: Vec<u32>,
+    pub materials: Vec<Material>,
+    pub lights: Vec<Light>,
+    pub camera: Camera,
+    /// Where the scene came from (file path or generator), for reports.
+    pub source: String,
+}
+
+impl Scene {
+    /// Axis-aligned bounds of all triangles and punctual lights.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for t in &self.triangles {
+            for v in t {
+                lo = lo.min(*v);
+                hi = hi.max(*v);
+            }
+        }
+        for l in &self.lights {
+            if let Light::Point { position, .. } | Light::Spot { position, .. } = l {
+                lo = lo.min(*position);
+                hi = hi.max(*position);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// Emitted radiance of a triangle light.
+    pub fn triangle_emission(&self, triangle: u32) -> (Vec3, bool) {
+        let m = &self.materials[self.triangle_material[triangle as usize] as usize];
+        (m.emission, m.double_sided)
+    }
+
+    /// Total emitted power of a light as luminance (W): what the `power` sampler is
+    /// proportional to.
+    pub fn light_power(&self, light: &Light) -> f32 {
+        match *light {
+            Light::Point { intensity, .. } => 4.0 * std::f32::consts::PI * luminance(intensity),
+            Light::Spot {
+                intensity,
+                cos_inner,
+                cos_outer,
+                ..
+            } => {
+                // Integral of the glTF falloff ((c - c_o)/(c_i - c_o))² over the sphere:
+                // full intensity inside the inner cone, (c_i - c_o)/3 for the ramp.
+                let solid = 2.0
+                    * std::f32::consts::PI
+                    * ((1.0 - cos_inner) + (cos_inner - cos_outer).max(0.0) / 3.0);
+                luminance(intensity) * solid
+            }
+            Light::Triangle { triangle } => {
+                let [a, b, c] = self.triangles[triangle as usize];
+                let area = 0.5 * (b - a).cross(c - a).length();
+                let (e, two) = self.triangle_emission(triangle);
+                let sides = if two { 2.0 } else { 1.0 };
+                std::f32::consts::PI * area * luminance(e) * sides
+            }
+        }
+    }
+}
+
+/// glTF spot falloff (KHR_lights_punctual reference implementation): 1 inside the inner cone,
+/// 0 outside the outer cone, a squared linear ramp in cos θ between.
+pub fn spot_falloff(cos_theta: f32, cos_inner: f32, cos_outer: f32) -> f32 {
+    let scale = 1.0 / (cos_inner - cos_outer).max(1e-3);
+    let a = ((cos_theta - cos_outer) * scale).clamp(0.0, 1.0);
+    a * a
+}
