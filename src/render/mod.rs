@@ -77,13 +77,11 @@ impl RenderResult {
         self.accum
             .iter()
             .map(|a| {
-                let mut v = [0f32; 3];
-                for k in 0..3 {
+                std::array::from_fn(|k| {
                     let m = a.sum[k] as f64 / n;
                     let var = ((a.sum_sq[k] as f64 / n - m * m) * n / (n - 1.0)).max(0.0);
-                    v[k] = (var / n) as f32;
-                }
-                v
+                    (var / n) as f32
+                })
             })
             .collect()
     }

@@ -82,9 +82,11 @@ pub fn load_bytes(
     let mut camera: Option<Camera> = None;
     let mut skipped_primitives = 0usize;
 
-    // Depth-first over the node hierarchy with accumulated world transforms.
+    // Depth-first over the node hierarchy with accumulated world transforms, in document
+    // order (the stack is filled in reverse), so triangles and lights keep the file's order.
     let mut stack: Vec<(gltf::Node, Mat4)> =
         gltf_scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
+    stack.reverse();
     let mut visited = 0usize;
     while let Some((node, parent)) = stack.pop() {
         visited += 1;
@@ -239,9 +241,9 @@ pub fn load_bytes(
             }
         }
 
-        for child in node.children() {
-            stack.push((child, world));
-        }
+        let first_child = stack.len();
+        stack.extend(node.children().map(|c| (c, world)));
+        stack[first_child..].reverse();
     }
 
     if scene.triangles.is_empty() {

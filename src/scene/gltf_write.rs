@@ -54,7 +54,7 @@ impl GltfBuilder {
     }
 
     fn push_view(&mut self, bytes: &[u8], target: u32) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         let offset = self.bin.len();
@@ -195,7 +195,7 @@ impl GltfBuilder {
 
     fn padded_bin(&self) -> Vec<u8> {
         let mut b = self.bin.clone();
-        while b.len() % 4 != 0 {
+        while !b.len().is_multiple_of(4) {
             b.push(0);
         }
         b
@@ -204,7 +204,7 @@ impl GltfBuilder {
     /// Binary glTF (.glb).
     pub fn to_glb(&self) -> Vec<u8> {
         let mut json = serde_json::to_vec(&self.document(None)).expect("JSON of plain values");
-        while json.len() % 4 != 0 {
+        while !json.len().is_multiple_of(4) {
             json.push(b' ');
         }
         let bin = self.padded_bin();
@@ -220,6 +220,13 @@ impl GltfBuilder {
         out.extend_from_slice(b"BIN\0");
         out.extend_from_slice(&bin);
         out
+    }
+
+    /// Text glTF whose buffer lives in a separate file `bin_name` (returned as bytes).
+    pub fn to_gltf_external(&self, bin_name: &str) -> (String, Vec<u8>) {
+        let text = serde_json::to_string_pretty(&self.document(Some(bin_name.to_string())))
+            .expect("JSON of plain values");
+        (text, self.padded_bin())
     }
 
     /// Text glTF with the buffer embedded as a base64 `data:` URI.

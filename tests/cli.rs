@@ -1,0 +1,210 @@
+//! The `lightlearn` binary as a user runs it: reproducible renders, and bad input that ends
+//! in a clear message, a non-zero exit, no panic and no output file.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use glam::Vec3;
+use lightlearn::scene::gltf_write::GltfBuilder;
+
+fn run(args: &[&str], dir: &Path) -> Output {
+    Command::new(common::exe())
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run lightlearn")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Runs a render that must fail; checks the message and that nothing was written.
+fn expect_failure(args: &[&str], dir: &Path, env: &[(&str, &str)], wants: &[&str]) {
+    let out = Command::new(common::exe())
+        .args(args)
+        .current_dir(dir)
+        .envs(env.iter().copied())
+        .output()
+        .unwrap();
+    let err = stderr(&out);
+    assert!(!out.status.success(), "{args:?} should fail; stderr: {err}");
+    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    for w in wants {
+        assert!(
+            err.contains(w),
+            "{args:?}: message should contain '{w}', got: {err}"
+        );
+    }
+    let left: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("out") || n.ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "{args:?} left files behind: {left:?}");
+}
+
+const SMALL: &[&str] = &[
+    "--width",
+    "24",
+    "--height",
+    "16",
+    "--spp",
+    "4",
+    "--validation",
+    "-q",
+];
+
+#[test]
+fn same_seed_same_bits_other_seed_other_bits() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (out, seed) in [("a.exr", "3"), ("b.exr", "3"), ("c.exr", "4")] {
+        let mut args = vec!["render", "--out", out, "--seed", seed];
+        args.extend_from_slice(SMALL);
+        let o = run(&args, d);
+        assert!(o.status.success(), "render failed: {}", stderr(&o));
+    }
+    let read = |n: &str| std::fs::read(d.join(n)).unwrap();
+    assert_eq!(
+        read("a.exr"),
+        read("b.exr"),
+        "same seed must give a bit-identical EXR"
+    );
+    assert_ne!(
+        read("a.exr"),
+        read("c.exr"),
+        "another seed must give another image"
+    );
+    // The report and preview come with it.
+    let report: serde_json::Value = serde_json::from_slice(&read("a.json")).unwrap();
+    assert_eq!(report["spp"], 4);
+    assert_eq!(report["seed"], 3);
+    assert_eq!(report["sampler"], "power");
+    assert!(report["device"].as_str().unwrap().len() > 3);
+    assert!(read("a.png").starts_with(b"\x89PNG"));
+    let (w, h, px) = lightlearn::film::read_exr(&d.join("a.exr")).unwrap();
+    assert_eq!((w, h), (24, 16));
+    assert!(px.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+    assert!(
+        px.iter().flatten().any(|v| *v > 0.0),
+        "the default scene is lit"
+    );
+}
+
+#[test]
+fn time_budget_renders_at_least_one_pass() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(
+        &[
+            "render", "--time", "0.5", "--width", "16", "--height", "16", "-q", "--out", "t.exr",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("t.json")).unwrap()).unwrap();
+    assert!(report["spp"].as_u64().unwrap() >= 1);
+    assert!(report["render_seconds"].as_f64().unwrap() < 5.0);
+}
+
+#[test]
+fn bad_input_fails_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    fn with(scene: &str) -> Vec<&str> {
+        let mut v = vec!["render", scene, "--out", "out.exr"];
+        v.extend_from_slice(SMALL);
+        v
+    }
+
+    expect_failure(
+        &with("missing.glb"),
+        d,
+        &[],
+        &["missing.glb", "cannot read"],
+    );
+
+    std::fs::write(d.join("text.gltf"), "this is not json").unwrap();
+    expect_failure(
+        &with("text.gltf"),
+        d,
+        &[],
+        &["text.gltf", "not a valid glTF"],
+    );
+
+    let mut g = GltfBuilder::new();
+    g.point_light("bulb", Vec3::ONE, Vec3::ONE, 1.0);
+    std::fs::write(d.join("empty.glb"), g.to_glb()).unwrap();
+    expect_failure(&with("empty.glb"), d, &[], &["empty.glb", "no triangles"]);
+
+    let mut g = GltfBuilder::new();
+    let m = g.material("grey", Vec3::splat(0.5), Vec3::ZERO, false);
+    g.cuboid("box", Vec3::ZERO, Vec3::ONE, m);
+    std::fs::write(d.join("dark.glb"), g.to_glb()).unwrap();
+    expect_failure(&with("dark.glb"), d, &[], &["dark.glb", "no lights"]);
+
+    g.point_light("bulb", Vec3::splat(2.0), Vec3::ONE, 1.0);
+    g.mesh(
+        "nan",
+        &[Vec3::ZERO, Vec3::splat(f32::INFINITY), Vec3::ONE],
+        &[0, 1, 2],
+        m,
+    );
+    std::fs::write(d.join("inf.glb"), g.to_glb()).unwrap();
+    expect_failure(
+        &with("inf.glb"),
+        d,
+        &[],
+        &["inf.glb", "'nan'", "non-finite position"],
+    );
+
+    // Output problems are found before rendering.
+    let mut args = vec!["render", "--out", "no-such-dir/out.exr"];
+    args.extend_from_slice(SMALL);
+    expect_failure(&args, d, &[], &["no-such-dir", "does not exist"]);
+    let mut args = vec!["render", "--out", "out.png"];
+    args.extend_from_slice(SMALL);
+    expect_failure(&args, d, &[], &["must end in .exr"]);
+    let mut args = vec!["render", "--out", "out.exr", "--spp", "0"];
+    args.extend_from_slice(&SMALL[..4]);
+    expect_failure(&args, d, &[], &["--spp must be at least 1"]);
+    expect_failure(
+        &["render", "--sampler", "magic", "--out", "out.exr"],
+        d,
+        &[],
+        &["magic", "uniform", "power"],
+    );
+
+    // No Vulkan driver at all, and a device name that matches nothing.
+    let mut args = vec!["render", "--out", "out.exr"];
+    args.extend_from_slice(SMALL);
+    let no_driver = [
+        ("VK_DRIVER_FILES", "/nonexistent/icd.json"),
+        ("VK_ICD_FILENAMES", "/nonexistent/icd.json"),
+    ];
+    expect_failure(&args, d, &no_driver, &["Vulkan", "ci/setup.sh"]);
+    args.extend_from_slice(&["--device", "no-such-gpu"]);
+    expect_failure(&args, d, &[], &["no-such-gpu", "Available"]);
+}
+
+#[test]
+fn help_describes_every_option() {
+    let o = run(&["render", "--help"], Path::new("."));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success());
+    for opt in [
+        "--sampler",
+        "--spp",
+        "--time",
+        "--width",
+        "--height",
+        "--seed",
+        "--out",
+        "--device",
+    ] {
+        assert!(text.contains(opt), "--help lacks {opt}");
+    }
+}

@@ -1,0 +1,208 @@
+//! Host/shader struct layouts: every `#[repr(C)]` struct in src/gpu/layout.rs must have the
+//! same member names, offsets and size as its GLSL mirror in the compiled SPIR-V.
+
+use std::collections::HashMap;
+use std::mem::{offset_of, size_of};
+
+use lightlearn::gpu::kernels;
+use lightlearn::gpu::layout::*;
+
+/// What the SPIR-V says about one struct type: member (name, offset) and its array stride.
+#[derive(Debug, Default, Clone)]
+struct SpvStruct {
+    members: Vec<(String, u32)>,
+    size: Option<u32>,
+}
+
+/// A minimal SPIR-V reader: names, member offsets, array strides and scalar/vector sizes.
+fn reflect(spv: &[u8]) -> HashMap<String, SpvStruct> {
+    let words: Vec<u32> = spv
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    assert_eq!(words[0], 0x0723_0203, "SPIR-V magic");
+    let string = |ws: &[u32]| -> String {
+        let bytes: Vec<u8> = ws.iter().flat_map(|w| w.to_le_bytes()).collect();
+        let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
+        String::from_utf8_lossy(&bytes[..end]).into_owned()
+    };
+    let mut names: HashMap<u32, String> = HashMap::new();
+    let mut member_names: HashMap<(u32, u32), String> = HashMap::new();
+    let mut offsets: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut strides: HashMap<u32, u32> = HashMap::new();
+    let mut structs: HashMap<u32, Vec<u32>> = HashMap::new();
+    let mut arrays: HashMap<u32, u32> = HashMap::new(); // array type -> element type
+    let mut sizes: HashMap<u32, u32> = HashMap::new(); // scalar/vector type -> bytes
+    let mut i = 5;
+    while i < words.len() {
+        let (count, op) = ((words[i] >> 16) as usize, words[i] & 0xffff);
+        let ins = &words[i..i + count];
+        match op {
+            5 => {
+                names.insert(ins[1], string(&ins[2..]));
+            }
+            6 => {
+                member_names.insert((ins[1], ins[2]), string(&ins[3..]));
+            }
+            71 if ins[2] == 6 => {
+                strides.insert(ins[1], ins[3]); // ArrayStride
+            }
+            72 if ins[3] == 35 => {
+                offsets.insert((ins[1], ins[2]), ins[4]); // Offset
+            }
+            21 | 22 => {
+                sizes.insert(ins[1], ins[2] / 8); // OpTypeInt / OpTypeFloat width
+            }
+            23 => {
+                let s = sizes.get(&ins[2]).copied().unwrap_or(0) * ins[3]; // OpTypeVector (of bool: 0)
+                sizes.insert(ins[1], s);
+            }
+            28 | 29 => {
+                arrays.insert(ins[1], ins[2]); // OpTypeArray / OpTypeRuntimeArray
+            }
+            30 => {
+                structs.insert(ins[1], ins[2..].to_vec()); // OpTypeStruct
+            }
+            _ => {}
+        }
+        i += count.max(1);
+    }
+    let mut out = HashMap::new();
+    for (id, members) in &structs {
+        let Some(name) = names.get(id) else { continue };
+        // Only the explicitly laid-out (std430 / push constant) copy of a struct.
+        if !offsets.contains_key(&(*id, 0)) {
+            continue;
+        }
+        let mut s = SpvStruct::default();
+        for m in 0..members.len() as u32 {
+            s.members.push((
+                member_names.get(&(*id, m)).cloned().unwrap_or_default(),
+                offsets[&(*id, m)],
+            ));
+        }
+        // Size from an array of this struct, else from the last member's end.
+        s.size = arrays
+            .iter()
+            .find(|(_, e)| *e == id)
+            .and_then(|(a, _)| strides.get(a).copied())
+            .or_else(|| {
+                let last = members.len() as u32 - 1;
+                sizes
+                    .get(&members[last as usize])
+                    .map(|sz| offsets[&(*id, last)] + sz)
+            });
+        out.insert(name.clone(), s);
+    }
+    out
+}
+
+macro_rules! rust_layout {
+    ($t:ty { $($f:ident),* $(,)? }) => {
+        (
+            stringify!($t),
+            vec![$((stringify!($f).to_string(), offset_of!($t, $f) as u32)),*],
+            size_of::<$t>() as u32,
+        )
+    };
+}
+
+#[test]
+fn host_and_shader_structs_match() {
+    let mut spv = reflect(kernels::RENDER);
+    spv.extend(reflect(kernels::TRACE));
+    let rust = [
+        rust_layout!(BvhNode {
+            a_min,
+            a_ref,
+            a_max,
+            a_count,
+            b_min,
+            b_ref,
+            b_max,
+            b_count
+        }),
+        rust_layout!(BvhTri {
+            v0,
+            prim,
+            e1,
+            pad0,
+            e2,
+            pad1
+        }),
+        rust_layout!(GpuLight {
+            p0,
+            kind,
+            p1,
+            cos_outer,
+            p2,
+            cos_inner,
+            radiance,
+            area
+        }),
+        rust_layout!(AliasEntry { q, alias, pmf, pad }),
+        rust_layout!(GpuMaterial {
+            base_color,
+            flags,
+            emission,
+            pad
+        }),
+        rust_layout!(RenderParams {
+            cam_pos,
+            cam_u,
+            cam_v,
+            cam_w,
+            width,
+            height,
+            sample_index,
+            seed,
+            light_count,
+            ray_eps,
+            pad0,
+            pad1
+        }),
+        rust_layout!(GpuRay {
+            origin,
+            tmin,
+            dir,
+            tmax
+        }),
+        rust_layout!(GpuHit { t, prim }),
+        rust_layout!(TraceParams {
+            ray_count,
+            any_hit,
+            pad0,
+            pad1
+        }),
+        rust_layout!(PixelAccum { sum, sum_sq }),
+    ];
+    for (name, fields, size) in rust {
+        let s = spv.get(name).unwrap_or_else(|| {
+            panic!("struct {name} is not used by any kernel with an explicit layout")
+        });
+        assert_eq!(
+            &s.members, &fields,
+            "{name}: member names/offsets differ between Rust and GLSL"
+        );
+        assert_eq!(
+            s.size,
+            Some(size),
+            "{name}: size differs between Rust and GLSL"
+        );
+    }
+}
+
+/// The checker itself must notice a wrong offset (guards against a test that cannot fail).
+#[test]
+fn layout_checker_detects_mismatch() {
+    let spv = reflect(kernels::TRACE);
+    let ray = &spv["GpuRay"];
+    let wrong = vec![
+        ("origin".to_string(), 0),
+        ("tmin".to_string(), 16),
+        ("dir".to_string(), 16),
+        ("tmax".to_string(), 28),
+    ];
+    assert_ne!(ray.members, wrong);
+    assert_eq!(ray.members[1], ("tmin".to_string(), 12));
+}

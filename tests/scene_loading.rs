@@ -1,0 +1,230 @@
+//! glTF loading: the three file forms, transforms, lights, camera, and bad input.
+
+mod common;
+
+use std::path::Path;
+
+use glam::Vec3;
+use lightlearn::scene::gltf_write::GltfBuilder;
+use lightlearn::scene::{default_scene, gltf_load, Light, Scene};
+
+fn small() -> GltfBuilder {
+    let mut g = GltfBuilder::new();
+    let grey = g.material("grey", Vec3::splat(0.5), Vec3::ZERO, false);
+    let hot = g.material("hot", Vec3::splat(0.5), Vec3::new(5.0, 4.0, 3.0), true);
+    g.cuboid("box", Vec3::ZERO, Vec3::ONE, grey);
+    g.quad(
+        "lamp",
+        [
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(1.0, 2.0, 0.0),
+            Vec3::new(1.0, 2.0, 1.0),
+            Vec3::new(0.0, 2.0, 1.0),
+        ],
+        hot,
+    );
+    g.point_light(
+        "bulb",
+        Vec3::new(0.5, 3.0, 0.5),
+        Vec3::new(1.0, 0.5, 0.25),
+        2.0,
+    );
+    g.spot_light(
+        "spot",
+        Vec3::new(3.0, 3.0, 0.0),
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::ONE,
+        4.0,
+        0.2,
+        0.5,
+    );
+    g.camera(Vec3::new(0.5, 1.0, 5.0), Vec3::new(0.5, 0.5, 0.0), 0.8);
+    g
+}
+
+fn load_text(text: &str, dir: &Path) -> anyhow::Result<Scene> {
+    gltf_load::load_bytes(text.as_bytes(), "test.gltf", dir, &mut |_| {})
+}
+
+#[test]
+fn glb_embedded_and_external_buffers_load_the_same_scene() {
+    let g = small();
+    let a = common::load(&g, "glb");
+    let dir = tempfile::tempdir().unwrap();
+    let b = load_text(&g.to_gltf_embedded(), dir.path()).unwrap();
+    let (text, bin) = g.to_gltf_external("small data.bin");
+    std::fs::write(dir.path().join("small data.bin"), bin).unwrap();
+    let text = text.replace("small data.bin", "small%20data.bin"); // URIs are percent-encoded
+    let c = load_text(&text, dir.path()).unwrap();
+    for s in [&b, &c] {
+        assert_eq!(s.triangles, a.triangles);
+        assert_eq!(s.materials, a.materials);
+        assert_eq!(s.lights, a.lights);
+    }
+    assert_eq!(a.triangles.len(), 14);
+    // 2 emissive triangles + point + spot.
+    assert_eq!(a.lights.len(), 4);
+    let tri_lights = a
+        .lights
+        .iter()
+        .filter(|l| matches!(l, Light::Triangle { .. }))
+        .count();
+    assert_eq!(tri_lights, 2);
+    let hot = a.materials.iter().find(|m| m.name == "hot").unwrap();
+    assert_eq!(
+        hot.emission,
+        Vec3::new(5.0, 4.0, 3.0),
+        "emissiveFactor × emissiveStrength"
+    );
+    assert!(hot.double_sided);
+}
+
+#[test]
+fn lights_and_camera_keep_their_placement() {
+    let s = common::load(&small(), "glb");
+    let spot = s.lights.iter().find_map(|l| match l {
+        Light::Spot {
+            position,
+            direction,
+            cos_inner,
+            cos_outer,
+            intensity,
+        } => Some((*position, *direction, *cos_inner, *cos_outer, *intensity)),
+        _ => None,
+    });
+    let (p, d, ci, co, i) = spot.unwrap();
+    assert!((p - Vec3::new(3.0, 3.0, 0.0)).length() < 1e-5);
+    assert!(
+        (d - Vec3::new(-1.0, -1.0, 0.0).normalize()).length() < 1e-5,
+        "spot axis {d}"
+    );
+    assert!((ci - 0.2f32.cos()).abs() < 1e-6 && (co - 0.5f32.cos()).abs() < 1e-6);
+    assert_eq!(i, Vec3::splat(4.0));
+    let point = s.lights.iter().find_map(|l| match l {
+        Light::Point { intensity, .. } => Some(*intensity),
+        _ => None,
+    });
+    assert_eq!(
+        point.unwrap(),
+        Vec3::new(2.0, 1.0, 0.5),
+        "intensity × color"
+    );
+    let want = (Vec3::new(0.5, 0.5, 0.0) - Vec3::new(0.5, 1.0, 5.0)).normalize();
+    assert!((s.camera.forward - want).length() < 1e-5);
+    assert!((s.camera.position - Vec3::new(0.5, 1.0, 5.0)).length() < 1e-5);
+    assert!((s.camera.yfov - 0.8).abs() < 1e-6);
+}
+
+/// A mirroring node transform flips winding; the loader restores CCW = front (outward for a
+/// box), so one-sided emission keeps facing the right way.
+#[test]
+fn mirrored_nodes_keep_outward_faces() {
+    let g = small();
+    let mut doc: serde_json::Value = serde_json::from_str(&g.to_gltf_embedded()).unwrap();
+    doc["nodes"][0]["scale"] = serde_json::json!([-1.0, 1.0, 1.0]);
+    doc["nodes"][0]["translation"] = serde_json::json!([4.0, 0.0, 0.0]);
+    let s = load_text(&doc.to_string(), Path::new(".")).unwrap();
+    let centre = Vec3::new(3.5, 0.5, 0.5);
+    for t in &s.triangles[..12] {
+        let n = (t[1] - t[0]).cross(t[2] - t[0]);
+        let c = (t[0] + t[1] + t[2]) / 3.0;
+        assert!(
+            n.dot(c - centre) > 0.0,
+            "face normal points inward after mirroring: {t:?}"
+        );
+        assert!(t.iter().all(|v| v.x >= 3.0 - 1e-6 && v.x <= 4.0 + 1e-6));
+    }
+}
+
+#[test]
+fn bad_scenes_give_clear_errors() {
+    let err = |text: &str| load_text(text, Path::new(".")).unwrap_err().to_string();
+
+    assert!(err("hello").contains("not a valid glTF"));
+
+    let mut g = GltfBuilder::new();
+    g.point_light("bulb", Vec3::ONE, Vec3::ONE, 1.0);
+    assert!(err(&g.to_gltf_embedded()).contains("has no triangles"));
+
+    let mut g = GltfBuilder::new();
+    let m = g.material("grey", Vec3::splat(0.5), Vec3::ZERO, false);
+    g.cuboid("box", Vec3::ZERO, Vec3::ONE, m);
+    let e = err(&g.to_gltf_embedded());
+    assert!(
+        e.contains("has no lights") && e.contains("KHR_lights_punctual"),
+        "{e}"
+    );
+
+    let mut g = small();
+    let m = g.material("grey", Vec3::splat(0.5), Vec3::ZERO, false);
+    g.mesh(
+        "broken",
+        &[Vec3::ZERO, Vec3::new(f32::NAN, 0.0, 0.0), Vec3::ONE],
+        &[0, 1, 2],
+        m,
+    );
+    let e = err(&g.to_gltf_embedded());
+    assert!(
+        e.contains("'broken'") && e.contains("non-finite position"),
+        "{e}"
+    );
+
+    // emissiveStrength 1e39 overflows f32 to Inf.
+    let text = small()
+        .to_gltf_embedded()
+        .replace("\"emissiveStrength\": 5.0", "\"emissiveStrength\": 1e39");
+    assert!(text.contains("1e39"));
+    let e = err(&text);
+    assert!(e.contains("'hot'") && e.contains("non-finite"), "{e}");
+
+    // An index past the end of the vertex list.
+    let mut g = small();
+    g.mesh("bad index", &[Vec3::ZERO, Vec3::X, Vec3::Y], &[0, 1, 7], 0);
+    let e = err(&g.to_gltf_embedded());
+    assert!(e.contains("index 7 is out of range"), "{e}");
+}
+
+#[test]
+fn line_primitives_are_skipped_with_a_warning() {
+    let mut doc: serde_json::Value = serde_json::from_str(&small().to_gltf_embedded()).unwrap();
+    doc["meshes"][0]["primitives"][0]["mode"] = serde_json::json!(1); // LINES
+    let mut warnings = Vec::new();
+    let s = gltf_load::load_bytes(
+        doc.to_string().as_bytes(),
+        "lines.gltf",
+        Path::new("."),
+        &mut |w| warnings.push(w),
+    )
+    .unwrap();
+    assert_eq!(s.triangles.len(), 2, "only the lamp quad is left");
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("Lines") && w.contains("skipped")),
+        "{warnings:?}"
+    );
+
+    // Nothing but lines: refused, and the message says why.
+    let mut g = GltfBuilder::new();
+    let m = g.material("grey", Vec3::splat(0.5), Vec3::ZERO, false);
+    g.cuboid("box", Vec3::ZERO, Vec3::ONE, m);
+    g.point_light("bulb", Vec3::ONE, Vec3::ONE, 1.0);
+    let mut doc: serde_json::Value = serde_json::from_str(&g.to_gltf_embedded()).unwrap();
+    doc["meshes"][0]["primitives"][0]["mode"] = serde_json::json!(1);
+    let e = load_text(&doc.to_string(), Path::new("."))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("no triangles") && e.contains("skipped"), "{e}");
+}
+
+#[test]
+fn committed_default_scene_is_what_the_generator_writes() {
+    let glb = default_scene::build(1).to_glb();
+    assert!(
+        glb == lightlearn::DEFAULT_SCENE,
+        "scenes/default.glb is stale: run `cargo run --release --example make_default_scene`"
+    );
+    let s = gltf_load::load_bytes(&glb, "default", Path::new("."), &mut |w| panic!("{w}")).unwrap();
+    assert!(s.lights.len() >= 200, "{} lights", s.lights.len());
+    assert!(glb.len() < 1 << 20);
+}
