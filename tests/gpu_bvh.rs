@@ -42,10 +42,38 @@ fn gpu_and_cpu_bvh_agree_on_every_ray() {
         })
         .collect();
 
+    // Axis-aligned rays (direction components exactly ±0), half from integer coordinates
+    // that lie on box planes of the boxes standing on the mesh.
+    let axes = [
+        Vec3::X,
+        Vec3::NEG_X,
+        Vec3::Y,
+        Vec3::NEG_Y,
+        Vec3::Z,
+        Vec3::NEG_Z,
+    ];
+    let aligned: Vec<GpuRay> = (0..1200)
+        .map(|i| {
+            let o = Vec3::new(
+                rng.range(-50.0, 50.0),
+                rng.range(-1.0, 20.0),
+                rng.range(-50.0, 50.0),
+            );
+            let o = if i % 2 == 0 { o.round() } else { o };
+            GpuRay {
+                origin: o.to_array(),
+                tmin: 0.0,
+                dir: axes[i % 6].to_array(),
+                tmax: f32::INFINITY,
+            }
+        })
+        .collect();
+
     for (kind, rays) in [
         ("primary", &primary),
         ("incoherent", &incoherent),
         ("outside", &outside),
+        ("axis-aligned", &aligned),
     ] {
         let (hits, _) = gpu_trace::trace(&ctx, &nodes, &tris, rays, false, 1).unwrap();
         let (any, _) = gpu_trace::trace(&ctx, &nodes, &tris, rays, true, 1).unwrap();

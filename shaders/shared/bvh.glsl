@@ -11,9 +11,10 @@
 #define NO_HIT 0xffffffffu
 
 // Entry distance of the box if hit within [tmin, tmax], else -1 (callers keep tmin >= 0).
-float slab(vec3 lo, vec3 hi, vec3 o, vec3 inv, float tmin, float tmax) {
-    vec3 t0 = (lo - o) * inv;
-    vec3 t1 = (hi - o) * inv;
+// `oi` = o * inv, so each plane distance is one fused multiply-add.
+float slab(vec3 lo, vec3 hi, vec3 oi, vec3 inv, float tmin, float tmax) {
+    vec3 t0 = lo * inv - oi;
+    vec3 t1 = hi * inv - oi;
     vec3 tn = min(t0, t1);
     vec3 tf = max(t0, t1);
     float near = max(max(max(tn.x, tn.y), tn.z), tmin);
@@ -40,16 +41,21 @@ float intersect_tri(BvhTri tri, vec3 o, vec3 d, float tmin, float tmax) {
 // Closest hit (any_hit = false) or the first hit found (shadow rays) with t in (tmin, tmax).
 // Returns the index into bvh_tris of the hit triangle or NO_HIT; its distance in t_hit.
 uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t_hit) {
-    vec3 inv = 1.0 / d;
+    // A zero direction component would make o * inv = 0 * inf = NaN: nudge it to ±1e-20.
+    vec3 dd = mix(d, mix(vec3(1e-20), vec3(-1e-20), lessThan(d, vec3(0.0))), lessThan(abs(d), vec3(1e-20)));
+    vec3 inv = 1.0 / dd;
+    vec3 oi = o * inv;
     float best_t = tmax;
     uint best = NO_HIT;
     uint stack[STACK_SIZE];
+    // Entry distance of each stacked child: skipped on pop once a closer hit is known.
+    float stack_t[STACK_SIZE];
     uint sp = 0u;
     uint node = 0u;
     for (;;) {
         BvhNode n = bvh_nodes[node];
-        float ta = slab(n.a_min, n.a_max, o, inv, tmin, best_t);
-        float tb = slab(n.b_min, n.b_max, o, inv, tmin, best_t);
+        float ta = slab(n.a_min, n.a_max, oi, inv, tmin, best_t);
+        float tb = slab(n.b_min, n.b_max, oi, inv, tmin, best_t);
         bool hit_a = ta >= 0.0;
         bool hit_b = tb >= 0.0;
         if (hit_a && (n.a_ref & BVH_LEAF_BIT) != 0u) {
@@ -72,16 +78,23 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
         }
         if (hit_a && hit_b) {
             bool a_first = ta <= tb;
-            stack[sp++] = a_first ? n.b_ref : n.a_ref;
+            stack[sp] = a_first ? n.b_ref : n.a_ref;
+            stack_t[sp] = a_first ? tb : ta;
+            sp++;
             node = a_first ? n.a_ref : n.b_ref;
         } else if (hit_a) {
             node = n.a_ref;
         } else if (hit_b) {
             node = n.b_ref;
-        } else if (sp == 0u) {
-            break;
         } else {
-            node = stack[--sp];
+            // Pop the next child that can still hold a closer hit.
+            bool found = false;
+            while (sp > 0u && !found) {
+                sp--;
+                found = stack_t[sp] <= best_t;
+                node = stack[sp];
+            }
+            if (!found) break;
         }
     }
     t_hit = best_t;

@@ -127,16 +127,25 @@ impl Bvh {
 
     /// The same loop as `trace_ray` in `shaders/shared/bvh.glsl`.
     fn traverse(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, any: bool) -> Option<(f32, u32)> {
-        let inv = d.recip();
+        // A zero direction component would make o * inv = 0 * inf = NaN: nudge it to ±1e-20.
+        let nudge = |c: f32| {
+            if c.abs() < 1e-20 {
+                1e-20f32.copysign(c)
+            } else {
+                c
+            }
+        };
+        let inv = Vec3::new(nudge(d.x), nudge(d.y), nudge(d.z)).recip();
+        let oi = o * inv;
         let mut best_t = tmax;
         let mut best = u32::MAX;
-        let mut stack = [0u32; MAX_DEPTH];
+        let mut stack = [(0u32, 0f32); MAX_DEPTH];
         let mut sp = 0usize;
         let mut node = 0u32;
         loop {
             let n = &self.nodes[node as usize];
-            let ta = slab(n.a_min, n.a_max, o, inv, tmin, best_t);
-            let tb = slab(n.b_min, n.b_max, o, inv, tmin, best_t);
+            let ta = slab(n.a_min, n.a_max, oi, inv, tmin, best_t);
+            let tb = slab(n.b_min, n.b_max, oi, inv, tmin, best_t);
             let mut hit_a = ta.is_some();
             let mut hit_b = tb.is_some();
             if hit_a && n.a_ref & BVH_LEAF_BIT != 0 {
@@ -153,9 +162,9 @@ impl Bvh {
             }
             if hit_a && hit_b {
                 let (near, far) = if ta <= tb {
-                    (n.a_ref, n.b_ref)
+                    (n.a_ref, (n.b_ref, tb.unwrap()))
                 } else {
-                    (n.b_ref, n.a_ref)
+                    (n.b_ref, (n.a_ref, ta.unwrap()))
                 };
                 stack[sp] = far;
                 sp += 1;
@@ -164,11 +173,17 @@ impl Bvh {
                 node = n.a_ref;
             } else if hit_b {
                 node = n.b_ref;
-            } else if sp == 0 {
-                break;
             } else {
-                sp -= 1;
-                node = stack[sp];
+                // Pop the next child that can still hold a closer hit.
+                let mut found = false;
+                while sp > 0 && !found {
+                    sp -= 1;
+                    found = stack[sp].1 <= best_t;
+                    node = stack[sp].0;
+                }
+                if !found {
+                    break;
+                }
             }
         }
         (best != u32::MAX).then_some((best_t, best))
@@ -198,11 +213,12 @@ impl Bvh {
     }
 }
 
-/// Ray/box slab test; the entry distance if the box is hit within (tmin, tmax).
+/// Ray/box slab test (`oi` = o · inv); the entry distance if the box is hit within
+/// [tmin, tmax].
 #[inline]
-fn slab(lo: [f32; 3], hi: [f32; 3], o: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
-    let t0 = (Vec3::from(lo) - o) * inv;
-    let t1 = (Vec3::from(hi) - o) * inv;
+fn slab(lo: [f32; 3], hi: [f32; 3], oi: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
+    let t0 = Vec3::from(lo) * inv - oi;
+    let t1 = Vec3::from(hi) * inv - oi;
     let near = t0.min(t1).max_element().max(tmin);
     let far = t0.max(t1).min_element().min(tmax);
     (near <= far).then_some(near)
@@ -407,11 +423,23 @@ mod tests {
                 .collect();
             let mut r = SplitMix64(99);
             let mut hits = 0;
-            for _ in 0..3000 {
+            let axes = [
+                Vec3::X,
+                Vec3::NEG_X,
+                Vec3::Y,
+                Vec3::NEG_Y,
+                Vec3::Z,
+                Vec3::NEG_Z,
+            ];
+            for i in 0..3000 {
                 let o = Vec3::new(r.range(-8.0, 8.0), r.range(-8.0, 8.0), r.range(-8.0, 8.0));
-                let d = (Vec3::new(r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(-1.0, 1.0))
-                    - o * 0.1)
-                    .normalize();
+                let d = if i % 5 == 0 {
+                    axes[i % 6] // exact zero components
+                } else {
+                    (Vec3::new(r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(-1.0, 1.0))
+                        - o * 0.1)
+                        .normalize()
+                };
                 let mut best = (f32::INFINITY, u32::MAX);
                 for t in &flat {
                     if let Some(tt) = intersect_tri(t, o, d, 0.0, best.0) {
