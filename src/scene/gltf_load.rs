@@ -81,6 +81,7 @@ pub fn load_bytes(
     };
     let mut camera: Option<Camera> = None;
     let mut skipped_primitives = 0usize;
+    let mut lights_with_range = 0usize;
 
     // Depth-first over the node hierarchy with accumulated world transforms, in document
     // order (the stack is filled in reverse), so triangles and lights keep the file's order.
@@ -145,8 +146,13 @@ pub fn load_bytes(
                         "'{name}': {mesh_label} vertex {bad} has a non-finite position (NaN or Inf); fix the mesh data"
                     );
                 }
-                let mat =
-                    material_slot(&prim.material(), name, &mut materials, &mut material_index)?;
+                let mat = material_slot(
+                    &prim.material(),
+                    name,
+                    &mut materials,
+                    &mut material_index,
+                    warn,
+                )?;
                 for [a, b, c] in tris {
                     let get = |i: u32| {
                         world_pos.get(i as usize).copied().ok_or_else(|| {
@@ -209,6 +215,7 @@ pub fn load_bytes(
             }
             let position = (world * glam::Vec4::new(0.0, 0.0, 0.0, 1.0)).xyz();
             let direction = (world * glam::Vec4::new(0.0, 0.0, -1.0, 0.0)).xyz();
+            lights_with_range += light.range().is_some() as usize;
             if intensity.max_element() == 0.0 {
                 warn(format!("'{name}': {label} has zero intensity; skipped"));
             } else {
@@ -246,6 +253,11 @@ pub fn load_bytes(
         stack[first_child..].reverse();
     }
 
+    if lights_with_range > 0 {
+        warn(format!(
+            "'{name}': {lights_with_range} lights set `range`; lightlearn ignores it (inverse-square falloff only)"
+        ));
+    }
     if scene.triangles.is_empty() {
         let extra = if skipped_primitives > 0 {
             format!(" ({skipped_primitives} point/line primitives were skipped)")
@@ -282,6 +294,7 @@ fn material_slot(
     file: &str,
     materials: &mut Vec<Material>,
     index: &mut HashMap<Option<usize>, u32>,
+    warn: &mut dyn FnMut(String),
 ) -> Result<u32> {
     if let Some(&i) = index.get(&m.index()) {
         return Ok(i);
@@ -302,9 +315,11 @@ fn material_slot(
             "'{file}': {label} has a non-finite or negative baseColorFactor; use values in [0, 1]"
         );
     }
-    if m.pbr_metallic_roughness().base_color_texture().is_some() {
+    if m.pbr_metallic_roughness().base_color_texture().is_some() || m.emissive_texture().is_some() {
         // Textures are not sampled yet; say so instead of silently rendering a flat colour.
-        eprintln!("warning: '{file}': {label} has a base colour texture; lightlearn uses baseColorFactor only");
+        warn(format!(
+            "'{file}': {label} has textures; lightlearn uses baseColorFactor and emissiveFactor only"
+        ));
     }
     let slot = materials.len() as u32;
     materials.push(Material {
