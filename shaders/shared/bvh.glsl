@@ -38,6 +38,15 @@ float intersect_tri(BvhTri tri, vec3 o, vec3 d, float tmin, float tmax) {
     return (t > tmin && t < tmax) ? t : -1.0;
 }
 
+// Tests the triangles of a leaf, keeping the closest hit in (best_t, best).
+void intersect_leaf(uint leaf_ref, uint count, vec3 o, vec3 d, float tmin, inout float best_t, inout uint best) {
+    uint first = leaf_ref & ~BVH_LEAF_BIT;
+    for (uint i = first; i < first + count; ++i) {
+        float t = intersect_tri(bvh_tris[i], o, d, tmin, best_t);
+        if (t >= 0.0) { best_t = t; best = i; }
+    }
+}
+
 // Closest hit (any_hit = false) or the first hit found (shadow rays) with t in (tmin, tmax).
 // Returns the index into bvh_tris of the hit triangle or NO_HIT; its distance in t_hit.
 uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t_hit) {
@@ -60,20 +69,12 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
         bool hit_b = tb >= 0.0;
         if (hit_a && (n.a_ref & BVH_LEAF_BIT) != 0u) {
             hit_a = false;
-            uint first = n.a_ref & ~BVH_LEAF_BIT;
-            for (uint i = first; i < first + n.a_count; ++i) {
-                float t = intersect_tri(bvh_tris[i], o, d, tmin, best_t);
-                if (t >= 0.0) { best_t = t; best = i; }
-            }
+            intersect_leaf(n.a_ref, n.a_count, o, d, tmin, best_t, best);
             if (any_hit && best != NO_HIT) break;
         }
         if (hit_b && (n.b_ref & BVH_LEAF_BIT) != 0u) {
             hit_b = false;
-            uint first = n.b_ref & ~BVH_LEAF_BIT;
-            for (uint i = first; i < first + n.b_count; ++i) {
-                float t = intersect_tri(bvh_tris[i], o, d, tmin, best_t);
-                if (t >= 0.0) { best_t = t; best = i; }
-            }
+            intersect_leaf(n.b_ref, n.b_count, o, d, tmin, best_t, best);
             if (any_hit && best != NO_HIT) break;
         }
         if (hit_a && hit_b) {
