@@ -47,6 +47,19 @@ if ! command -v cargo >/dev/null 2>&1; then
   exit 1
 fi
 
+# The Khronos glTF validator (npm) for tests/gltf_validator.rs; skipped, with a note, without
+# Node.js — that test then says it was skipped.
+here="$(cd "$(dirname "$0")" && pwd)"
+if command -v npm >/dev/null 2>&1; then
+  if [ ! -f "$here/node_modules/gltf-validator/package.json" ]; then
+    echo "ci/setup.sh: installing gltf-validator (npm) into ci/node_modules"
+    (cd "$here" && npm install --no-audit --no-fund --loglevel=error >/dev/null) ||
+      echo "ci/setup.sh: warning: npm install of gltf-validator failed; its test will be skipped" >&2
+  fi
+else
+  echo "ci/setup.sh: note: Node.js/npm not found; the glTF validator test will be skipped" >&2
+fi
+
 # Lavapipe is the device CI renders on; say so when it is missing so a failing test is explained.
 if ! ls /usr/share/vulkan/icd.d/lvp_icd.*.json >/dev/null 2>&1; then
   echo "ci/setup.sh: warning: lavapipe ICD not found under /usr/share/vulkan/icd.d" >&2

@@ -5,6 +5,7 @@ pub mod accel;
 pub mod bench;
 pub mod film;
 pub mod gpu;
+pub mod io;
 pub mod lights;
 pub mod reference;
 pub mod render;

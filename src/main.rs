@@ -14,6 +14,7 @@ use lightlearn::accel::Bvh;
 use lightlearn::film::{self, OutputPaths};
 use lightlearn::gpu::{Context, ContextOptions};
 use lightlearn::render::{self, Budget, GpuScene, LightSampler, RenderSettings};
+use lightlearn::scene::families::{self, Family, FamilyParams};
 use lightlearn::scene::{gltf_load, Scene};
 
 #[derive(Parser)]
@@ -33,6 +34,9 @@ enum Command {
     /// Render a glTF scene to FILE.exr (float32 RGB), FILE.png (sRGB preview) and FILE.json
     /// (report). Without SCENE, renders the built-in default many-light scene.
     Render(RenderArgs),
+    /// Generate a procedural many-light scene as glTF (.glb, or .gltf with embedded data).
+    /// The same arguments always give a byte-identical file.
+    Scene(SceneArgs),
     /// Benchmark: rays/s of the GPU traversal kernel and of a multithreaded CPU traversal of
     /// the same BVH, side by side, for coherent and incoherent rays.
     BenchRays(BenchArgs),
@@ -83,6 +87,44 @@ struct RenderArgs {
 }
 
 #[derive(Args)]
+struct SceneArgs {
+    /// Scene family.
+    #[arg(value_enum)]
+    family: Family,
+    /// Number of lights, exact (each emissive triangle counts as one). cornell: 1..=64,
+    /// city: 16..=1000000, others: 1..=1000000.
+    #[arg(long, value_name = "N")]
+    lights: usize,
+    /// Random seed of the layout and light placement.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output file: .glb (binary) or .gltf (text, buffers embedded).
+    #[arg(long, value_name = "FILE")]
+    out: PathBuf,
+    /// rooms: grid of rooms, e.g. 4x3 [default: about 25 lights per room].
+    #[arg(long, value_name = "XxZ", value_parser = parse_grid)]
+    rooms: Option<(usize, usize)>,
+    /// city: blocks per side (1..=100) [default: enough for about half the windows lit].
+    #[arg(long, value_name = "N")]
+    blocks: Option<usize>,
+    /// strings: segments around each curved object (3..=512).
+    #[arg(long, default_value_t = 24)]
+    resolution: u32,
+}
+
+fn parse_grid(s: &str) -> std::result::Result<(usize, usize), String> {
+    let (a, b) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("'{s}' is not a grid like 4x3"))?;
+    let n = |t: &str| {
+        t.trim()
+            .parse::<usize>()
+            .map_err(|_| format!("'{s}' is not a grid like 4x3"))
+    };
+    Ok((n(a)?, n(b)?))
+}
+
+#[derive(Args)]
 struct BenchArgs {
     /// Triangles in the procedural benchmark mesh.
     #[arg(long, default_value_t = 120_000)]
@@ -104,6 +146,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(a) => cmd_render(a),
+        Command::Scene(a) => cmd_scene(a),
         Command::BenchRays(a) => cmd_bench_rays(a),
     };
     match result {
@@ -227,6 +270,42 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
             result.spp as f64 * a.width as f64 * a.height as f64 / result.render_seconds / 1e6
         );
     }
+    Ok(())
+}
+
+fn cmd_scene(a: SceneArgs) -> Result<()> {
+    let ext = a
+        .out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_lowercase);
+    let text = match ext.as_deref() {
+        Some("glb") => false,
+        Some("gltf") => true,
+        _ => bail!("--out '{}' must end in .glb or .gltf", a.out.display()),
+    };
+    lightlearn::io::check_parent(&a.out)?;
+    let params = FamilyParams {
+        lights: a.lights,
+        seed: a.seed,
+        rooms: a.rooms,
+        blocks: a.blocks,
+        resolution: a.resolution,
+    };
+    let builder = families::generate(a.family, &params)?;
+    let bytes = if text {
+        builder.to_gltf_embedded().into_bytes()
+    } else {
+        builder.to_glb()
+    };
+    lightlearn::io::write_atomic(&a.out, &bytes)?;
+    eprintln!(
+        "wrote {} ({:?}, {} lights, {} bytes)",
+        a.out.display(),
+        a.family,
+        a.lights,
+        bytes.len()
+    );
     Ok(())
 }
 

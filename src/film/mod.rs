@@ -6,6 +6,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
 
+use crate::io::temp_path;
+
 /// The output paths derived from `--out FILE.exr`.
 #[derive(Clone, Debug)]
 pub struct OutputPaths {
@@ -28,31 +30,13 @@ impl OutputPaths {
                 exr.display()
             );
         }
-        let dir = match exr.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        if !dir.is_dir() {
-            bail!(
-                "cannot write '{}': folder '{}' does not exist; create it first",
-                exr.display(),
-                dir.display()
-            );
-        }
+        crate::io::check_parent(exr)?;
         Ok(OutputPaths {
             exr: exr.to_path_buf(),
             png: exr.with_extension("png"),
             json: exr.with_extension("json"),
         })
     }
-}
-
-fn temp_path(p: &Path) -> PathBuf {
-    let name = p
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    p.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
 }
 
 /// Writes EXR, PNG and JSON atomically (all three or none).

@@ -4,7 +4,7 @@
 //! counter-clockwise = front), so the BVH builder, the light list and the CPU reference all
 //! read the same plain arrays.
 
-pub mod default_scene;
+pub mod families;
 pub mod gltf_load;
 pub mod gltf_write;
 

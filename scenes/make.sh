@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# Regenerates every committed scene. tests/committed_scenes.rs replays each `scene` line below
+# and fails if a committed file differs from what the command writes.
+set -euo pipefail
+cd "$(dirname "$0")"
+lightlearn() { cargo run --release --quiet -- "$@"; }
+
+lightlearn scene rooms --lights 240 --seed 1 --out default.glb
+lightlearn scene cornell --lights 6 --seed 1 --out cornell.glb
+lightlearn scene rooms --lights 100 --seed 1 --out rooms.glb
+lightlearn scene hall --lights 64 --seed 1 --out hall.glb
+lightlearn scene city --lights 2000 --seed 1 --out city.glb
+lightlearn scene strings --lights 1000 --seed 1 --resolution 24 --out strings.glb

@@ -1,0 +1,163 @@
+//! Every committed scene is exactly what its command in scenes/make.sh writes (provenance),
+//! loads with the expected light count, and stays small; the default scene has ≥ 200 lights.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+/// The `lightlearn scene …` argument lists in scenes/make.sh.
+fn commands() -> Vec<Vec<String>> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let script = std::fs::read_to_string(root.join("scenes/make.sh")).unwrap();
+    script
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("lightlearn scene "))
+        .map(|rest| rest.split_whitespace().map(String::from).collect())
+        .collect()
+}
+
+#[test]
+fn committed_scenes_match_their_commands() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let cmds = commands();
+    assert!(
+        cmds.len() >= 6,
+        "scenes/make.sh lists the default scene and one per family"
+    );
+    let mut families = Vec::new();
+    for args in cmds {
+        let out = args.iter().position(|a| a == "--out").unwrap() + 1;
+        let name = args[out].clone();
+        let lights: usize = args[args.iter().position(|a| a == "--lights").unwrap() + 1]
+            .parse()
+            .unwrap();
+        let mut replay = args.clone();
+        replay[out] = dir.path().join(&name).display().to_string();
+        let o = Command::new(common::exe())
+            .arg("scene")
+            .args(&replay)
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let fresh = std::fs::read(dir.path().join(&name)).unwrap();
+        let committed = std::fs::read(root.join("scenes").join(&name)).unwrap();
+        assert!(
+            fresh == committed,
+            "scenes/{name} is stale: run scenes/make.sh"
+        );
+        assert!(
+            committed.len() < 1 << 20,
+            "scenes/{name} must stay under 1 MB"
+        );
+        let scene =
+            lightlearn::scene::gltf_load::load(&root.join("scenes").join(&name), &mut |w| {
+                panic!("{name}: {w}")
+            })
+            .unwrap();
+        assert_eq!(scene.lights.len(), lights, "{name}");
+        if name == "default.glb" {
+            assert!(lights >= 200);
+        }
+        families.push(args[0].clone());
+    }
+    for f in ["rooms", "hall", "city", "strings", "cornell"] {
+        assert!(families.iter().any(|x| x == f), "no committed {f} scene");
+    }
+    // The binary renders the built-in copy of the default scene.
+    assert!(lightlearn::DEFAULT_SCENE == std::fs::read(root.join("scenes/default.glb")).unwrap());
+}
+
+#[test]
+fn scene_command_refuses_bad_requests() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fail = |args: &[&str], want: &str| {
+        let o = Command::new(common::exe())
+            .arg("scene")
+            .args(args)
+            .current_dir(d)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{args:?} should fail");
+        assert!(err.contains(want), "{args:?}: wanted '{want}' in: {err}");
+        assert!(!err.contains("panicked"));
+        assert_eq!(
+            std::fs::read_dir(d).unwrap().count(),
+            0,
+            "{args:?} wrote something"
+        );
+    };
+    fail(
+        &["tower", "--lights", "5", "--out", "x.glb"],
+        "invalid value 'tower'",
+    );
+    fail(
+        &["hall", "--lights", "0", "--out", "x.glb"],
+        "use 1..=1000000",
+    );
+    fail(
+        &["hall", "--lights", "1000001", "--out", "x.glb"],
+        "use 1..=1000000",
+    );
+    fail(
+        &["cornell", "--lights", "65", "--out", "x.glb"],
+        "use 1..=64",
+    );
+    fail(
+        &["hall", "--lights", "5", "--out", "missing/x.glb"],
+        "does not exist",
+    );
+    fail(
+        &["hall", "--lights", "5", "--out", "x.obj"],
+        "must end in .glb or .gltf",
+    );
+    fail(
+        &["rooms", "--lights", "5", "--rooms", "3y4", "--out", "x.glb"],
+        "not a grid",
+    );
+    fail(
+        &["rooms", "--lights", "5", "--rooms", "0x4", "--out", "x.glb"],
+        "at least 1x1",
+    );
+    fail(
+        &[
+            "city", "--lights", "100000", "--blocks", "1", "--out", "x.glb",
+        ],
+        "window slots",
+    );
+    fail(
+        &[
+            "strings",
+            "--lights",
+            "5",
+            "--resolution",
+            "2",
+            "--out",
+            "x.glb",
+        ],
+        "3..=512",
+    );
+}
+
+#[test]
+fn gltf_text_output_loads_like_glb() {
+    let dir = tempfile::tempdir().unwrap();
+    for ext in ["glb", "gltf"] {
+        let out = dir.path().join(format!("s.{ext}"));
+        let o = Command::new(common::exe())
+            .args(["scene", "strings", "--lights", "40", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(o.status.success());
+        let s = lightlearn::scene::gltf_load::load(&out, &mut |w| panic!("{w}")).unwrap();
+        assert_eq!(s.lights.len(), 40);
+    }
+}
