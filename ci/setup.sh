@@ -12,6 +12,7 @@ packages=(
   glslang-tools           # glslangValidator: GLSL -> SPIR-V in build.rs
   spirv-tools             # spirv-val / spirv-dis, for inspecting kernels
   vulkan-tools            # vulkaninfo, to see which devices the loader finds
+  chromium                # headless browser: tests/report_browser.rs checks the HTML report
   pkg-config
 )
 

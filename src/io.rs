@@ -32,9 +32,14 @@ pub fn check_parent(p: &Path) -> Result<()> {
 
 /// Writes `bytes` to `p` atomically.
 pub fn write_atomic(p: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomic_with(p, |tmp| Ok(std::fs::write(tmp, bytes)?))
+}
+
+/// Lets `write` fill a temporary file, then renames it to `p`; removes it on failure.
+pub fn write_atomic_with(p: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let tmp = temp_path(p);
-    let result = std::fs::write(&tmp, bytes)
-        .and_then(|_| std::fs::rename(&tmp, p))
+    let result = write(&tmp)
+        .and_then(|_| Ok(std::fs::rename(&tmp, p)?))
         .with_context(|| format!("cannot write '{}'", p.display()));
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);

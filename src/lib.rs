@@ -3,6 +3,7 @@
 
 pub mod accel;
 pub mod bench;
+pub mod compare;
 pub mod film;
 pub mod gpu;
 pub mod io;

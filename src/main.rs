@@ -3,14 +3,16 @@
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::{bail, Result};
+use anyhow::{bail, Context as _, Result};
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde_json::json;
 
 use lightlearn::accel::Bvh;
+use lightlearn::compare::{self, reference, report};
 use lightlearn::film::{self, OutputPaths};
 use lightlearn::gpu::{Context, ContextOptions};
 use lightlearn::render::{self, Budget, GpuScene, LightSampler, RenderSettings};
@@ -34,6 +36,12 @@ enum Command {
     /// Render a glTF scene to FILE.exr (float32 RGB), FILE.png (sRGB preview) and FILE.json
     /// (report). Without SCENE, renders the built-in default many-light scene.
     Render(RenderArgs),
+    /// Compare light samplers on one scene at equal time and/or equal samples against a
+    /// reference; writes an HTML report, metrics.json, convergence.csv and the EXRs.
+    Compare(CompareArgs),
+    /// Render a converged reference image (sampler `power`, long budget); it is also cached
+    /// so `compare` reuses it.
+    Reference(ReferenceArgs),
     /// Generate a procedural many-light scene as glTF (.glb, or .gltf with embedded data).
     /// The same arguments always give a byte-identical file.
     Scene(SceneArgs),
@@ -79,7 +87,83 @@ struct RenderArgs {
     /// Output EXR path; the PNG and JSON are written next to it with the same stem.
     #[arg(long, default_value = "render.exr", value_name = "FILE.exr")]
     out: PathBuf,
+    /// Path length; 1 = direct light only (the only value until the path tracer exists).
+    #[arg(long, default_value_t = 1)]
+    max_depth: u32,
     /// No progress bar or summary (errors and warnings are still printed).
+    #[arg(long, short)]
+    quiet: bool,
+    #[command(flatten)]
+    device: DeviceArgs,
+}
+
+/// Path tracing depth; only 1 (direct light) until the path tracer exists.
+fn check_depth(d: u32) -> Result<()> {
+    if d != 1 {
+        bail!("--max-depth {d}: only 1 (direct illumination) is implemented so far");
+    }
+    Ok(())
+}
+
+#[derive(Args)]
+struct CompareArgs {
+    /// glTF scene (.gltf or .glb). Default: the built-in scene.
+    scene: Option<PathBuf>,
+    /// Comma-separated samplers; the first is the baseline of the speed-ups.
+    #[arg(long, value_name = "A,B,...", default_value = "uniform,power")]
+    samplers: String,
+    /// Equal-time comparison: seconds of rendering per sampler.
+    #[arg(long, value_name = "SECONDS")]
+    time: Option<f64>,
+    /// Equal-sample comparison: samples per pixel per sampler (with --time: both are run).
+    #[arg(long, value_name = "N")]
+    spp: Option<u32>,
+    /// Reference image (float EXR of the same size). Default: rendered once and cached
+    /// (see `lightlearn reference`).
+    #[arg(long, value_name = "REF.exr")]
+    reference: Option<PathBuf>,
+    /// Samples per pixel of a reference rendered here.
+    #[arg(long, default_value_t = lightlearn::compare::reference::DEFAULT_REFERENCE_SPP)]
+    reference_spp: u32,
+    /// Output folder (created if missing).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    #[arg(long, default_value_t = 320)]
+    width: u32,
+    #[arg(long, default_value_t = 240)]
+    height: u32,
+    #[arg(long, default_value_t = 0)]
+    seed: u32,
+    /// Path length; 1 = direct light only (the only value until the path tracer exists).
+    #[arg(long, default_value_t = 1)]
+    max_depth: u32,
+    #[arg(long, short)]
+    quiet: bool,
+    #[command(flatten)]
+    device: DeviceArgs,
+}
+
+#[derive(Args)]
+struct ReferenceArgs {
+    /// glTF scene (.gltf or .glb). Default: the built-in scene.
+    scene: Option<PathBuf>,
+    /// Output EXR (the PNG and JSON are written next to it).
+    #[arg(long, value_name = "FILE.exr")]
+    out: PathBuf,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = lightlearn::compare::reference::DEFAULT_REFERENCE_SPP)]
+    spp: u32,
+    #[arg(long, default_value_t = 320)]
+    width: u32,
+    #[arg(long, default_value_t = 240)]
+    height: u32,
+    /// Seed of the renders this reference will judge; the reference itself draws from an
+    /// independent stream derived from it (so `compare --seed S` finds it in the cache).
+    #[arg(long, default_value_t = 0)]
+    seed: u32,
+    /// Path length; 1 = direct light only (the only value until the path tracer exists).
+    #[arg(long, default_value_t = 1)]
+    max_depth: u32,
     #[arg(long, short)]
     quiet: bool,
     #[command(flatten)]
@@ -146,6 +230,8 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(a) => cmd_render(a),
+        Command::Compare(a) => cmd_compare(a),
+        Command::Reference(a) => cmd_reference(a),
         Command::Scene(a) => cmd_scene(a),
         Command::BenchRays(a) => cmd_bench_rays(a),
     };
@@ -156,6 +242,21 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// A progress bar on a terminal (0..1000 = fraction done), hidden otherwise.
+fn progress_bar(quiet: bool) -> ProgressBar {
+    if quiet || !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let b = ProgressBar::new(1000);
+    b.set_style(
+        ProgressStyle::with_template(
+            "{bar:40.cyan/blue} {percent:>3}% {msg} [{elapsed_precise} / ETA {eta}]",
+        )
+        .expect("valid template"),
+    );
+    b
 }
 
 fn context(d: &DeviceArgs) -> Result<std::sync::Arc<Context>> {
@@ -192,6 +293,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     if a.width == 0 || a.height == 0 || a.width > 16384 || a.height > 16384 {
         bail!("--width/--height must be between 1 and 16384");
     }
+    check_depth(a.max_depth)?;
     // Check the output location before spending time on the render.
     let paths = OutputPaths::new(&a.out)?;
     let scene = load_scene(a.scene.as_deref())?;
@@ -210,18 +312,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         );
     }
 
-    let bar = if a.quiet || !std::io::stderr().is_terminal() {
-        ProgressBar::hidden()
-    } else {
-        let b = ProgressBar::new(1000);
-        b.set_style(
-            ProgressStyle::with_template(
-                "{bar:40.cyan/blue} {percent:>3}% {msg} [{elapsed_precise} / ETA {eta}]",
-            )
-            .expect("valid template"),
-        );
-        b
-    };
+    let bar = progress_bar(a.quiet);
     let settings = RenderSettings {
         width: a.width,
         height: a.height,
@@ -236,24 +327,9 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     bar.finish_and_clear();
 
     let image = result.mean();
-    let report = json!({
-        "lightlearn_version": env!("CARGO_PKG_VERSION"),
-        "scene": scene.source,
-        "triangles": scene.triangles.len(),
-        "lights": scene.lights.len(),
-        "sampler": a.sampler,
-        "spp": result.spp,
-        "width": a.width,
-        "height": a.height,
-        "seed": a.seed,
-        "budget": match budget { Budget::Samples(n) => json!({"spp": n}), Budget::Seconds(s) => json!({"seconds": s}) },
-        "render_seconds": result.render_seconds,
-        "bvh_build_seconds": build_seconds,
-        "total_seconds": started.elapsed().as_secs_f64(),
-        "device": ctx.describe(),
-        "invalid_samples_dropped": result.invalid_samples,
-        "integrator": "direct illumination, Lambertian, one light sample per pixel sample",
-    });
+    let mut report = render::report_json(&scene, &settings, &result, &ctx.describe());
+    report["bvh_build_seconds"] = json!(build_seconds);
+    report["total_seconds"] = json!(started.elapsed().as_secs_f64());
     film::write_outputs(&paths, a.width, a.height, &image, &report)?;
     if result.invalid_samples > 0 {
         eprintln!(
@@ -318,5 +394,272 @@ fn cmd_bench_rays(a: BenchArgs) -> Result<()> {
     lightlearn::bench::rays::run(&ctx, a.triangles, a.width, a.height, a.repeats, &mut |l| {
         println!("{l}")
     })?;
+    Ok(())
+}
+
+/// Loads the scene, opens the device and uploads the scene: what every rendering command does.
+fn prepare(scene: Option<&Path>, device: &DeviceArgs) -> Result<(Scene, Arc<Context>, GpuScene)> {
+    let scene = load_scene(scene)?;
+    let ctx = context(device)?;
+    let bvh = Bvh::build(&scene.triangles);
+    let gpu = GpuScene::upload(&ctx, &scene, &bvh)?;
+    Ok((scene, ctx, gpu))
+}
+
+/// Renders a reference with the reference sampler and writes EXR + PNG + JSON to `paths`.
+fn render_reference(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    gpu: &GpuScene,
+    settings: &RenderSettings,
+    paths: &OutputPaths,
+    quiet: bool,
+) -> Result<(Vec<[f32; 3]>, serde_json::Value)> {
+    let bar = progress_bar(quiet);
+    bar.set_message("reference");
+    let result = render::render(ctx, scene, gpu, settings, &mut |spp, f| {
+        bar.set_position((f * 1000.0) as u64);
+        bar.set_message(format!("reference: {spp} spp"));
+    })?;
+    bar.finish_and_clear();
+    let report = render::report_json(scene, settings, &result, &ctx.describe());
+    let image = result.mean();
+    film::write_outputs(paths, settings.width, settings.height, &image, &report)?;
+    Ok((image, report))
+}
+
+fn reference_settings(width: u32, height: u32, spp: u32, seed: u32) -> Result<RenderSettings> {
+    if spp == 0 {
+        bail!("the reference needs at least 1 sample per pixel");
+    }
+    if width == 0 || height == 0 || width > 16384 || height > 16384 {
+        bail!("--width/--height must be between 1 and 16384");
+    }
+    Ok(RenderSettings {
+        width,
+        height,
+        budget: Budget::Samples(spp),
+        seed: reference::reference_seed(seed),
+        sampler: reference::REFERENCE_SAMPLER,
+    })
+}
+
+/// The cached reference for these settings, rendered now if it is not cached yet.
+fn cached_reference(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    gpu: &GpuScene,
+    settings: &RenderSettings,
+    quiet: bool,
+) -> Result<(Vec<[f32; 3]>, String)> {
+    let Budget::Samples(spp) = settings.budget else {
+        unreachable!("references have a sample budget")
+    };
+    let key = reference::key(scene, settings.width, settings.height, spp, settings.seed);
+    let dir = reference::cache_dir();
+    let paths = OutputPaths {
+        exr: dir.join(format!("{key}.exr")),
+        png: dir.join(format!("{key}.png")),
+        json: dir.join(format!("{key}.json")),
+    };
+    let note = |report: &serde_json::Value| {
+        format!(
+            "{} at {spp} spp, cached as {}; its own estimated relMSE {:.2e} (a floor under every relMSE below)",
+            settings.sampler.name(),
+            paths.exr.display(),
+            report["estimated_rel_mse_of_mean"].as_f64().unwrap_or(f64::NAN)
+        )
+    };
+    if paths.exr.exists() && paths.json.exists() {
+        let (w, h, px) = film::read_exr(&paths.exr)?;
+        let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&paths.json)?)?;
+        if (w, h) == (settings.width, settings.height) {
+            if !quiet {
+                eprintln!("using cached reference {}", paths.exr.display());
+            }
+            return Ok((px, note(&report)));
+        }
+    }
+    std::fs::create_dir_all(&dir)
+        .with_context(|| format!("cannot create the reference cache '{}'", dir.display()))?;
+    if !quiet {
+        eprintln!("rendering the reference once ({spp} spp; cached for later runs)");
+    }
+    let (image, report) = render_reference(ctx, scene, gpu, settings, &paths, quiet)?;
+    Ok((image, note(&report)))
+}
+
+fn cmd_reference(a: ReferenceArgs) -> Result<()> {
+    check_depth(a.max_depth)?;
+    let settings = reference_settings(a.width, a.height, a.spp, a.seed)?;
+    let paths = OutputPaths::new(&a.out)?;
+    let (scene, ctx, gpu) = prepare(a.scene.as_deref(), &a.device)?;
+    let (_, report) = render_reference(&ctx, &scene, &gpu, &settings, &paths, a.quiet)?;
+    // Also into the cache, so `compare` with the same settings reuses it.
+    let key = reference::key(&scene, a.width, a.height, a.spp, settings.seed);
+    let dir = reference::cache_dir();
+    if std::fs::create_dir_all(&dir).is_ok() {
+        for (from, ext) in [(&paths.exr, "exr"), (&paths.json, "json")] {
+            let to = dir.join(format!("{key}.{ext}"));
+            let _ = std::fs::read(from).and_then(|b| std::fs::write(&to, b));
+        }
+    }
+    if !a.quiet {
+        eprintln!(
+            "wrote {} ({} spp in {:.1} s; estimated relMSE {:.2e})",
+            paths.exr.display(),
+            a.spp,
+            report["render_seconds"].as_f64().unwrap_or(0.0),
+            report["estimated_rel_mse_of_mean"]
+                .as_f64()
+                .unwrap_or(f64::NAN)
+        );
+    }
+    Ok(())
+}
+
+fn cmd_compare(a: CompareArgs) -> Result<()> {
+    // Everything that can be wrong with the request is checked before any rendering.
+    check_depth(a.max_depth)?;
+    let samplers = LightSampler::parse_list(&a.samplers)?;
+    let mut budgets = Vec::new();
+    if let Some(t) = a.time {
+        if !(t.is_finite() && t > 0.0) {
+            bail!("--time must be a positive number of seconds");
+        }
+        budgets.push(Budget::Seconds(t));
+    }
+    if let Some(n) = a.spp {
+        if n == 0 {
+            bail!("--spp must be at least 1");
+        }
+        budgets.push(Budget::Samples(n));
+    }
+    if budgets.is_empty() {
+        bail!("give --time SECONDS (equal time) and/or --spp N (equal samples)");
+    }
+    let ref_settings = reference_settings(a.width, a.height, a.reference_spp, a.seed)?;
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create the output folder '{}'", a.out.display()))?;
+    lightlearn::io::write_atomic(&a.out.join(".write-test"), b"")
+        .with_context(|| format!("the output folder '{}' is not writable", a.out.display()))?;
+    let _ = std::fs::remove_file(a.out.join(".write-test"));
+    let given = match &a.reference {
+        Some(p) => {
+            let (w, h, px) = film::read_exr(p)?;
+            if (w, h) != (a.width, a.height) {
+                bail!(
+                    "reference '{}' is {w}×{h} but the comparison renders {}×{}; pass --width {w} --height {h} or another reference",
+                    p.display(),
+                    a.width,
+                    a.height
+                );
+            }
+            Some((p.clone(), px))
+        }
+        None => None,
+    };
+
+    let (scene, ctx, gpu) = prepare(a.scene.as_deref(), &a.device)?;
+    let (reference_image, reference_note) = match given {
+        Some((p, px)) => {
+            let sidecar: Option<serde_json::Value> = std::fs::read(p.with_extension("json"))
+                .ok()
+                .and_then(|b| serde_json::from_slice(&b).ok());
+            let noise = sidecar
+                .and_then(|v| v["estimated_rel_mse_of_mean"].as_f64())
+                .map_or(
+                    String::from("its own error is unknown (no JSON beside it)"),
+                    |e| format!("its own estimated relMSE {e:.2e}"),
+                );
+            (px, format!("{} (given); {noise}", p.display()))
+        }
+        None => cached_reference(&ctx, &scene, &gpu, &ref_settings, a.quiet)?,
+    };
+
+    let mut comparisons = Vec::new();
+    for budget in budgets {
+        let bar = progress_bar(a.quiet);
+        let c = compare::compare(
+            &ctx,
+            &scene,
+            &gpu,
+            &samplers,
+            budget,
+            a.width,
+            a.height,
+            a.seed,
+            &reference_image,
+            &mut |sampler, spp, f| {
+                bar.set_position((f * 1000.0) as u64);
+                bar.set_message(format!("{}: {spp} spp", sampler.name()));
+            },
+        )?;
+        bar.finish_and_clear();
+        comparisons.push(c);
+    }
+
+    // Outputs: EXRs, metrics.json, convergence.csv, index.html (each written atomically).
+    let (w, h) = (a.width, a.height);
+    let exr = |name: String, img: &[[f32; 3]]| {
+        lightlearn::io::write_atomic_with(&a.out.join(name), |tmp| film::write_exr(tmp, w, h, img))
+    };
+    exr("reference.exr".into(), &reference_image)?;
+    for c in &comparisons {
+        let prefix = if c.budget_seconds.is_some() {
+            "time"
+        } else {
+            "spp"
+        };
+        for r in &c.runs {
+            exr(format!("{prefix}-{}.exr", r.sampler.name()), &r.image)?;
+        }
+    }
+    let metrics = json!({
+        "scene": scene.source,
+        "width": w,
+        "height": h,
+        "seed": a.seed,
+        "device": ctx.describe(),
+        "reference": reference_note,
+        "comparisons": comparisons,
+    });
+    lightlearn::io::write_atomic(
+        &a.out.join("metrics.json"),
+        (serde_json::to_string_pretty(&metrics)? + "\n").as_bytes(),
+    )?;
+    lightlearn::io::write_atomic(
+        &a.out.join("convergence.csv"),
+        report::convergence_csv(&comparisons).as_bytes(),
+    )?;
+    let page = report::html(&report::ReportInput {
+        scene: &scene.source,
+        width: w,
+        height: h,
+        device: &ctx.describe(),
+        reference: &reference_image,
+        reference_note: &reference_note,
+        comparisons: &comparisons,
+    })?;
+    lightlearn::io::write_atomic(&a.out.join("index.html"), page.as_bytes())?;
+
+    if !a.quiet {
+        for c in &comparisons {
+            eprintln!("{}:", c.kind);
+            for r in &c.runs {
+                eprintln!(
+                    "  {:<8} {:>6} spp {:>7.2} s  relMSE {:.3e}  MSE {:.3e}  speed-up vs {} {:.2}",
+                    r.sampler.name(),
+                    r.spp,
+                    r.seconds,
+                    r.metrics.rel_mse,
+                    r.metrics.mse,
+                    c.runs[0].sampler.name(),
+                    r.speedup
+                );
+            }
+        }
+        eprintln!("report: {}", a.out.join("index.html").display());
+    }
     Ok(())
 }

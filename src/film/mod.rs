@@ -115,16 +115,28 @@ fn srgb8(v: f32) -> u8 {
     (s * 255.0 + 0.5) as u8
 }
 
+/// Linear radiance → 8-bit sRGB bytes (clamped to [0, 1], no exposure change).
+pub fn tonemap_srgb8(rgb: &[[f32; 3]]) -> Vec<u8> {
+    rgb.iter().flat_map(|p| p.map(srgb8)).collect()
+}
+
+/// PNG file bytes of 8-bit RGB pixels.
+pub fn png_bytes(width: u32, height: u32, rgb8: &[u8]) -> Result<Vec<u8>> {
+    let mut out = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut out, width, height);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+        let mut w = enc.write_header()?;
+        w.write_image_data(rgb8)?;
+        w.finish()?;
+    }
+    Ok(out)
+}
+
 /// 8-bit sRGB PNG: linear radiance clamped to [0, 1] (no exposure change).
 pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<()> {
-    let file = std::fs::File::create(path)?;
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), width, height);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
-    let mut w = enc.write_header()?;
-    let data: Vec<u8> = rgb.iter().flat_map(|p| p.map(srgb8)).collect();
-    w.write_image_data(&data)?;
-    w.finish()?;
+    std::fs::write(path, png_bytes(width, height, &tonemap_srgb8(rgb))?)?;
     Ok(())
 }

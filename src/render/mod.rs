@@ -24,6 +24,37 @@ pub enum LightSampler {
 }
 
 impl LightSampler {
+    /// The name users type (`--sampler`, `--samplers`) and reports show.
+    pub fn name(self) -> &'static str {
+        match self {
+            LightSampler::Uniform => "uniform",
+            LightSampler::Power => "power",
+        }
+    }
+
+    /// Parses a comma-separated list such as "power,uniform".
+    pub fn parse_list(s: &str) -> anyhow::Result<Vec<LightSampler>> {
+        use clap::ValueEnum;
+        let all: Vec<&str> = LightSampler::value_variants()
+            .iter()
+            .map(|v| v.name())
+            .collect();
+        let mut out = Vec::new();
+        for name in s.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+            let v = LightSampler::from_str(name, true).map_err(|_| {
+                anyhow::anyhow!("unknown sampler '{name}'; choose from {}", all.join(", "))
+            })?;
+            if out.contains(&v) {
+                bail!("sampler '{name}' is listed twice");
+            }
+            out.push(v);
+        }
+        if out.is_empty() {
+            bail!("--samplers needs at least one sampler ({})", all.join(", "));
+        }
+        Ok(out)
+    }
+
     /// The specialization constant of `render.comp`.
     pub fn shader_id(self) -> u32 {
         match self {
@@ -69,6 +100,20 @@ impl RenderResult {
             .iter()
             .map(|a| [a.sum[0] * inv, a.sum[1] * inv, a.sum[2] * inv])
             .collect()
+    }
+
+    /// The image's own estimated error: mean over pixels and channels of the variance of the
+    /// mean, absolute (an MSE) and relative as relMSE (÷ (mean² + 0.01)).
+    pub fn estimated_error(&self) -> (f64, f64) {
+        let (mut mse, mut rel) = (0f64, 0f64);
+        for (v, m) in self.variance_of_mean().iter().zip(self.mean()) {
+            for k in 0..3 {
+                mse += v[k] as f64;
+                rel += v[k] as f64 / ((m[k] as f64).powi(2) + 0.01);
+            }
+        }
+        let n = (3 * self.accum.len().max(1)) as f64;
+        (mse / n, rel / n)
     }
 
     /// Per-pixel variance of the mean (sample variance / spp).
@@ -161,12 +206,57 @@ pub fn camera_params(scene: &Scene, width: u32, height: u32) -> RenderParams {
     }
 }
 
+/// Where to stop and look at the image during a render (for convergence curves).
+#[derive(Clone, Debug, Default)]
+pub enum Checkpoints {
+    #[default]
+    None,
+    /// After these many seconds of rendering (the first batch end at or past each).
+    Seconds(Vec<f64>),
+    /// After exactly these sample counts.
+    Samples(Vec<u32>),
+}
+
+/// The image at a checkpoint.
+pub struct Checkpoint {
+    pub spp: u32,
+    /// Render time so far (checkpoint work excluded).
+    pub seconds: f64,
+    pub mean: Vec<[f32; 3]>,
+}
+
 /// Renders `scene`; `progress(spp_done, fraction)` is called after every batch of passes.
 pub fn render(
     ctx: &Arc<Context>,
     scene: &Scene,
     gpu: &GpuScene,
     settings: &RenderSettings,
+    progress: &mut dyn FnMut(u32, f64),
+) -> Result<RenderResult> {
+    render_with_checkpoints(
+        ctx,
+        scene,
+        gpu,
+        settings,
+        &Checkpoints::None,
+        &mut |_| Ok(()),
+        progress,
+    )
+}
+
+/// [`render`] that also hands the running image to `on_checkpoint` at the given points.
+///
+/// The render clock only runs while passes execute: reading the image back and whatever
+/// `on_checkpoint` does are outside it, so checkpoints do not change the measured time or
+/// how many samples a time budget buys (only the wall clock grows).
+#[allow(clippy::too_many_arguments)]
+pub fn render_with_checkpoints(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    gpu: &GpuScene,
+    settings: &RenderSettings,
+    checkpoints: &Checkpoints,
+    on_checkpoint: &mut dyn FnMut(Checkpoint) -> Result<()>,
     progress: &mut dyn FnMut(u32, f64),
 ) -> Result<RenderResult> {
     let (w, h) = (settings.width, settings.height);
@@ -203,16 +293,34 @@ pub fn render(
     params.light_count = gpu.light_count;
     params.ray_eps = gpu.ray_eps;
     let groups = [w.div_ceil(8), h.div_ceil(8), 1];
+    let read_mean = |spp: u32| -> Result<Vec<[f32; 3]>> {
+        let data: Vec<PixelAccum> = accum.read()?;
+        let inv = 1.0 / spp.max(1) as f32;
+        Ok(data[..pixels as usize]
+            .iter()
+            .map(|a| [a.sum[0] * inv, a.sum[1] * inv, a.sum[2] * inv])
+            .collect())
+    };
 
-    let start = Instant::now();
+    // Checkpoints still ahead, as (seconds, spp) limits; one of the two is infinite.
+    let mut pending: std::collections::VecDeque<(f64, u32)> = match checkpoints {
+        Checkpoints::None => Default::default(),
+        Checkpoints::Seconds(t) => t.iter().map(|&t| (t, u32::MAX)).collect(),
+        Checkpoints::Samples(n) => n.iter().map(|&n| (f64::INFINITY, n)).collect(),
+    };
+    let mut elapsed = 0.0f64; // render clock: passes only
     let mut done = 0u32;
     let mut batch = 1u32;
     loop {
-        let remaining = match settings.budget {
-            Budget::Samples(n) => n - done,
-            Budget::Seconds(_) => MAX_PASSES_PER_BATCH,
+        let mut k = match settings.budget {
+            Budget::Samples(n) => batch.min(n - done),
+            Budget::Seconds(_) => batch,
         };
-        let k = batch.min(remaining);
+        if let Some(&(_, n)) = pending.front() {
+            if n > done {
+                k = k.min(n - done);
+            }
+        }
         if k == 0 {
             break;
         }
@@ -224,28 +332,42 @@ pub fn render(
                 ctx.barrier(cmd);
             }
         })?;
-        done += k;
         let dt = t0.elapsed().as_secs_f64();
-        let elapsed = start.elapsed().as_secs_f64();
+        done += k;
+        elapsed += dt;
         let fraction = match settings.budget {
             Budget::Samples(n) => done as f64 / n as f64,
             Budget::Seconds(s) => (elapsed / s).min(1.0),
         };
         progress(done, fraction);
+        while let Some(&(t, n)) = pending.front() {
+            if elapsed < t && done < n {
+                break;
+            }
+            pending.pop_front();
+            on_checkpoint(Checkpoint {
+                spp: done,
+                seconds: elapsed,
+                mean: read_mean(done)?,
+            })?;
+        }
         if let Budget::Seconds(s) = settings.budget {
             if elapsed >= s {
                 break;
             }
         }
-        // Aim the next batch at PASS_BATCH_SECONDS, and never past a time budget's end.
+        // Aim the next batch at PASS_BATCH_SECONDS, and never past the next time checkpoint
+        // or a time budget's end.
         let per_pass = dt / k as f64;
         let mut target = PASS_BATCH_SECONDS;
         if let Budget::Seconds(s) = settings.budget {
             target = target.min(s - elapsed);
         }
+        if let Some(&(t, _)) = pending.front() {
+            target = target.min(t - elapsed);
+        }
         batch = ((target / per_pass.max(1e-9)) as u32).clamp(1, MAX_PASSES_PER_BATCH);
     }
-    let render_seconds = start.elapsed().as_secs_f64();
     let accum_data: Vec<PixelAccum> = accum.read()?;
     let invalid = counters.read::<u32>()?[0];
     Ok(RenderResult {
@@ -253,7 +375,38 @@ pub fn render(
         height: h,
         spp: done,
         accum: accum_data[..pixels as usize].to_vec(),
-        render_seconds,
+        render_seconds: elapsed,
         invalid_samples: invalid,
+    })
+}
+
+/// The JSON report written beside every rendered image.
+pub fn report_json(
+    scene: &Scene,
+    settings: &RenderSettings,
+    result: &RenderResult,
+    device: &str,
+) -> serde_json::Value {
+    let (mse, rel) = result.estimated_error();
+    serde_json::json!({
+        "lightlearn_version": env!("CARGO_PKG_VERSION"),
+        "scene": scene.source,
+        "triangles": scene.triangles.len(),
+        "lights": scene.lights.len(),
+        "sampler": settings.sampler.name(),
+        "spp": result.spp,
+        "width": settings.width,
+        "height": settings.height,
+        "seed": settings.seed,
+        "budget": match settings.budget {
+            Budget::Samples(n) => serde_json::json!({"spp": n}),
+            Budget::Seconds(s) => serde_json::json!({"seconds": s}),
+        },
+        "render_seconds": result.render_seconds,
+        "device": device,
+        "invalid_samples_dropped": result.invalid_samples,
+        "estimated_mse_of_mean": mse,
+        "estimated_rel_mse_of_mean": rel,
+        "integrator": "direct illumination, Lambertian, one light sample per pixel sample",
     })
 }

@@ -63,11 +63,19 @@ pub fn build(p: &FamilyParams) -> GltfBuilder {
     let cells = nx * nz;
     for _ in 0..cells {
         let c = Vec3::new(rng.range(0.8, w - 0.8), 0.375, rng.range(0.8, d - 0.8));
-        tables.turned_box(c, Vec3::new(0.7, 0.375, 0.4), rng.range(0.0, std::f32::consts::PI));
+        tables.turned_box(
+            c,
+            Vec3::new(0.7, 0.375, 0.4),
+            rng.range(0.0, std::f32::consts::PI),
+        );
     }
     for _ in 0..cells.div_ceil(4) {
         let c = Vec3::new(rng.range(1.0, w - 1.0), 1.0, rng.range(1.0, d - 1.0));
-        parts.turned_box(c, Vec3::new(1.5, 1.0, 0.05), rng.range(0.0, std::f32::consts::PI));
+        parts.turned_box(
+            c,
+            Vec3::new(1.5, 1.0, 0.05),
+            rng.range(0.0, std::f32::consts::PI),
+        );
     }
     panels.emit(&mut g, "panels", panel_m);
     tables.emit(&mut g, "tables", table_m);

@@ -1,0 +1,227 @@
+//! `lightlearn compare`: renders one scene with several samplers at equal time and/or equal
+//! samples, measures each against a reference, and keeps convergence checkpoints.
+
+pub mod reference;
+pub mod report;
+
+use std::sync::Arc;
+
+use anyhow::Result;
+use serde::Serialize;
+
+use crate::gpu::Context;
+use crate::render::{self, Budget, Checkpoints, GpuScene, LightSampler, RenderSettings};
+use crate::scene::Scene;
+
+/// Image error against a reference, averaged over pixels and the three channels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Metrics {
+    pub mse: f64,
+    /// mean of (x − ref)² / (ref² + 0.01)
+    pub rel_mse: f64,
+    pub rmse: f64,
+}
+
+/// Errors of `image` against `reference` (same size).
+pub fn metrics(image: &[[f32; 3]], reference: &[[f32; 3]]) -> Metrics {
+    assert_eq!(
+        image.len(),
+        reference.len(),
+        "image sizes are checked before rendering"
+    );
+    let (mut se, mut rel) = (0f64, 0f64);
+    for (x, r) in image.iter().zip(reference) {
+        for k in 0..3 {
+            let d = x[k] as f64 - r[k] as f64;
+            se += d * d;
+            rel += d * d / ((r[k] as f64).powi(2) + 0.01);
+        }
+    }
+    let n = (3 * image.len().max(1)) as f64;
+    Metrics {
+        mse: se / n,
+        rel_mse: rel / n,
+        rmse: (se / n).sqrt(),
+    }
+}
+
+/// Per-pixel relative squared error (mean over channels), for the false-colour maps.
+pub fn rel_error_map(image: &[[f32; 3]], reference: &[[f32; 3]]) -> Vec<f32> {
+    image
+        .iter()
+        .zip(reference)
+        .map(|(x, r)| {
+            (0..3)
+                .map(|k| {
+                    let d = x[k] as f64 - r[k] as f64;
+                    d * d / ((r[k] as f64).powi(2) + 0.01)
+                })
+                .sum::<f64>() as f32
+                / 3.0
+        })
+        .collect()
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct ConvergencePoint {
+    pub spp: u32,
+    pub seconds: f64,
+    #[serde(flatten)]
+    pub metrics: Metrics,
+}
+
+/// One sampler's run in one comparison.
+#[derive(Clone, Debug, Serialize)]
+pub struct SamplerRun {
+    pub sampler: LightSampler,
+    pub spp: u32,
+    pub seconds: f64,
+    #[serde(flatten)]
+    pub metrics: Metrics,
+    /// MSE(baseline) / MSE(this): the equal-time speed-up (at equal spp: the MSE ratio).
+    pub speedup: f64,
+    pub convergence: Vec<ConvergencePoint>,
+    #[serde(skip)]
+    pub image: Vec<[f32; 3]>,
+}
+
+/// The samplers run back to back under one budget.
+#[derive(Clone, Debug, Serialize)]
+pub struct Comparison {
+    /// "equal time" or "equal samples".
+    pub kind: &'static str,
+    pub budget_seconds: Option<f64>,
+    pub budget_spp: Option<u32>,
+    pub runs: Vec<SamplerRun>,
+}
+
+/// Checkpoint schedule: 9 points halving back from the budget (T/256 … T or 1 … N spp).
+fn schedule(budget: Budget) -> Checkpoints {
+    match budget {
+        Budget::Seconds(t) => {
+            Checkpoints::Seconds((0..9).rev().map(|k| t / f64::powi(2.0, k)).collect())
+        }
+        Budget::Samples(n) => {
+            let mut v: Vec<u32> = (0..32).map(|k| 1u32 << k).take_while(|&s| s < n).collect();
+            v.push(n);
+            Checkpoints::Samples(v)
+        }
+    }
+}
+
+/// Runs every sampler under `budget`, back to back in this process on this device (the first
+/// sampler is the baseline of the speed-ups).
+#[allow(clippy::too_many_arguments)]
+pub fn compare(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    gpu: &GpuScene,
+    samplers: &[LightSampler],
+    budget: Budget,
+    width: u32,
+    height: u32,
+    seed: u32,
+    reference: &[[f32; 3]],
+    progress: &mut dyn FnMut(LightSampler, u32, f64),
+) -> Result<Comparison> {
+    let mut runs = Vec::new();
+    for &sampler in samplers {
+        let settings = RenderSettings {
+            width,
+            height,
+            budget,
+            seed,
+            sampler,
+        };
+        let mut convergence = Vec::new();
+        let result = render::render_with_checkpoints(
+            ctx,
+            scene,
+            gpu,
+            &settings,
+            &schedule(budget),
+            &mut |c| {
+                convergence.push(ConvergencePoint {
+                    spp: c.spp,
+                    seconds: c.seconds,
+                    metrics: metrics(&c.mean, reference),
+                });
+                Ok(())
+            },
+            &mut |spp, f| progress(sampler, spp, f),
+        )?;
+        let image = result.mean();
+        runs.push(SamplerRun {
+            sampler,
+            spp: result.spp,
+            seconds: result.render_seconds,
+            metrics: metrics(&image, reference),
+            speedup: 1.0,
+            convergence,
+            image,
+        });
+    }
+    let base = runs[0].metrics.mse;
+    for r in &mut runs {
+        r.speedup = if r.metrics.mse > 0.0 {
+            base / r.metrics.mse
+        } else {
+            f64::INFINITY
+        };
+    }
+    let (kind, budget_seconds, budget_spp) = match budget {
+        Budget::Seconds(s) => ("equal time", Some(s), None),
+        Budget::Samples(n) => ("equal samples", None, Some(n)),
+    };
+    Ok(Comparison {
+        kind,
+        budget_seconds,
+        budget_spp,
+        runs,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn metrics_match_their_definitions() {
+        let r = [[1.0, 0.0, 0.5], [0.2, 0.2, 0.2]];
+        let x = [[1.1, 0.1, 0.5], [0.2, 0.0, 0.2]];
+        let m = metrics(&x, &r);
+        // Expected values from the same f32 inputs, summed in f64.
+        let (mut se, mut rel) = (0f64, 0f64);
+        for p in 0..2 {
+            for k in 0..3 {
+                let d = x[p][k] as f64 - r[p][k] as f64;
+                se += d * d;
+                rel += d * d / ((r[p][k] as f64).powi(2) + 0.01);
+            }
+        }
+        assert!((m.mse - se / 6.0).abs() < 1e-15);
+        assert!((m.rel_mse - rel / 6.0).abs() < 1e-15);
+        // And against the definition by hand: errors 0.1, 0.1, 0.2 (up to f32 rounding).
+        assert!((m.mse - 0.06 / 6.0).abs() < 1e-7, "{}", m.mse);
+        let by_hand = (0.01 / 1.01 + 0.01 / 0.01 + 0.04 / 0.05) / 6.0;
+        assert!((m.rel_mse - by_hand).abs() < 1e-6, "{}", m.rel_mse);
+        assert!((m.rmse - m.mse.sqrt()).abs() < 1e-12);
+        assert_eq!(metrics(&r, &r), Metrics::default());
+    }
+
+    #[test]
+    fn schedules_end_at_the_budget() {
+        match schedule(Budget::Samples(100)) {
+            Checkpoints::Samples(v) => assert_eq!(v, [1, 2, 4, 8, 16, 32, 64, 100]),
+            _ => unreachable!(),
+        }
+        match schedule(Budget::Seconds(8.0)) {
+            Checkpoints::Seconds(v) => {
+                assert_eq!(v.len(), 9);
+                assert_eq!(*v.last().unwrap(), 8.0);
+                assert!((v[0] - 8.0 / 256.0).abs() < 1e-12);
+            }
+            _ => unreachable!(),
+        }
+    }
+}

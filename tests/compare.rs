@@ -1,0 +1,228 @@
+//! `lightlearn compare` and `lightlearn reference` end to end, and their input checks.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn run(args: &[&str], cache: &Path) -> Output {
+    Command::new(common::exe())
+        .args(args)
+        .env("LIGHTLEARN_CACHE", cache)
+        .output()
+        .unwrap()
+}
+
+fn scene() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes/cornell.glb")
+        .display()
+        .to_string()
+}
+
+#[test]
+fn compare_writes_report_metrics_and_images() {
+    let dir = tempfile::tempdir().unwrap();
+    let (cache, out) = (dir.path().join("cache"), dir.path().join("report"));
+    let out_s = out.display().to_string();
+    let s = scene();
+    let args = [
+        "compare",
+        s.as_str(),
+        "--samplers",
+        "uniform,power",
+        "--time",
+        "0.4",
+        "--spp",
+        "8",
+        "--reference-spp",
+        "64",
+        "--width",
+        "40",
+        "--height",
+        "30",
+        "--out",
+        out_s.as_str(),
+        "--validation",
+    ];
+    let o = run(&args, &cache);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("rendering the reference once"), "{err}");
+    for f in [
+        "index.html",
+        "metrics.json",
+        "convergence.csv",
+        "reference.exr",
+        "time-uniform.exr",
+        "time-power.exr",
+        "spp-uniform.exr",
+        "spp-power.exr",
+    ] {
+        assert!(out.join(f).exists(), "missing {f}");
+    }
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("metrics.json")).unwrap()).unwrap();
+    let cmps = m["comparisons"].as_array().unwrap();
+    assert_eq!(cmps.len(), 2);
+    assert_eq!(cmps[0]["kind"], "equal time");
+    assert_eq!(cmps[1]["kind"], "equal samples");
+    for c in cmps {
+        let runs = c["runs"].as_array().unwrap();
+        assert_eq!(runs.len(), 2);
+        assert_eq!(runs[0]["sampler"], "uniform");
+        assert_eq!(runs[0]["speedup"], 1.0, "the first sampler is the baseline");
+        for r in runs {
+            let (mse, rel) = (r["mse"].as_f64().unwrap(), r["rel_mse"].as_f64().unwrap());
+            assert!(mse > 0.0 && mse.is_finite() && rel > 0.0);
+            assert!((r["rmse"].as_f64().unwrap() - mse.sqrt()).abs() < 1e-12);
+            let conv = r["convergence"].as_array().unwrap();
+            assert!(conv.len() >= 3, "checkpoints recorded");
+            // relMSE falls as samples accumulate (first vs last checkpoint).
+            let first = conv[0]["rel_mse"].as_f64().unwrap();
+            let last = conv.last().unwrap()["rel_mse"].as_f64().unwrap();
+            assert!(last < first, "relMSE should fall: {first} → {last}");
+        }
+    }
+    for r in cmps[0]["runs"].as_array().unwrap() {
+        assert!(
+            r["seconds"].as_f64().unwrap() >= 0.4,
+            "equal time runs the whole budget"
+        );
+    }
+    for r in cmps[1]["runs"].as_array().unwrap() {
+        assert_eq!(r["spp"], 8);
+    }
+    let csv = std::fs::read_to_string(out.join("convergence.csv")).unwrap();
+    assert!(csv.starts_with("comparison,sampler,spp,seconds,mse,rel_mse,rmse"));
+    assert!(csv.lines().count() > 10);
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    for remote in ["src=\"http", "href=\"http", "url(http", "<link"] {
+        assert!(
+            !html.contains(remote),
+            "the page must be self-contained ({remote})"
+        );
+    }
+    // The second run reuses the cached reference.
+    let o = run(&args, &cache);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success() && err.contains("using cached reference"),
+        "{err}"
+    );
+}
+
+#[test]
+fn reference_command_writes_and_caches() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let out = dir.path().join("ref.exr").display().to_string();
+    let s = scene();
+    let o = run(
+        &[
+            "reference",
+            s.as_str(),
+            "--spp",
+            "16",
+            "--width",
+            "20",
+            "--height",
+            "16",
+            "--out",
+            out.as_str(),
+            "-q",
+        ],
+        &cache,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("ref.json")).unwrap()).unwrap();
+    assert_eq!(report["sampler"], "power");
+    assert!(report["estimated_rel_mse_of_mean"].as_f64().unwrap() > 0.0);
+    assert_eq!(
+        std::fs::read_dir(&cache).unwrap().count(),
+        2,
+        "exr + json in the cache"
+    );
+    // compare with the same settings finds it.
+    let rep = dir.path().join("rep").display().to_string();
+    let o = run(
+        &[
+            "compare",
+            s.as_str(),
+            "--spp",
+            "2",
+            "--reference-spp",
+            "16",
+            "--width",
+            "20",
+            "--height",
+            "16",
+            "--out",
+            rep.as_str(),
+        ],
+        &cache,
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success() && err.contains("using cached reference"),
+        "{err}"
+    );
+}
+
+#[test]
+fn bad_requests_fail_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let s = scene();
+    let small_ref = dir.path().join("small.exr");
+    lightlearn::film::write_exr(&small_ref, 8, 8, &vec![[0.5; 3]; 64]).unwrap();
+    let small_ref = small_ref.display().to_string();
+    let out = dir.path().join("rep").display().to_string();
+    let file = dir.path().join("afile");
+    std::fs::write(&file, "x").unwrap();
+    let under_file = file.join("rep").display().to_string();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["--samplers", "power,magic", "--spp", "4", "--out", &out],
+            "unknown sampler 'magic'",
+        ),
+        (
+            vec!["--samplers", "", "--spp", "4", "--out", &out],
+            "at least one sampler",
+        ),
+        (
+            vec!["--samplers", "power,power", "--spp", "4", "--out", &out],
+            "listed twice",
+        ),
+        (
+            vec!["--spp", "4", "--reference", &small_ref, "--out", &out],
+            "is 8×8 but the comparison renders 320×240",
+        ),
+        (
+            vec!["--spp", "4", "--out", &under_file],
+            "cannot create the output folder",
+        ),
+        (vec!["--out", &out], "--time SECONDS"),
+        (
+            vec!["--spp", "4", "--max-depth", "3", "--out", &out],
+            "--max-depth 3",
+        ),
+    ];
+    for (args, want) in cases {
+        let mut full = vec!["compare", s.as_str()];
+        full.extend(args.iter());
+        let o = run(&full, &cache);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{full:?} should fail");
+        assert!(err.contains(want), "{full:?}: wanted '{want}' in {err}");
+        assert!(
+            !err.contains("panicked") && !err.contains("rendering the reference"),
+            "{err}"
+        );
+        assert!(
+            !cache.exists(),
+            "{full:?} rendered a reference before failing"
+        );
+    }
+}
