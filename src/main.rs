@@ -406,104 +406,31 @@ fn prepare(scene: Option<&Path>, device: &DeviceArgs) -> Result<(Scene, Arc<Cont
     Ok((scene, ctx, gpu))
 }
 
-/// Renders a reference with the reference sampler and writes EXR + PNG + JSON to `paths`.
-fn render_reference(
-    ctx: &Arc<Context>,
-    scene: &Scene,
-    gpu: &GpuScene,
-    settings: &RenderSettings,
-    paths: &OutputPaths,
-    quiet: bool,
-) -> Result<(Vec<[f32; 3]>, serde_json::Value)> {
-    let bar = progress_bar(quiet);
-    bar.set_message("reference");
-    let result = render::render(ctx, scene, gpu, settings, &mut |spp, f| {
+/// A progress callback that drives `bar` with a label.
+fn bar_progress<'a>(bar: &'a ProgressBar, label: &'a str) -> impl FnMut(u32, f64) + 'a {
+    move |spp, f| {
         bar.set_position((f * 1000.0) as u64);
-        bar.set_message(format!("reference: {spp} spp"));
-    })?;
-    bar.finish_and_clear();
-    let report = render::report_json(scene, settings, &result, &ctx.describe());
-    let image = result.mean();
-    film::write_outputs(paths, settings.width, settings.height, &image, &report)?;
-    Ok((image, report))
-}
-
-fn reference_settings(width: u32, height: u32, spp: u32, seed: u32) -> Result<RenderSettings> {
-    if spp == 0 {
-        bail!("the reference needs at least 1 sample per pixel");
+        bar.set_message(format!("{label}: {spp} spp"));
     }
-    if width == 0 || height == 0 || width > 16384 || height > 16384 {
-        bail!("--width/--height must be between 1 and 16384");
-    }
-    Ok(RenderSettings {
-        width,
-        height,
-        budget: Budget::Samples(spp),
-        seed: reference::reference_seed(seed),
-        sampler: reference::REFERENCE_SAMPLER,
-    })
-}
-
-/// The cached reference for these settings, rendered now if it is not cached yet.
-fn cached_reference(
-    ctx: &Arc<Context>,
-    scene: &Scene,
-    gpu: &GpuScene,
-    settings: &RenderSettings,
-    quiet: bool,
-) -> Result<(Vec<[f32; 3]>, String)> {
-    let Budget::Samples(spp) = settings.budget else {
-        unreachable!("references have a sample budget")
-    };
-    let key = reference::key(scene, settings.width, settings.height, spp, settings.seed);
-    let dir = reference::cache_dir();
-    let paths = OutputPaths {
-        exr: dir.join(format!("{key}.exr")),
-        png: dir.join(format!("{key}.png")),
-        json: dir.join(format!("{key}.json")),
-    };
-    let note = |report: &serde_json::Value| {
-        format!(
-            "{} at {spp} spp, cached as {}; its own estimated relMSE {:.2e} (a floor under every relMSE below)",
-            settings.sampler.name(),
-            paths.exr.display(),
-            report["estimated_rel_mse_of_mean"].as_f64().unwrap_or(f64::NAN)
-        )
-    };
-    if paths.exr.exists() && paths.json.exists() {
-        let (w, h, px) = film::read_exr(&paths.exr)?;
-        let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&paths.json)?)?;
-        if (w, h) == (settings.width, settings.height) {
-            if !quiet {
-                eprintln!("using cached reference {}", paths.exr.display());
-            }
-            return Ok((px, note(&report)));
-        }
-    }
-    std::fs::create_dir_all(&dir)
-        .with_context(|| format!("cannot create the reference cache '{}'", dir.display()))?;
-    if !quiet {
-        eprintln!("rendering the reference once ({spp} spp; cached for later runs)");
-    }
-    let (image, report) = render_reference(ctx, scene, gpu, settings, &paths, quiet)?;
-    Ok((image, note(&report)))
 }
 
 fn cmd_reference(a: ReferenceArgs) -> Result<()> {
     check_depth(a.max_depth)?;
-    let settings = reference_settings(a.width, a.height, a.spp, a.seed)?;
+    let settings = reference::settings(a.width, a.height, a.spp, a.seed)?;
     let paths = OutputPaths::new(&a.out)?;
     let (scene, ctx, gpu) = prepare(a.scene.as_deref(), &a.device)?;
-    let (_, report) = render_reference(&ctx, &scene, &gpu, &settings, &paths, a.quiet)?;
+    let bar = progress_bar(a.quiet);
+    let (_, report) = reference::render_to(
+        &ctx,
+        &scene,
+        &gpu,
+        &settings,
+        &paths,
+        &mut bar_progress(&bar, "reference"),
+    )?;
+    bar.finish_and_clear();
     // Also into the cache, so `compare` with the same settings reuses it.
-    let key = reference::key(&scene, a.width, a.height, a.spp, settings.seed);
-    let dir = reference::cache_dir();
-    if std::fs::create_dir_all(&dir).is_ok() {
-        for (from, ext) in [(&paths.exr, "exr"), (&paths.json, "json")] {
-            let to = dir.join(format!("{key}.{ext}"));
-            let _ = std::fs::read(from).and_then(|b| std::fs::write(&to, b));
-        }
-    }
+    reference::store_in_cache(&scene, &settings, &paths);
     if !a.quiet {
         eprintln!(
             "wrote {} ({} spp in {:.1} s; estimated relMSE {:.2e})",
@@ -538,7 +465,7 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
     if budgets.is_empty() {
         bail!("give --time SECONDS (equal time) and/or --spp N (equal samples)");
     }
-    let ref_settings = reference_settings(a.width, a.height, a.reference_spp, a.seed)?;
+    let ref_settings = reference::settings(a.width, a.height, a.reference_spp, a.seed)?;
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create the output folder '{}'", a.out.display()))?;
     lightlearn::io::write_atomic(&a.out.join(".write-test"), b"")
@@ -574,7 +501,23 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
                 );
             (px, format!("{} (given); {noise}", p.display()))
         }
-        None => cached_reference(&ctx, &scene, &gpu, &ref_settings, a.quiet)?,
+        None => {
+            let bar = progress_bar(a.quiet);
+            let r = reference::cached(
+                &ctx,
+                &scene,
+                &gpu,
+                &ref_settings,
+                &mut bar_progress(&bar, "reference"),
+                &mut |m| {
+                    if !a.quiet {
+                        bar.suspend(|| eprintln!("{m}"))
+                    }
+                },
+            )?;
+            bar.finish_and_clear();
+            r
+        }
     };
 
     let mut comparisons = Vec::new();
@@ -590,10 +533,7 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
             a.height,
             a.seed,
             &reference_image,
-            &mut |sampler, spp, f| {
-                bar.set_position((f * 1000.0) as u64);
-                bar.set_message(format!("{}: {spp} spp", sampler.name()));
-            },
+            &mut |sampler, spp, f| bar_progress(&bar, sampler.name())(spp, f),
         )?;
         bar.finish_and_clear();
         comparisons.push(c);

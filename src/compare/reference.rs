@@ -6,9 +6,14 @@
 //! which records the reference's own estimated error).
 
 use std::path::PathBuf;
+use std::sync::Arc;
 
+use anyhow::{bail, Context as _, Result};
+
+use crate::film::{self, OutputPaths};
+use crate::gpu::Context;
 use crate::lights;
-use crate::render::{camera_params, LightSampler};
+use crate::render::{self, camera_params, Budget, GpuScene, LightSampler, RenderSettings};
 use crate::scene::Scene;
 
 /// The sampler references are rendered with: `power` is the most robust of those we have
@@ -73,4 +78,102 @@ pub fn key(scene: &Scene, width: u32, height: u32, spp: u32, seed: u32) -> Strin
     h.bytes(bytemuck::bytes_of(&camera_params(scene, width, height)));
     h.bytes(format!("{spp}/{seed}/{:?}", REFERENCE_SAMPLER).as_bytes());
     format!("{:016x}-{width}x{height}-{spp}spp", h.0)
+}
+
+/// Settings of a reference for renders with `seed` (own random stream, reference sampler).
+pub fn settings(width: u32, height: u32, spp: u32, seed: u32) -> Result<RenderSettings> {
+    if spp == 0 {
+        bail!("the reference needs at least 1 sample per pixel");
+    }
+    if width == 0 || height == 0 || width > 16384 || height > 16384 {
+        bail!("--width/--height must be between 1 and 16384");
+    }
+    Ok(RenderSettings {
+        width,
+        height,
+        budget: Budget::Samples(spp),
+        seed: reference_seed(seed),
+        sampler: REFERENCE_SAMPLER,
+    })
+}
+
+/// Renders a reference and writes EXR + PNG + JSON report to `paths`.
+pub fn render_to(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    gpu: &GpuScene,
+    settings: &RenderSettings,
+    paths: &OutputPaths,
+    progress: &mut dyn FnMut(u32, f64),
+) -> Result<(Vec<[f32; 3]>, serde_json::Value)> {
+    let result = render::render(ctx, scene, gpu, settings, progress)?;
+    let report = render::report_json(scene, settings, &result, &ctx.describe());
+    let image = result.mean();
+    film::write_outputs(paths, settings.width, settings.height, &image, &report)?;
+    Ok((image, report))
+}
+
+fn cache_paths(scene: &Scene, settings: &RenderSettings) -> (String, OutputPaths) {
+    let Budget::Samples(spp) = settings.budget else {
+        unreachable!("references have a sample budget")
+    };
+    let key = key(scene, settings.width, settings.height, spp, settings.seed);
+    let dir = cache_dir();
+    let paths = OutputPaths {
+        exr: dir.join(format!("{key}.exr")),
+        png: dir.join(format!("{key}.png")),
+        json: dir.join(format!("{key}.json")),
+    };
+    (key, paths)
+}
+
+/// Copies a reference written elsewhere into the cache (best effort: a cache that cannot be
+/// written only costs a re-render later).
+pub fn store_in_cache(scene: &Scene, settings: &RenderSettings, written: &OutputPaths) {
+    let (_, cached) = cache_paths(scene, settings);
+    if std::fs::create_dir_all(cache_dir()).is_ok() {
+        for (from, to) in [(&written.exr, &cached.exr), (&written.json, &cached.json)] {
+            let _ = std::fs::read(from).and_then(|b| std::fs::write(to, b));
+        }
+    }
+}
+
+/// The cached reference for these settings, rendered (and cached) now if missing. Returns
+/// the image and a note on how it was made and its own estimated error.
+pub fn cached(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    gpu: &GpuScene,
+    settings: &RenderSettings,
+    progress: &mut dyn FnMut(u32, f64),
+    log: &mut dyn FnMut(String),
+) -> Result<(Vec<[f32; 3]>, String)> {
+    let (_, paths) = cache_paths(scene, settings);
+    let Budget::Samples(spp) = settings.budget else {
+        unreachable!("references have a sample budget")
+    };
+    let note = |report: &serde_json::Value| {
+        format!(
+            "{} at {spp} spp, cached as {}; its own estimated relMSE {:.2e} (a floor under every relMSE below)",
+            settings.sampler.name(),
+            paths.exr.display(),
+            report["estimated_rel_mse_of_mean"].as_f64().unwrap_or(f64::NAN)
+        )
+    };
+    if paths.exr.exists() && paths.json.exists() {
+        let (w, h, px) = film::read_exr(&paths.exr)?;
+        let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&paths.json)?)?;
+        if (w, h) == (settings.width, settings.height) {
+            log(format!("using cached reference {}", paths.exr.display()));
+            return Ok((px, note(&report)));
+        }
+    }
+    let dir = cache_dir();
+    std::fs::create_dir_all(&dir)
+        .with_context(|| format!("cannot create the reference cache '{}'", dir.display()))?;
+    log(format!(
+        "rendering the reference once ({spp} spp; cached for later runs)"
+    ));
+    let (image, report) = render_to(ctx, scene, gpu, settings, &paths, progress)?;
+    Ok((image, note(&report)))
 }
