@@ -13,6 +13,7 @@ packages=(
   spirv-tools             # spirv-val / spirv-dis, for inspecting kernels
   vulkan-tools            # vulkaninfo, to see which devices the loader finds
   chromium                # headless browser: tests/report_browser.rs checks the HTML report
+  python3-pip             # pip for Mitsuba 3, the independent renderer of tests/mitsuba.rs
   pkg-config
 )
 
@@ -46,6 +47,19 @@ fi
 if ! command -v cargo >/dev/null 2>&1; then
   echo "ci/setup.sh: cargo not found. Install Rust (https://rustup.rs) and run this again." >&2
   exit 1
+fi
+
+# Mitsuba 3 (scalar_rgb) for tests/mitsuba.rs, the cross-check against an independent renderer;
+# the test skips itself, saying so, when it is missing. Installed for the first python3 on
+# PATH (the one the test runs); Debian's own python refuses plain pip (PEP 668), hence the
+# second form.
+if python3 -c "import mitsuba, numpy" >/dev/null 2>&1; then
+  echo "ci/setup.sh: mitsuba present"
+else
+  echo "ci/setup.sh: installing mitsuba and numpy (pip)"
+  python3 -m pip install --quiet mitsuba numpy 2>/dev/null ||
+    python3 -m pip install --quiet --break-system-packages mitsuba numpy ||
+    echo "ci/setup.sh: warning: pip install mitsuba failed; tests/mitsuba.rs will be skipped" >&2
 fi
 
 # The Khronos glTF validator (npm) for tests/gltf_validator.rs; skipped, with a note, without

@@ -103,8 +103,12 @@ fn radiance(
         if cos_x <= 0.0 {
             return None;
         }
-        let tmax = if area { dist - eps } else { dist };
-        if bvh.occluded(x + n * eps, wi, 0.0, tmax) {
+        // From just off the surface straight to y (see render.comp for why).
+        let so = x + n * eps;
+        let to_light = y - so;
+        let sdist = to_light.length();
+        let tmax = if area { sdist - eps } else { sdist };
+        if bvh.occluded(so, to_light / sdist, 0.0, tmax) {
             return None;
         }
         Some((wi, dist, cos_x))
