@@ -32,7 +32,7 @@ pub fn reference_seed(seed: u32) -> u32 {
 }
 
 /// Bump when the integrator changes what image a scene converges to.
-const INTEGRATOR_VERSION: &str = "direct-v1";
+const INTEGRATOR_VERSION: &str = "direct-v2"; // v2: shadow-ray fix (v1 images were wrong)
 
 pub fn cache_dir() -> PathBuf {
     if let Some(d) = std::env::var_os("LIGHTLEARN_CACHE") {
