@@ -128,19 +128,32 @@ struct CompareArgs {
     /// Output folder (created if missing).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
+    #[command(flatten)]
+    image: StudyArgs,
+    #[command(flatten)]
+    device: DeviceArgs,
+}
+
+/// Image settings shared by `compare` and `reference` (so a reference made by one is found by
+/// the other).
+#[derive(Args)]
+struct StudyArgs {
+    /// Image width in pixels.
     #[arg(long, default_value_t = 320)]
     width: u32,
+    /// Image height in pixels.
     #[arg(long, default_value_t = 240)]
     height: u32,
+    /// Seed of the compared renders; a reference draws from an independent stream derived
+    /// from it.
     #[arg(long, default_value_t = 0)]
     seed: u32,
     /// Path length; 1 = direct light only (the only value until the path tracer exists).
     #[arg(long, default_value_t = 1)]
     max_depth: u32,
+    /// No progress bar or summary (errors and warnings are still printed).
     #[arg(long, short)]
     quiet: bool,
-    #[command(flatten)]
-    device: DeviceArgs,
 }
 
 #[derive(Args)]
@@ -153,19 +166,8 @@ struct ReferenceArgs {
     /// Samples per pixel.
     #[arg(long, default_value_t = lightlearn::compare::reference::DEFAULT_REFERENCE_SPP)]
     spp: u32,
-    #[arg(long, default_value_t = 320)]
-    width: u32,
-    #[arg(long, default_value_t = 240)]
-    height: u32,
-    /// Seed of the renders this reference will judge; the reference itself draws from an
-    /// independent stream derived from it (so `compare --seed S` finds it in the cache).
-    #[arg(long, default_value_t = 0)]
-    seed: u32,
-    /// Path length; 1 = direct light only (the only value until the path tracer exists).
-    #[arg(long, default_value_t = 1)]
-    max_depth: u32,
-    #[arg(long, short)]
-    quiet: bool,
+    #[command(flatten)]
+    image: StudyArgs,
     #[command(flatten)]
     device: DeviceArgs,
 }
@@ -415,11 +417,11 @@ fn bar_progress<'a>(bar: &'a ProgressBar, label: &'a str) -> impl FnMut(u32, f64
 }
 
 fn cmd_reference(a: ReferenceArgs) -> Result<()> {
-    check_depth(a.max_depth)?;
-    let settings = reference::settings(a.width, a.height, a.spp, a.seed)?;
+    check_depth(a.image.max_depth)?;
+    let settings = reference::settings(a.image.width, a.image.height, a.spp, a.image.seed)?;
     let paths = OutputPaths::new(&a.out)?;
     let (scene, ctx, gpu) = prepare(a.scene.as_deref(), &a.device)?;
-    let bar = progress_bar(a.quiet);
+    let bar = progress_bar(a.image.quiet);
     let (_, report) = reference::render_to(
         &ctx,
         &scene,
@@ -431,7 +433,7 @@ fn cmd_reference(a: ReferenceArgs) -> Result<()> {
     bar.finish_and_clear();
     // Also into the cache, so `compare` with the same settings reuses it.
     reference::store_in_cache(&scene, &settings, &paths);
-    if !a.quiet {
+    if !a.image.quiet {
         eprintln!(
             "wrote {} ({} spp in {:.1} s; estimated relMSE {:.2e})",
             paths.exr.display(),
@@ -447,7 +449,7 @@ fn cmd_reference(a: ReferenceArgs) -> Result<()> {
 
 fn cmd_compare(a: CompareArgs) -> Result<()> {
     // Everything that can be wrong with the request is checked before any rendering.
-    check_depth(a.max_depth)?;
+    check_depth(a.image.max_depth)?;
     let samplers = LightSampler::parse_list(&a.samplers)?;
     let mut budgets = Vec::new();
     if let Some(t) = a.time {
@@ -465,7 +467,8 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
     if budgets.is_empty() {
         bail!("give --time SECONDS (equal time) and/or --spp N (equal samples)");
     }
-    let ref_settings = reference::settings(a.width, a.height, a.reference_spp, a.seed)?;
+    let ref_settings =
+        reference::settings(a.image.width, a.image.height, a.reference_spp, a.image.seed)?;
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create the output folder '{}'", a.out.display()))?;
     lightlearn::io::write_atomic(&a.out.join(".write-test"), b"")
@@ -474,12 +477,12 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
     let given = match &a.reference {
         Some(p) => {
             let (w, h, px) = film::read_exr(p)?;
-            if (w, h) != (a.width, a.height) {
+            if (w, h) != (a.image.width, a.image.height) {
                 bail!(
                     "reference '{}' is {w}×{h} but the comparison renders {}×{}; pass --width {w} --height {h} or another reference",
                     p.display(),
-                    a.width,
-                    a.height
+                    a.image.width,
+                    a.image.height
                 );
             }
             Some((p.clone(), px))
@@ -502,7 +505,7 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
             (px, format!("{} (given); {noise}", p.display()))
         }
         None => {
-            let bar = progress_bar(a.quiet);
+            let bar = progress_bar(a.image.quiet);
             let r = reference::cached(
                 &ctx,
                 &scene,
@@ -510,7 +513,7 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
                 &ref_settings,
                 &mut bar_progress(&bar, "reference"),
                 &mut |m| {
-                    if !a.quiet {
+                    if !a.image.quiet {
                         bar.suspend(|| eprintln!("{m}"))
                     }
                 },
@@ -522,16 +525,16 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
 
     let mut comparisons = Vec::new();
     for budget in budgets {
-        let bar = progress_bar(a.quiet);
+        let bar = progress_bar(a.image.quiet);
         let c = compare::compare(
             &ctx,
             &scene,
             &gpu,
             &samplers,
             budget,
-            a.width,
-            a.height,
-            a.seed,
+            a.image.width,
+            a.image.height,
+            a.image.seed,
             &reference_image,
             &mut |sampler, spp, f| bar_progress(&bar, sampler.name())(spp, f),
         )?;
@@ -540,7 +543,7 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
     }
 
     // Outputs: EXRs, metrics.json, convergence.csv, index.html (each written atomically).
-    let (w, h) = (a.width, a.height);
+    let (w, h) = (a.image.width, a.image.height);
     let exr = |name: String, img: &[[f32; 3]]| {
         lightlearn::io::write_atomic_with(&a.out.join(name), |tmp| film::write_exr(tmp, w, h, img))
     };
@@ -559,7 +562,7 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
         "scene": scene.source,
         "width": w,
         "height": h,
-        "seed": a.seed,
+        "seed": a.image.seed,
         "device": ctx.describe(),
         "reference": reference_note,
         "comparisons": comparisons,
@@ -583,7 +586,7 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
     })?;
     lightlearn::io::write_atomic(&a.out.join("index.html"), page.as_bytes())?;
 
-    if !a.quiet {
+    if !a.image.quiet {
         for c in &comparisons {
             eprintln!("{}:", c.kind);
             for r in &c.runs {
