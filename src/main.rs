@@ -23,7 +23,7 @@ use lightlearn::scene::{gltf_load, Scene};
 #[command(
     name = "lightlearn",
     version,
-    about = "GPU many-light renderer (Vulkan compute): direct illumination with learned light selection",
+    about = "GPU many-light renderer (Vulkan compute). Today: direct illumination with uniform and power light selection; the learned sampler is in progress",
     long_about = None
 )]
 struct Cli {
