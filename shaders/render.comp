@@ -8,7 +8,8 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-// The light sampler, a closed set (src/render/sampler.rs LightSampler): 0 uniform, 1 power.
+// The light sampler, a closed set (src/render/mod.rs LightSampler): 0 uniform, 1 power,
+// 2 lightbvh.
 layout(constant_id = 0) const uint SAMPLER = 0u;
 
 layout(std430, set = 0, binding = 0) readonly buffer Nodes { BvhNode bvh_nodes[]; };
@@ -20,11 +21,14 @@ layout(std430, set = 0, binding = 5) readonly buffer Alias { AliasEntry alias_ta
 layout(std430, set = 0, binding = 6) buffer Accum { PixelAccum accum[]; };
 // [0]: samples dropped because they were NaN or Inf (reported, never averaged in).
 layout(std430, set = 0, binding = 7) buffer Counters { uint counters[]; };
+layout(std430, set = 0, binding = 8) readonly buffer LightNodes { LightNode light_nodes[]; };
+layout(std430, set = 0, binding = 9) readonly buffer LightOrder { uint light_order[]; };
 
 layout(push_constant) uniform Push { RenderParams params; };
 
 #include "bvh.glsl"
 #include "lights.glsl"
+#include "light_tree.glsl"
 
 // Random-number dimensions of one pixel sample.
 #define DIM_JITTER_X 0u
@@ -63,14 +67,17 @@ void main() {
         vec3 n = front ? ng : -ng;
         vec3 x = origin + t * dir;
         float pmf;
-        uint li = pick_light(sample_rand(seed, pixel, s, DIM_LIGHT), params.light_count, pmf);
+        float u_light = sample_rand(seed, pixel, s, DIM_LIGHT);
+        uint li = SAMPLER == SAMPLER_LIGHTBVH ? sample_light_tree(x, n, u_light, pmf)
+                                              : pick_light(u_light, params.light_count, pmf);
         vec3 wi;
         float dist;
         vec2 u = vec2(sample_rand(seed, pixel, s, DIM_LIGHT_U), sample_rand(seed, pixel, s, DIM_LIGHT_V));
-        GpuLight light = lights[li];
-        vec3 Li = sample_light_point(light, x, u, wi, dist);
+        // NO_LIGHT: no light can reach the front of n here (zero contribution, exactly).
+        GpuLight light = lights[li == NO_LIGHT ? 0u : li];
+        vec3 Li = li == NO_LIGHT ? vec3(0.0) : sample_light_point(light, x, u, wi, dist);
         float cos_x = dot(n, wi);
-        if (cos_x > 0.0 && any(greaterThan(Li, vec3(0.0)))) {
+        if (li != NO_LIGHT && cos_x > 0.0 && any(greaterThan(Li, vec3(0.0)))) {
             // The shadow ray starts just off the surface and aims at the light point itself:
             // keeping wi and dist from x made a surface parallel to an area light (a floor under
             // a ceiling panel) meet the light's own plane before tmax, i.e. shadow itself

@@ -39,8 +39,8 @@ enum Command {
     /// Compare light samplers on one scene at equal time and/or equal samples against a
     /// reference; writes an HTML report, metrics.json, convergence.csv and the EXRs.
     Compare(CompareArgs),
-    /// Render a converged reference image (sampler `power`, long budget); it is also cached
-    /// so `compare` reuses it.
+    /// Render a converged reference image (sampler `lightbvh`, long budget); it is also
+    /// cached so `compare` reuses it.
     Reference(ReferenceArgs),
     /// Generate a procedural many-light scene as glTF (.glb, or .gltf with embedded data).
     /// The same arguments always give a byte-identical file.
@@ -331,6 +331,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     let image = result.mean();
     let mut report = render::report_json(&scene, &settings, &result, &ctx.describe());
     report["bvh_build_seconds"] = json!(build_seconds);
+    report["light_tree_build_seconds"] = json!(gpu.light_tree_seconds);
     report["total_seconds"] = json!(started.elapsed().as_secs_f64());
     film::write_outputs(&paths, a.width, a.height, &image, &report)?;
     if result.invalid_samples > 0 {

@@ -77,7 +77,11 @@ fn floor_under_a_parallel_emissive_square() {
     );
     let want = ALBEDO as f64 * 4.0 * corner_view_factor(1.0, 1.0);
     assert!((want - 0.27706).abs() < 1e-4, "formula sanity: {want}");
-    for sampler in [LightSampler::Uniform, LightSampler::Power] {
+    for sampler in [
+        LightSampler::Uniform,
+        LightSampler::Power,
+        LightSampler::Lightbvh,
+    ] {
         let (got, se) = render_mean(&g, sampler);
         assert!(
             (got - want).abs() < 4.0 * se + 1e-4 * want,
@@ -104,7 +108,11 @@ fn floor_under_a_point_light_and_a_spot() {
     );
     let pi = std::f64::consts::PI;
     let want = ALBEDO as f64 / pi * (3.0 / 4.0 + 2.0 / 1.0);
-    for sampler in [LightSampler::Uniform, LightSampler::Power] {
+    for sampler in [
+        LightSampler::Uniform,
+        LightSampler::Power,
+        LightSampler::Lightbvh,
+    ] {
         let (got, se) = render_mean(&g, sampler);
         assert!(
             (got - want).abs() < 4.0 * se + 1e-4 * want,

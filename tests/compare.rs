@@ -137,7 +137,7 @@ fn reference_command_writes_and_caches() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("ref.json")).unwrap()).unwrap();
-    assert_eq!(report["sampler"], "power");
+    assert_eq!(report["sampler"], "lightbvh");
     assert!(report["estimated_rel_mse_of_mean"].as_f64().unwrap() > 0.0);
     assert_eq!(
         std::fs::read_dir(&cache).unwrap().count(),

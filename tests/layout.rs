@@ -111,6 +111,7 @@ macro_rules! rust_layout {
 fn host_and_shader_structs_match() {
     let mut spv = reflect(kernels::RENDER);
     spv.extend(reflect(kernels::TRACE));
+    spv.extend(reflect(kernels::LIGHT_SAMPLE));
     let rust = [
         rust_layout!(BvhNode {
             a_min,
@@ -175,6 +176,20 @@ fn host_and_shader_structs_match() {
             pad1
         }),
         rust_layout!(PixelAccum { sum, sum_sq }),
+        rust_layout!(LightNode {
+            bmin,
+            phi,
+            bmax,
+            cos_o,
+            axis,
+            cos_e,
+            right,
+            begin,
+            count,
+            flags
+        }),
+        rust_layout!(LightQuery { p, u, n, pad }),
+        rust_layout!(LightChoice { light, pmf }),
     ];
     for (name, fields, size) in rust {
         let s = spv.get(name).unwrap_or_else(|| {

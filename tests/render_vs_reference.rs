@@ -220,3 +220,13 @@ fn area_lights_uniform() {
 fn area_lights_power() {
     check(&area_scene(), LightSampler::Power);
 }
+
+#[test]
+fn punctual_lights_lightbvh() {
+    check(&punctual_scene(), LightSampler::Lightbvh);
+}
+
+#[test]
+fn area_lights_lightbvh() {
+    check(&area_scene(), LightSampler::Lightbvh);
+}

@@ -34,6 +34,28 @@ struct AliasEntry {
     float q; uint alias; float pmf; uint pad;
 };
 
+#define LIGHT_NODE_TWO_SIDED 1u
+
+struct LightNode {
+    vec3 bmin; float phi;
+    vec3 bmax; float cos_o;
+    vec3 axis; float cos_e;
+    uint right;
+    uint begin;
+    uint count;
+    uint flags;
+};
+
+struct LightQuery {
+    vec3 p; float u;
+    vec3 n; uint pad;
+};
+
+struct LightChoice {
+    uint light;
+    float pmf;
+};
+
 #define MATERIAL_TWO_SIDED 1u
 
 struct GpuMaterial {

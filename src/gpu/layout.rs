@@ -73,6 +73,48 @@ pub struct AliasEntry {
     pub pad: u32,
 }
 
+/// `LightNode::flags`: some light below emits from both faces.
+pub const LIGHT_NODE_TWO_SIDED: u32 = 1;
+
+/// A light-tree node (src/lights/tree.rs), depth-first: the left child is the next node.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct LightNode {
+    pub bmin: [f32; 3],
+    /// Total power (luminance) of the lights below.
+    pub phi: f32,
+    pub bmax: [f32; 3],
+    pub cos_o: f32,
+    /// Axis of the emission cone.
+    pub axis: [f32; 3],
+    pub cos_e: f32,
+    /// Index of the right child (`u32::MAX` for a leaf).
+    pub right: u32,
+    /// First tree position covered (`LightTree::order`).
+    pub begin: u32,
+    /// Number of lights below (1 = leaf).
+    pub count: u32,
+    pub flags: u32,
+}
+
+/// One query of `light_sample.comp` (tests): a shading point, its normal and a random number.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct LightQuery {
+    pub p: [f32; 3],
+    pub u: f32,
+    pub n: [f32; 3],
+    pub pad: u32,
+}
+
+/// The answer: the light chosen (`u32::MAX`: none can contribute) and its pmf.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct LightChoice {
+    pub light: u32,
+    pub pmf: f32,
+}
+
 pub const MATERIAL_TWO_SIDED: u32 = 1;
 
 #[repr(C)]

@@ -13,4 +13,5 @@ pub use pipeline::ComputePipeline;
 pub mod kernels {
     pub const RENDER: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/render.spv"));
     pub const TRACE: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace.spv"));
+    pub const LIGHT_SAMPLE: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/light_sample.spv"));
 }

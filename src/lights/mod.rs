@@ -1,5 +1,7 @@
 //! The light list as the kernels see it, and the light-selection pmfs of the non-learning
-//! samplers (`uniform`, `power`).
+//! samplers (`uniform`, `power`; `lightbvh` in [`tree`]).
+
+pub mod tree;
 
 use crate::gpu::layout::{
     AliasEntry, GpuLight, LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE, LIGHT_TWO_SIDED,

@@ -21,6 +21,9 @@ pub enum LightSampler {
     Uniform,
     /// Lights chosen in proportion to their emitted power (alias table).
     Power,
+    /// One stochastic descent of the light tree by unoccluded importance at the shading point
+    /// (pbrt-v4's BVHLightSampler).
+    Lightbvh,
 }
 
 impl LightSampler {
@@ -29,6 +32,7 @@ impl LightSampler {
         match self {
             LightSampler::Uniform => "uniform",
             LightSampler::Power => "power",
+            LightSampler::Lightbvh => "lightbvh",
         }
     }
 
@@ -60,6 +64,7 @@ impl LightSampler {
         match self {
             LightSampler::Uniform => 0,
             LightSampler::Power => 1,
+            LightSampler::Lightbvh => 2,
         }
     }
 }
@@ -145,8 +150,12 @@ pub struct GpuScene {
     materials: Buffer,
     lights: Buffer,
     alias: Buffer,
+    light_nodes: Buffer,
+    light_order: Buffer,
     pub light_count: u32,
     pub ray_eps: f32,
+    /// Seconds spent building the light tree (reported in the JSON).
+    pub light_tree_seconds: f64,
 }
 
 /// Offset for secondary-ray origins: 1e-4 of the scene's size (1.7 mm in the default 12 m
@@ -175,6 +184,9 @@ impl GpuScene {
             .collect();
         let gpu_lights = lights::gpu_lights(scene);
         let alias = lights::alias_table(&lights::power_weights(scene));
+        let t0 = Instant::now();
+        let tree = lights::tree::LightTree::build(scene);
+        let light_tree_seconds = t0.elapsed().as_secs_f64();
         Ok(GpuScene {
             nodes: Buffer::from_slice(ctx, "bvh nodes", &bvh.nodes)?,
             tris: Buffer::from_slice(ctx, "bvh triangles", &bvh.tris)?,
@@ -182,8 +194,11 @@ impl GpuScene {
             materials: Buffer::from_slice(ctx, "materials", &materials)?,
             lights: Buffer::from_slice(ctx, "lights", &gpu_lights)?,
             alias: Buffer::from_slice(ctx, "light alias table", &alias)?,
+            light_nodes: Buffer::from_slice(ctx, "light tree", &tree.nodes)?,
+            light_order: Buffer::from_slice(ctx, "light tree order", &tree.order)?,
             light_count: gpu_lights.len() as u32,
             ray_eps: ray_epsilon(scene),
+            light_tree_seconds,
         })
     }
 }
@@ -274,7 +289,7 @@ pub fn render_with_checkpoints(
         ctx,
         "render",
         kernels::RENDER,
-        8,
+        10,
         std::mem::size_of::<RenderParams>() as u32,
         &[settings.sampler.shader_id()],
     )?;
@@ -287,6 +302,8 @@ pub fn render_with_checkpoints(
         &gpu.alias,
         &accum,
         &counters,
+        &gpu.light_nodes,
+        &gpu.light_order,
     ])?;
     let mut params = camera_params(scene, w, h);
     params.seed = settings.seed;

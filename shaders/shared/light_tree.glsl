@@ -1,0 +1,80 @@
+// The light tree's importance and the `lightbvh` sampler's stochastic descent. Mirror of
+// src/lights/tree.rs (`importance`, `LightTree::sample`), checked against it by
+// tests/light_tree.rs. The including kernel declares `light_nodes` (LightNode[]) and
+// `light_order` (uint[]).
+#ifndef LIGHT_TREE_GLSL
+#define LIGHT_TREE_GLSL
+
+#include "types.glsl"
+
+#define NO_LIGHT 0xffffffffu
+#define ONE_MINUS_EPSILON 0.99999994
+
+// cos(max(0, a - b)) and sin(max(0, a - b)) from sines and cosines.
+float cos_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
+    return cos_a > cos_b ? 1.0 : cos_a * cos_b + sin_a * sin_b;
+}
+float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
+    return cos_a > cos_b ? 0.0 : sin_a * cos_b - cos_a * sin_b;
+}
+
+// Unoccluded importance of a node at p for a receiver with normal n (see tree.rs).
+float light_importance(LightNode nd, vec3 p, vec3 n) {
+    vec3 pc = 0.5 * (nd.bmin + nd.bmax);
+    vec3 diag = nd.bmax - nd.bmin;
+    vec3 to = p - pc;
+    float dist2 = dot(to, to);
+    float d2 = max(dist2, 0.5 * length(diag));
+    vec3 wi = dist2 > 0.0 ? to / sqrt(dist2) : vec3(0.0);
+    float cos_w = dot(nd.axis, wi);
+    if ((nd.flags & LIGHT_NODE_TWO_SIDED) != 0u) cos_w = abs(cos_w);
+    float sin_w = sqrt(max(1.0 - cos_w * cos_w, 0.0));
+    float r2 = 0.25 * dot(diag, diag);
+    float cos_b = -1.0;
+    float sin_b = 0.0;
+    if (dist2 > r2) {
+        float s2 = r2 / dist2;
+        cos_b = sqrt(max(1.0 - s2, 0.0));
+        sin_b = sqrt(s2);
+    }
+    float sin_o = sqrt(max(1.0 - nd.cos_o * nd.cos_o, 0.0));
+    float cos_wo = cos_sub_clamped(sin_w, cos_w, sin_o, nd.cos_o);
+    float sin_wo = sin_sub_clamped(sin_w, cos_w, sin_o, nd.cos_o);
+    float cos_p = cos_sub_clamped(sin_wo, cos_wo, sin_b, cos_b);
+    if (cos_p <= nd.cos_e) return 0.0;
+    float imp = nd.phi * cos_p / d2;
+    if (n != vec3(0.0)) {
+        float cos_i = dot(n, -wi);
+        float sin_i = sqrt(max(1.0 - cos_i * cos_i, 0.0));
+        imp *= max(cos_sub_clamped(sin_i, cos_i, sin_b, cos_b), 0.0);
+    }
+    return max(imp, 0.0);
+}
+
+// One descent by importance: the light index (or NO_LIGHT) and its pmf.
+uint sample_light_tree(vec3 p, vec3 n, float u, out float pmf) {
+    uint node = 0u;
+    pmf = 1.0;
+    while (light_nodes[node].count > 1u) {
+        uint l = node + 1u;
+        uint r = light_nodes[node].right;
+        float il = light_importance(light_nodes[l], p, n);
+        float ir = light_importance(light_nodes[r], p, n);
+        if (il == 0.0 && ir == 0.0) return NO_LIGHT;
+        float pl = il / (il + ir);
+        if (u < pl) {
+            u = min(u / pl, ONE_MINUS_EPSILON);
+            pmf *= pl;
+            node = l;
+        } else {
+            u = min((u - pl) / (1.0 - pl), ONE_MINUS_EPSILON);
+            pmf *= 1.0 - pl;
+            node = r;
+        }
+    }
+    LightNode leaf = light_nodes[node];
+    if (light_importance(leaf, p, n) <= 0.0) return NO_LIGHT;
+    return light_order[leaf.begin];
+}
+
+#endif

@@ -1,0 +1,452 @@
+//! The light tree: a binary BVH over all lights, built top-down with the surface-area-
+//! orientation heuristic (Conty Estevez & Kulla 2018, as in pbrt-v4's BVHLightSampler), one
+//! light per leaf, nodes in depth-first order (left child = next node) so that every node
+//! covers a contiguous range of `order`. Each node bounds its lights' positions, emission
+//! directions (a cone: axis, θ_o, θ_e) and power.
+//!
+//! `importance` is the unoccluded estimate Ĩ_C(x) of method.md §2, mirrored exactly in
+//! `shaders/shared/light_tree.glsl`; `sample` / `pmf` are the `lightbvh` sampler's stochastic
+//! descent, the reference the GPU kernel is tested against.
+
+use std::f32::consts::PI;
+
+use glam::Vec3;
+
+use crate::gpu::layout::{LightNode, LIGHT_NODE_TWO_SIDED};
+use crate::scene::{Light, Scene};
+
+/// What a light (or a set of lights) can emit, and where to.
+#[derive(Clone, Copy, Debug)]
+pub struct LightBounds {
+    pub lo: Vec3,
+    pub hi: Vec3,
+    /// Emitted power as luminance (the `power` sampler's weight).
+    pub phi: f32,
+    /// Unit axis of the emission cone.
+    pub axis: Vec3,
+    /// cos θ_o: every emission normal lies within θ_o of the axis.
+    pub cos_o: f32,
+    /// cos θ_e: emission spreads at most θ_e beyond a normal.
+    pub cos_e: f32,
+    pub two_sided: bool,
+}
+
+impl LightBounds {
+    pub fn of(scene: &Scene, light: &Light) -> LightBounds {
+        let phi = scene.light_power(light);
+        match *light {
+            Light::Point { position, .. } => LightBounds {
+                lo: position,
+                hi: position,
+                phi,
+                axis: Vec3::Z,
+                cos_o: -1.0,
+                cos_e: 0.0,
+                two_sided: false,
+            },
+            Light::Spot {
+                position,
+                direction,
+                cos_inner,
+                cos_outer,
+                ..
+            } => LightBounds {
+                lo: position,
+                hi: position,
+                phi,
+                axis: direction,
+                // Full intensity up to the inner cone, falling to zero at the outer one.
+                cos_o: cos_inner,
+                cos_e: (cos_outer.clamp(-1.0, 1.0).acos() - cos_inner.clamp(-1.0, 1.0).acos())
+                    .cos(),
+                two_sided: false,
+            },
+            Light::Triangle { triangle } => {
+                let [a, b, c] = scene.triangles[triangle as usize];
+                let (_, two) = scene.triangle_emission(triangle);
+                LightBounds {
+                    lo: a.min(b).min(c),
+                    hi: a.max(b).max(c),
+                    phi,
+                    axis: (b - a).cross(c - a).normalize(),
+                    cos_o: 1.0,
+                    cos_e: 0.0, // a cosine lobe: up to 90° off the normal
+                    two_sided: two,
+                }
+            }
+        }
+    }
+
+    /// The bounds of both (pbrt-v4's `Union` of LightBounds).
+    pub fn union(&self, o: &LightBounds) -> LightBounds {
+        if self.phi == 0.0 {
+            return *o;
+        }
+        if o.phi == 0.0 {
+            return *self;
+        }
+        let (axis, cos_o) = cone_union(self.axis, self.cos_o, o.axis, o.cos_o);
+        LightBounds {
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+            phi: self.phi + o.phi,
+            axis,
+            cos_o,
+            cos_e: self.cos_e.min(o.cos_e),
+            two_sided: self.two_sided || o.two_sided,
+        }
+    }
+
+    /// Ĩ(p, n): power × bound on the emitter's cosine towards p × bound on the receiver's
+    /// cosine / squared distance (clamped below by half the diagonal, pbrt-v4's choice).
+    /// Zero only when no light inside can send anything to the front of n at p.
+    pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
+        importance(
+            self.lo,
+            self.hi,
+            self.phi,
+            self.axis,
+            self.cos_o,
+            self.cos_e,
+            self.two_sided,
+            p,
+            n,
+        )
+    }
+}
+
+/// The smallest cone holding both cones (axis, cos of half-angle).
+fn cone_union(a: Vec3, cos_a: f32, b: Vec3, cos_b: f32) -> (Vec3, f32) {
+    let (theta_a, theta_b) = (cos_a.clamp(-1.0, 1.0).acos(), cos_b.clamp(-1.0, 1.0).acos());
+    let theta_d = a.dot(b).clamp(-1.0, 1.0).acos();
+    if (theta_d + theta_b).min(PI) <= theta_a {
+        return (a, cos_a);
+    }
+    if (theta_d + theta_a).min(PI) <= theta_b {
+        return (b, cos_b);
+    }
+    let theta_o = (theta_a + theta_d + theta_b) / 2.0;
+    if theta_o >= PI {
+        return (a, -1.0);
+    }
+    // Rotate a towards b by theta_o - theta_a.
+    let theta_r = theta_o - theta_a;
+    let w_r = a.cross(b);
+    if w_r.length_squared() < 1e-12 {
+        return (a, -1.0);
+    }
+    let axis = glam::Quat::from_axis_angle(w_r.normalize(), theta_r) * a;
+    (axis.normalize(), theta_o.cos())
+}
+
+/// The importance function, argument by argument as in the GLSL.
+#[allow(clippy::too_many_arguments)]
+pub fn importance(
+    lo: Vec3,
+    hi: Vec3,
+    phi: f32,
+    axis: Vec3,
+    cos_o: f32,
+    cos_e: f32,
+    two_sided: bool,
+    p: Vec3,
+    n: Vec3,
+) -> f32 {
+    let pc = 0.5 * (lo + hi);
+    let diag = hi - lo;
+    let d2 = (p - pc).length_squared().max(0.5 * diag.length());
+    let wi = (p - pc).normalize_or_zero();
+    let mut cos_w = axis.dot(wi);
+    if two_sided {
+        cos_w = cos_w.abs();
+    }
+    let sin_w = (1.0 - cos_w * cos_w).max(0.0).sqrt();
+    // The half-angle the box subtends at p (a bounding sphere; the whole sphere if inside).
+    let r2 = 0.25 * diag.length_squared();
+    let dist2 = (p - pc).length_squared();
+    let (cos_b, sin_b) = if dist2 <= r2 {
+        (-1.0, 0.0)
+    } else {
+        let s2 = r2 / dist2;
+        ((1.0 - s2).max(0.0).sqrt(), s2.sqrt())
+    };
+    // cos(max(0, θ_w − θ_o − θ_b)) by angle-difference identities.
+    let sin_o = (1.0 - cos_o * cos_o).max(0.0).sqrt();
+    let cos_wo = cos_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+    let sin_wo = sin_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+    let cos_p = cos_sub_clamped(sin_wo, cos_wo, sin_b, cos_b);
+    if cos_p <= cos_e {
+        return 0.0;
+    }
+    let mut imp = phi * cos_p / d2;
+    // The receiver: cos(max(0, θ_i − θ_b)), θ_i between n and the direction to the box.
+    if n != Vec3::ZERO {
+        let cos_i = n.dot(-wi);
+        let sin_i = (1.0 - cos_i * cos_i).max(0.0).sqrt();
+        let c = cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
+        imp *= c.max(0.0);
+    }
+    imp.max(0.0)
+}
+
+/// cos(max(0, a − b)) from sines and cosines.
+fn cos_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
+    if cos_a > cos_b {
+        1.0
+    } else {
+        cos_a * cos_b + sin_a * sin_b
+    }
+}
+
+/// sin(max(0, a − b)) from sines and cosines.
+fn sin_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
+    if cos_a > cos_b {
+        0.0
+    } else {
+        sin_a * cos_b - cos_a * sin_b
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct LightTree {
+    pub nodes: Vec<LightNode>,
+    /// Light index at each tree position.
+    pub order: Vec<u32>,
+    /// Tree position of each light.
+    pub position: Vec<u32>,
+}
+
+const BUCKETS: usize = 12;
+
+/// pbrt-v4's orientation measure × power × box area (× an aspect regulariser).
+fn saoh_cost(b: &LightBounds, dim_extent: f32, max_extent: f32) -> f32 {
+    let theta_o = b.cos_o.clamp(-1.0, 1.0).acos();
+    let theta_e = b.cos_e.clamp(-1.0, 1.0).acos();
+    let theta_w = (theta_o + theta_e).min(PI);
+    let sin_o = (1.0 - b.cos_o * b.cos_o).max(0.0).sqrt();
+    let m_omega = 2.0 * PI * (1.0 - b.cos_o)
+        + PI / 2.0
+            * (2.0 * theta_w * sin_o - (theta_o - 2.0 * theta_w).cos() - 2.0 * theta_o * sin_o
+                + b.cos_o);
+    let d = (b.hi - b.lo).max(Vec3::ZERO);
+    let area = 2.0 * (d.x * d.y + d.y * d.z + d.z * d.x);
+    let kr = if dim_extent > 0.0 {
+        max_extent / dim_extent
+    } else {
+        1.0
+    };
+    b.phi * m_omega * kr * area.max(1e-12)
+}
+
+impl LightTree {
+    pub fn build(scene: &Scene) -> LightTree {
+        let bounds: Vec<LightBounds> = scene
+            .lights
+            .iter()
+            .map(|l| LightBounds::of(scene, l))
+            .collect();
+        let mut order: Vec<u32> = (0..bounds.len() as u32).collect();
+        let mut nodes = Vec::with_capacity(2 * bounds.len());
+        build_node(&bounds, &mut order, 0, &mut nodes);
+        let mut position = vec![0u32; order.len()];
+        for (pos, &l) in order.iter().enumerate() {
+            position[l as usize] = pos as u32;
+        }
+        LightTree {
+            nodes,
+            order,
+            position,
+        }
+    }
+
+    fn bounds(n: &LightNode) -> LightBounds {
+        LightBounds {
+            lo: Vec3::from(n.bmin),
+            hi: Vec3::from(n.bmax),
+            phi: n.phi,
+            axis: Vec3::from(n.axis),
+            cos_o: n.cos_o,
+            cos_e: n.cos_e,
+            two_sided: n.flags & LIGHT_NODE_TWO_SIDED != 0,
+        }
+    }
+
+    /// One stochastic descent by importance (the `lightbvh` sampler): the light and its pmf,
+    /// or None when nothing can light the front of n at p.
+    pub fn sample(&self, p: Vec3, n: Vec3, mut u: f32) -> Option<(u32, f32)> {
+        let mut node = 0usize;
+        let mut pmf = 1.0f32;
+        while self.nodes[node].count > 1 {
+            let (l, r) = (node + 1, self.nodes[node].right as usize);
+            let il = Self::bounds(&self.nodes[l]).importance(p, n);
+            let ir = Self::bounds(&self.nodes[r]).importance(p, n);
+            if il == 0.0 && ir == 0.0 {
+                return None;
+            }
+            let pl = il / (il + ir);
+            if u < pl {
+                u = (u / pl).min(ONE_MINUS_EPSILON);
+                pmf *= pl;
+                node = l;
+            } else {
+                u = ((u - pl) / (1.0 - pl)).min(ONE_MINUS_EPSILON);
+                pmf *= 1.0 - pl;
+                node = r;
+            }
+        }
+        let light = self.order[self.nodes[node].begin as usize];
+        (Self::bounds(&self.nodes[node]).importance(p, n) > 0.0).then_some((light, pmf))
+    }
+
+    /// The probability that `sample` returns `light` at (p, n).
+    pub fn pmf(&self, p: Vec3, n: Vec3, light: u32) -> f32 {
+        let pos = self.position[light as usize];
+        let mut node = 0usize;
+        let mut pmf = 1.0f32;
+        while self.nodes[node].count > 1 {
+            let (l, r) = (node + 1, self.nodes[node].right as usize);
+            let il = Self::bounds(&self.nodes[l]).importance(p, n);
+            let ir = Self::bounds(&self.nodes[r]).importance(p, n);
+            if il == 0.0 && ir == 0.0 {
+                return 0.0;
+            }
+            let n_l = &self.nodes[l];
+            if pos < n_l.begin + n_l.count {
+                pmf *= il / (il + ir);
+                node = l;
+            } else {
+                pmf *= ir / (il + ir);
+                node = r;
+            }
+        }
+        if Self::bounds(&self.nodes[node]).importance(p, n) > 0.0 {
+            pmf
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Largest f32 below 1 (keeps a remapped random number in [0, 1)).
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// Builds the subtree over `order[first..]` (the slice given) depth-first; returns its index.
+fn build_node(
+    all: &[LightBounds],
+    order: &mut [u32],
+    first: u32,
+    nodes: &mut Vec<LightNode>,
+) -> usize {
+    let b = order
+        .iter()
+        .skip(1)
+        .fold(all[order[0] as usize], |acc, &i| {
+            acc.union(&all[i as usize])
+        });
+    let me = nodes.len();
+    nodes.push(LightNode {
+        bmin: b.lo.to_array(),
+        phi: b.phi,
+        bmax: b.hi.to_array(),
+        cos_o: b.cos_o,
+        axis: b.axis.to_array(),
+        cos_e: b.cos_e,
+        right: u32::MAX,
+        begin: first,
+        count: order.len() as u32,
+        flags: if b.two_sided { LIGHT_NODE_TWO_SIDED } else { 0 },
+    });
+    if order.len() == 1 {
+        return me;
+    }
+    let mid = split_lights(all, order, &b);
+    let (left, right) = order.split_at_mut(mid);
+    build_node(all, left, first, nodes);
+    let r = build_node(all, right, first + mid as u32, nodes);
+    nodes[me].right = r as u32;
+    me
+}
+
+/// Chooses the SAOH-cheapest bucket split over all three axes; partitions `order`.
+fn split_lights(all: &[LightBounds], order: &mut [u32], parent: &LightBounds) -> usize {
+    let centroid = |i: u32| 0.5 * (all[i as usize].lo + all[i as usize].hi);
+    let (mut clo, mut chi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for &i in order.iter() {
+        clo = clo.min(centroid(i));
+        chi = chi.max(centroid(i));
+    }
+    let extent = parent.hi - parent.lo;
+    let max_extent = extent.max_element();
+    let mut best: Option<(f32, usize, f32)> = None;
+    for dim in 0..3 {
+        if chi[dim] <= clo[dim] {
+            continue;
+        }
+        let scale = BUCKETS as f32 / (chi[dim] - clo[dim]);
+        let bucket_of =
+            |i: u32| (((centroid(i)[dim] - clo[dim]) * scale) as usize).min(BUCKETS - 1);
+        let mut buckets: [Option<LightBounds>; BUCKETS] = [None; BUCKETS];
+        for &i in order.iter() {
+            let k = bucket_of(i);
+            let lb = &all[i as usize];
+            buckets[k] = Some(buckets[k].map_or(*lb, |acc| acc.union(lb)));
+        }
+        for split in 1..BUCKETS {
+            let side = |r: std::ops::Range<usize>| {
+                buckets[r]
+                    .iter()
+                    .flatten()
+                    .copied()
+                    .reduce(|a, b| a.union(&b))
+            };
+            let (Some(l), Some(r)) = (side(0..split), side(split..BUCKETS)) else {
+                continue;
+            };
+            let cost =
+                saoh_cost(&l, extent[dim], max_extent) + saoh_cost(&r, extent[dim], max_extent);
+            if best.is_none_or(|(c, _, _)| cost < c) {
+                best = Some((cost, dim, clo[dim] + split as f32 / scale));
+            }
+        }
+    }
+    let mid = match best {
+        Some((_, dim, pos)) => {
+            let mut i = 0;
+            for j in 0..order.len() {
+                if centroid(order[j])[dim] < pos {
+                    order.swap(i, j);
+                    i += 1;
+                }
+            }
+            i
+        }
+        None => 0,
+    };
+    // All centroids equal, or rounding put everything on one side: split by count.
+    if mid == 0 || mid == order.len() {
+        order.len() / 2
+    } else {
+        mid
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cone_union_contains_both() {
+        let (a, b) = (Vec3::X, Vec3::Y);
+        let (axis, cos_o) = cone_union(a, 0.9, b, 0.9);
+        for v in [a, b] {
+            // Each input cone's axis ± its half-angle lies inside the union.
+            let half = 0.9f32.acos();
+            let ang = axis.dot(v).clamp(-1.0, 1.0).acos();
+            assert!(
+                ang + half <= cos_o.acos() + 1e-4,
+                "{ang} + {half} > {}",
+                cos_o.acos()
+            );
+        }
+    }
+}
