@@ -52,6 +52,21 @@ fn render_mean(g: &GltfBuilder, sampler: LightSampler) -> (f64, f64) {
     (mean, var.sqrt())
 }
 
+/// Every sampler's image mean is the closed-form value within 4σ.
+fn every_sampler_matches(g: &GltfBuilder, want: f64) {
+    for sampler in [
+        LightSampler::Uniform,
+        LightSampler::Power,
+        LightSampler::Lightbvh,
+    ] {
+        let (got, se) = render_mean(g, sampler);
+        assert!(
+            (got - want).abs() < 4.0 * se + 1e-4 * want,
+            "{sampler:?}: {got} vs closed form {want} (σ {se})"
+        );
+    }
+}
+
 /// View factor from a point to a parallel rectangle X×Y (in units of the height) with one
 /// corner straight above the point (Howell's catalogue, configuration B-3).
 fn corner_view_factor(x: f64, y: f64) -> f64 {
@@ -77,17 +92,7 @@ fn floor_under_a_parallel_emissive_square() {
     );
     let want = ALBEDO as f64 * 4.0 * corner_view_factor(1.0, 1.0);
     assert!((want - 0.27706).abs() < 1e-4, "formula sanity: {want}");
-    for sampler in [
-        LightSampler::Uniform,
-        LightSampler::Power,
-        LightSampler::Lightbvh,
-    ] {
-        let (got, se) = render_mean(&g, sampler);
-        assert!(
-            (got - want).abs() < 4.0 * se + 1e-4 * want,
-            "{sampler:?}: {got} vs closed form {want} (σ {se})"
-        );
-    }
+    every_sampler_matches(&g, want);
 }
 
 #[test]
@@ -108,15 +113,5 @@ fn floor_under_a_point_light_and_a_spot() {
     );
     let pi = std::f64::consts::PI;
     let want = ALBEDO as f64 / pi * (3.0 / 4.0 + 2.0 / 1.0);
-    for sampler in [
-        LightSampler::Uniform,
-        LightSampler::Power,
-        LightSampler::Lightbvh,
-    ] {
-        let (got, se) = render_mean(&g, sampler);
-        assert!(
-            (got - want).abs() < 4.0 * se + 1e-4 * want,
-            "{sampler:?}: {got} vs closed form {want} (σ {se})"
-        );
-    }
+    every_sampler_matches(&g, want);
 }

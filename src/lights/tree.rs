@@ -271,9 +271,16 @@ impl LightTree {
         }
     }
 
-    /// One stochastic descent by importance (the `lightbvh` sampler): the light and its pmf,
-    /// or None when nothing can light the front of n at p.
-    pub fn sample(&self, p: Vec3, n: Vec3, mut u: f32) -> Option<(u32, f32)> {
+    /// Descends from the root choosing children in proportion to their importance at (p, n);
+    /// `go_left(left_child, p_left)` decides each step. Returns the leaf reached and the
+    /// product of the chosen branches' probabilities, or None at a dead end (no child, or
+    /// the leaf itself, can light the front of n at p).
+    fn descend(
+        &self,
+        p: Vec3,
+        n: Vec3,
+        mut go_left: impl FnMut(&LightNode, f32) -> bool,
+    ) -> Option<(usize, f32)> {
         let mut node = 0usize;
         let mut pmf = 1.0f32;
         while self.nodes[node].count > 1 {
@@ -284,46 +291,37 @@ impl LightTree {
                 return None;
             }
             let pl = il / (il + ir);
-            if u < pl {
-                u = (u / pl).min(ONE_MINUS_EPSILON);
+            if go_left(&self.nodes[l], pl) {
                 pmf *= pl;
                 node = l;
             } else {
-                u = ((u - pl) / (1.0 - pl)).min(ONE_MINUS_EPSILON);
                 pmf *= 1.0 - pl;
                 node = r;
             }
         }
-        let light = self.order[self.nodes[node].begin as usize];
-        (Self::bounds(&self.nodes[node]).importance(p, n) > 0.0).then_some((light, pmf))
+        (Self::bounds(&self.nodes[node]).importance(p, n) > 0.0).then_some((node, pmf))
+    }
+
+    /// One stochastic descent by importance (the `lightbvh` sampler): the light and its pmf,
+    /// or None when nothing can light the front of n at p.
+    pub fn sample(&self, p: Vec3, n: Vec3, mut u: f32) -> Option<(u32, f32)> {
+        let (leaf, pmf) = self.descend(p, n, |_, pl| {
+            let left = u < pl;
+            u = if left {
+                (u / pl).min(ONE_MINUS_EPSILON)
+            } else {
+                ((u - pl) / (1.0 - pl)).min(ONE_MINUS_EPSILON)
+            };
+            left
+        })?;
+        Some((self.order[self.nodes[leaf].begin as usize], pmf))
     }
 
     /// The probability that `sample` returns `light` at (p, n).
     pub fn pmf(&self, p: Vec3, n: Vec3, light: u32) -> f32 {
         let pos = self.position[light as usize];
-        let mut node = 0usize;
-        let mut pmf = 1.0f32;
-        while self.nodes[node].count > 1 {
-            let (l, r) = (node + 1, self.nodes[node].right as usize);
-            let il = Self::bounds(&self.nodes[l]).importance(p, n);
-            let ir = Self::bounds(&self.nodes[r]).importance(p, n);
-            if il == 0.0 && ir == 0.0 {
-                return 0.0;
-            }
-            let n_l = &self.nodes[l];
-            if pos < n_l.begin + n_l.count {
-                pmf *= il / (il + ir);
-                node = l;
-            } else {
-                pmf *= ir / (il + ir);
-                node = r;
-            }
-        }
-        if Self::bounds(&self.nodes[node]).importance(p, n) > 0.0 {
-            pmf
-        } else {
-            0.0
-        }
+        self.descend(p, n, |left, _| pos < left.begin + left.count)
+            .map_or(0.0, |(_, pmf)| pmf)
     }
 }
 
