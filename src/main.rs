@@ -487,6 +487,14 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
                     a.image.height
                 );
             }
+            if let Some(i) = px.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
+                bail!(
+                    "reference '{}' has a NaN or Inf at pixel ({}, {}); render it again",
+                    p.display(),
+                    i as u32 % w,
+                    i as u32 / w
+                );
+            }
             Some((p.clone(), px))
         }
         None => None,

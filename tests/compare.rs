@@ -178,6 +178,11 @@ fn bad_requests_fail_before_rendering() {
     let small_ref = dir.path().join("small.exr");
     lightlearn::film::write_exr(&small_ref, 8, 8, &vec![[0.5; 3]; 64]).unwrap();
     let small_ref = small_ref.display().to_string();
+    let nan_ref = dir.path().join("nan.exr");
+    let mut px = vec![[0.5f32; 3]; 320 * 240];
+    px[320 * 7 + 5] = [f32::NAN, 0.0, 0.0];
+    lightlearn::film::write_exr(&nan_ref, 320, 240, &px).unwrap();
+    let nan_ref = nan_ref.display().to_string();
     let out = dir.path().join("rep").display().to_string();
     let file = dir.path().join("afile");
     std::fs::write(&file, "x").unwrap();
@@ -202,6 +207,10 @@ fn bad_requests_fail_before_rendering() {
         (
             vec!["--spp", "4", "--out", &under_file],
             "cannot create the output folder",
+        ),
+        (
+            vec!["--spp", "4", "--reference", &nan_ref, "--out", &out],
+            "NaN or Inf at pixel (5, 7)",
         ),
         (vec!["--out", &out], "--time SECONDS"),
         (
