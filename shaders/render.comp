@@ -9,7 +9,7 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 
 // The light sampler, a closed set (src/render/mod.rs LightSampler): 0 uniform, 1 power,
-// 2 lightbvh.
+// 2 lightbvh, 3 wang.
 layout(constant_id = 0) const uint SAMPLER = 0u;
 
 layout(std430, set = 0, binding = 0) readonly buffer Nodes { BvhNode bvh_nodes[]; };
@@ -23,12 +23,16 @@ layout(std430, set = 0, binding = 6) buffer Accum { PixelAccum accum[]; };
 layout(std430, set = 0, binding = 7) buffer Counters { uint counters[]; };
 layout(std430, set = 0, binding = 8) readonly buffer LightNodes { LightNode light_nodes[]; };
 layout(std430, set = 0, binding = 9) readonly buffer LightOrder { uint light_order[]; };
+layout(std430, set = 0, binding = 10) readonly buffer Grid { GridParams grid[]; };
+layout(std430, set = 0, binding = 11) readonly buffer RegionIndex { uint region_index[]; };
+layout(std430, set = 0, binding = 12) readonly buffer Cuts { uint cuts[]; };
 
 layout(push_constant) uniform Push { RenderParams params; };
 
 #include "bvh.glsl"
 #include "lights.glsl"
 #include "light_tree.glsl"
+#include "regions.glsl"
 
 // Random-number dimensions of one pixel sample.
 #define DIM_JITTER_X 0u
@@ -68,8 +72,10 @@ void main() {
         vec3 x = origin + t * dir;
         float pmf;
         float u_light = sample_rand(seed, pixel, s, DIM_LIGHT);
-        uint li = SAMPLER == SAMPLER_LIGHTBVH ? sample_light_tree(x, n, u_light, pmf)
-                                              : pick_light(u_light, params.light_count, pmf);
+        uint li;
+        if (SAMPLER == SAMPLER_LIGHTBVH) li = sample_light_tree(x, n, u_light, pmf);
+        else if (SAMPLER == SAMPLER_WANG) li = sample_wang(x, n, u_light, pmf);
+        else li = pick_light(u_light, params.light_count, pmf);
         vec3 wi;
         float dist;
         vec2 u = vec2(sample_rand(seed, pixel, s, DIM_LIGHT_U), sample_rand(seed, pixel, s, DIM_LIGHT_V));

@@ -15,6 +15,7 @@ use lightlearn::accel::Bvh;
 use lightlearn::compare::{self, reference, report};
 use lightlearn::film::{self, OutputPaths};
 use lightlearn::gpu::{Context, ContextOptions};
+use lightlearn::lights::regions::RegionSettings;
 use lightlearn::render::{self, Budget, GpuScene, LightSampler, RenderSettings};
 use lightlearn::scene::families::{self, Family, FamilyParams};
 use lightlearn::scene::{gltf_load, Scene};
@@ -61,6 +62,36 @@ struct DeviceArgs {
     validation: bool,
 }
 
+/// Regions and cuts (method.md §2), used by `--sampler wang`.
+#[derive(Args)]
+struct RegionArgs {
+    /// Region grid: cells along the longest axis of the scene bounds.
+    #[arg(long, default_value_t = 32)]
+    grid: u32,
+    /// Split each cell by the dominant axis and sign of the shading normal (6 bins).
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    normal_bins: String,
+    /// Refine a cut until its largest cluster's importance ≤ τ × the cut's total.
+    #[arg(long, default_value_t = 0.02)]
+    tau: f32,
+    /// At most this many clusters per cut (1..=64).
+    #[arg(long, default_value_t = 32)]
+    k_max: u32,
+}
+
+impl RegionArgs {
+    fn settings(&self) -> Result<RegionSettings> {
+        let s = RegionSettings {
+            grid: self.grid,
+            normal_bins: self.normal_bins == "on",
+            tau: self.tau,
+            k_max: self.k_max,
+        };
+        s.check()?;
+        Ok(s)
+    }
+}
+
 #[derive(Args)]
 struct RenderArgs {
     /// glTF 2.0 scene (.gltf or .glb). Default: the built-in scene (scenes/default.glb).
@@ -94,6 +125,8 @@ struct RenderArgs {
     /// No progress bar or summary (errors and warnings are still printed).
     #[arg(long, short)]
     quiet: bool,
+    #[command(flatten)]
+    regions: RegionArgs,
     #[command(flatten)]
     device: DeviceArgs,
 }
@@ -131,6 +164,8 @@ struct CompareArgs {
     out: PathBuf,
     #[command(flatten)]
     image: StudyArgs,
+    #[command(flatten)]
+    regions: RegionArgs,
     #[command(flatten)]
     device: DeviceArgs,
 }
@@ -297,6 +332,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         bail!("--width/--height must be between 1 and 16384");
     }
     check_depth(a.max_depth)?;
+    let regions = a.regions.settings()?;
     // Check the output location before spending time on the render.
     let paths = OutputPaths::new(&a.out)?;
     let scene = load_scene(a.scene.as_deref())?;
@@ -322,6 +358,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         budget,
         seed: a.seed,
         sampler: a.sampler,
+        regions,
     };
     let result = render::render(&ctx, &scene, &gpu, &settings, &mut |spp, f| {
         bar.set_position((f * 1000.0) as u64);
@@ -453,6 +490,7 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
     // Everything that can be wrong with the request is checked before any rendering.
     check_depth(a.image.max_depth)?;
     let samplers = LightSampler::parse_list(&a.samplers)?;
+    let regions = a.regions.settings()?;
     let mut budgets = Vec::new();
     if let Some(t) = a.time {
         if !(t.is_finite() && t > 0.0) {
@@ -541,6 +579,7 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
             &scene,
             &gpu,
             &samplers,
+            &regions,
             budget,
             a.image.width,
             a.image.height,

@@ -177,6 +177,17 @@ fn bad_input_fails_cleanly() {
         &[],
         &["magic", "uniform", "power"],
     );
+    let mut args = vec![
+        "render",
+        "--sampler",
+        "wang",
+        "--k-max",
+        "65",
+        "--out",
+        "out.exr",
+    ];
+    args.extend_from_slice(SMALL);
+    expect_failure(&args, d, &[], &["--k-max 65", "1..=64"]);
 
     // No Vulkan driver at all, and a device name that matches nothing.
     let mut args = vec!["render", "--out", "out.exr"];

@@ -39,6 +39,7 @@ fn render_mean(g: &GltfBuilder, sampler: LightSampler) -> (f64, f64) {
         budget: Budget::Samples(4096),
         seed: 3,
         sampler,
+        regions: lightlearn::lights::regions::RegionSettings::default(),
     };
     let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
     let n = r.mean().len() as f64;
@@ -58,6 +59,7 @@ fn every_sampler_matches(g: &GltfBuilder, want: f64) {
         LightSampler::Uniform,
         LightSampler::Power,
         LightSampler::Lightbvh,
+        LightSampler::Wang,
     ] {
         let (got, se) = render_mean(g, sampler);
         assert!(

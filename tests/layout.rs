@@ -190,6 +190,12 @@ fn host_and_shader_structs_match() {
         }),
         rust_layout!(LightQuery { p, u, n, pad }),
         rust_layout!(LightChoice { light, pmf }),
+        rust_layout!(GridParams {
+            lo,
+            cell,
+            dims,
+            bins
+        }),
     ];
     for (name, fields, size) in rust {
         let s = spv.get(name).unwrap_or_else(|| {

@@ -7,8 +7,7 @@ mod common;
 use std::path::Path;
 
 use glam::Vec3;
-use lightlearn::gpu::layout::{LightChoice, LightQuery};
-use lightlearn::gpu::{kernels, Buffer, ComputePipeline};
+use lightlearn::lights::regions::{Cuts, Grid, RegionSettings};
 use lightlearn::lights::tree::LightTree;
 use lightlearn::rng::SplitMix64;
 use lightlearn::scene::{gltf_load, spot_falloff, Light, Scene};
@@ -172,26 +171,10 @@ fn gpu_and_cpu_descents_agree() {
         let s = scene(name);
         let tree = LightTree::build(&s);
         let qs = queries(&s, 4000, 3);
-        let gpu_q: Vec<LightQuery> = qs
-            .iter()
-            .map(|(p, n, u)| LightQuery {
-                p: p.to_array(),
-                u: *u,
-                n: n.to_array(),
-                pad: 0,
-            })
-            .collect();
-        let nodes = Buffer::from_slice(&ctx, "nodes", &tree.nodes).unwrap();
-        let order = Buffer::from_slice(&ctx, "order", &tree.order).unwrap();
-        let qb = Buffer::from_slice(&ctx, "queries", &gpu_q).unwrap();
-        let cb = Buffer::zeroed(&ctx, "choices", (qs.len() * 8) as u64).unwrap();
-        let k =
-            ComputePipeline::new(&ctx, "light_sample", kernels::LIGHT_SAMPLE, 4, 4, &[]).unwrap();
-        k.bind(&[&nodes, &order, &qb, &cb]).unwrap();
-        let count = qs.len() as u32;
-        ctx.submit(|cmd| k.dispatch(cmd, bytemuck::bytes_of(&count), [count.div_ceil(64), 1, 1]))
-            .unwrap();
-        let got: Vec<LightChoice> = cb.read().unwrap();
+        let (lo, hi) = s.bounds();
+        let settings = RegionSettings::default();
+        let cuts = Cuts::build(&tree, Grid::new(lo, hi, &settings), [], lo, hi, &settings);
+        let got = common::gpu_light_samples(&ctx, &tree, &cuts, 2, &qs);
         let mut same = 0;
         for (i, (p, n, u)) in qs.iter().enumerate() {
             let g = got[i];

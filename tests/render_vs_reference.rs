@@ -129,6 +129,7 @@ fn gpu_render(scene: &Scene, sampler: LightSampler) -> RenderResult {
         budget: Budget::Samples(SPP),
         seed: 7,
         sampler,
+        regions: lightlearn::lights::regions::RegionSettings::default(),
     };
     render::render(&ctx, scene, &gpu, &settings, &mut |_, _| {}).unwrap()
 }
@@ -229,4 +230,14 @@ fn punctual_lights_lightbvh() {
 #[test]
 fn area_lights_lightbvh() {
     check(&area_scene(), LightSampler::Lightbvh);
+}
+
+#[test]
+fn punctual_lights_wang() {
+    check(&punctual_scene(), LightSampler::Wang);
+}
+
+#[test]
+fn area_lights_wang() {
+    check(&area_scene(), LightSampler::Wang);
 }

@@ -5,9 +5,6 @@
 
 #include "types.glsl"
 
-#define SAMPLER_UNIFORM 0u
-#define SAMPLER_POWER 1u
-#define SAMPLER_LIGHTBVH 2u
 
 // Picks a light with one uniform number u; returns its index and selection pmf.
 uint pick_light(float u, uint count, out float pmf) {

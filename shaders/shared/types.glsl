@@ -5,6 +5,12 @@
 
 #define BVH_LEAF_BIT 0x80000000u
 
+// The light samplers (src/render/mod.rs LightSampler::shader_id).
+#define SAMPLER_UNIFORM 0u
+#define SAMPLER_POWER 1u
+#define SAMPLER_LIGHTBVH 2u
+#define SAMPLER_WANG 3u
+
 struct BvhNode {
     vec3 a_min; uint a_ref;
     vec3 a_max; uint a_count;
@@ -54,6 +60,11 @@ struct LightQuery {
 struct LightChoice {
     uint light;
     float pmf;
+};
+
+struct GridParams {
+    vec3 lo; float cell;
+    uvec3 dims; uint bins;
 };
 
 #define MATERIAL_TWO_SIDED 1u

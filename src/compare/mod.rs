@@ -117,6 +117,7 @@ pub fn compare(
     scene: &Scene,
     gpu: &GpuScene,
     samplers: &[LightSampler],
+    regions: &crate::lights::regions::RegionSettings,
     budget: Budget,
     width: u32,
     height: u32,
@@ -132,6 +133,7 @@ pub fn compare(
             budget,
             seed,
             sampler,
+            regions: *regions,
         };
         let mut convergence = Vec::new();
         let result = render::render_with_checkpoints(

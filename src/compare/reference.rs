@@ -96,6 +96,7 @@ pub fn settings(width: u32, height: u32, spp: u32, seed: u32) -> Result<RenderSe
         budget: Budget::Samples(spp),
         seed: reference_seed(seed),
         sampler: REFERENCE_SAMPLER,
+        regions: Default::default(),
     })
 }
 

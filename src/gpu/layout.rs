@@ -115,6 +115,17 @@ pub struct LightChoice {
     pub pmf: f32,
 }
 
+/// The region grid (src/lights/regions.rs): cubic cells of size `cell` from `lo`,
+/// `dims` cells per axis, `bins` normal bins per cell (6, or 1 when off).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GridParams {
+    pub lo: [f32; 3],
+    pub cell: f32,
+    pub dims: [u32; 3],
+    pub bins: u32,
+}
+
 pub const MATERIAL_TWO_SIDED: u32 = 1;
 
 #[repr(C)]

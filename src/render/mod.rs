@@ -11,6 +11,7 @@ use crate::accel::Bvh;
 use crate::gpu::layout::{GpuMaterial, PixelAccum, RenderParams, MATERIAL_TWO_SIDED};
 use crate::gpu::{kernels, Buffer, ComputePipeline, Context};
 use crate::lights;
+use crate::lights::regions::{Cuts, Grid, RegionSettings};
 use crate::scene::Scene;
 
 /// The light samplers, a closed set: one value per `SAMPLER` case in `shaders/render.comp`.
@@ -24,6 +25,9 @@ pub enum LightSampler {
     /// One stochastic descent of the light tree by unoccluded importance at the shading point
     /// (pbrt-v4's BVHLightSampler).
     Lightbvh,
+    /// Wang & Åkerlund 2009: a cluster of the region's light-tree cut ∝ its unoccluded
+    /// importance at the shading point, then a light inside by power.
+    Wang,
 }
 
 impl LightSampler {
@@ -33,6 +37,7 @@ impl LightSampler {
             LightSampler::Uniform => "uniform",
             LightSampler::Power => "power",
             LightSampler::Lightbvh => "lightbvh",
+            LightSampler::Wang => "wang",
         }
     }
 
@@ -65,6 +70,7 @@ impl LightSampler {
             LightSampler::Uniform => 0,
             LightSampler::Power => 1,
             LightSampler::Lightbvh => 2,
+            LightSampler::Wang => 3,
         }
     }
 }
@@ -83,6 +89,8 @@ pub struct RenderSettings {
     pub budget: Budget,
     pub seed: u32,
     pub sampler: LightSampler,
+    /// Regions and cuts (used by `wang`).
+    pub regions: RegionSettings,
 }
 
 /// What a render produced: per-pixel sums over `spp` samples.
@@ -95,6 +103,18 @@ pub struct RenderResult {
     pub render_seconds: f64,
     /// Samples that came out NaN/Inf and were dropped (should be 0).
     pub invalid_samples: u32,
+    pub regions: RegionStats,
+}
+
+/// What the regions and cuts of a render cost.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct RegionStats {
+    /// Regions with their own cut (the camera reaches them); others use the scene's cut.
+    pub regions_with_cuts: usize,
+    /// Host time to find the regions and build their cuts.
+    pub cut_seconds: f64,
+    /// GPU memory of the region index and the cuts.
+    pub cut_bytes: usize,
 }
 
 impl RenderResult {
@@ -152,6 +172,9 @@ pub struct GpuScene {
     alias: Buffer,
     light_nodes: Buffer,
     light_order: Buffer,
+    /// Kept for building cuts: the tree, and the BVH to find which regions the camera sees.
+    pub tree: lights::tree::LightTree,
+    pub bvh: Bvh,
     pub light_count: u32,
     pub ray_eps: f32,
     /// Seconds spent building the light tree (reported in the JSON).
@@ -196,6 +219,8 @@ impl GpuScene {
             alias: Buffer::from_slice(ctx, "light alias table", &alias)?,
             light_nodes: Buffer::from_slice(ctx, "light tree", &tree.nodes)?,
             light_order: Buffer::from_slice(ctx, "light tree order", &tree.order)?,
+            tree,
+            bvh: bvh.clone(),
             light_count: gpu_lights.len() as u32,
             ray_eps: ray_epsilon(scene),
             light_tree_seconds,
@@ -285,11 +310,20 @@ pub fn render_with_checkpoints(
         pixels * std::mem::size_of::<PixelAccum>() as u64,
     )?;
     let counters = Buffer::zeroed(ctx, "counters", 16)?;
+    settings.regions.check()?;
+    let t0 = Instant::now();
+    let cuts = build_cuts(scene, gpu, settings);
+    let cut_seconds = t0.elapsed().as_secs_f64();
+    let region_buffers = (
+        Buffer::from_slice(ctx, "region grid", &[cuts.grid.params])?,
+        Buffer::from_slice(ctx, "region index", &cuts.index)?,
+        Buffer::from_slice(ctx, "cuts", &cuts.cuts)?,
+    );
     let pipeline = ComputePipeline::new(
         ctx,
         "render",
         kernels::RENDER,
-        10,
+        13,
         std::mem::size_of::<RenderParams>() as u32,
         &[settings.sampler.shader_id()],
     )?;
@@ -304,6 +338,9 @@ pub fn render_with_checkpoints(
         &counters,
         &gpu.light_nodes,
         &gpu.light_order,
+        &region_buffers.0,
+        &region_buffers.1,
+        &region_buffers.2,
     ])?;
     let mut params = camera_params(scene, w, h);
     params.seed = settings.seed;
@@ -394,6 +431,11 @@ pub fn render_with_checkpoints(
         accum: accum_data[..pixels as usize].to_vec(),
         render_seconds: elapsed,
         invalid_samples: invalid,
+        regions: RegionStats {
+            regions_with_cuts: cuts.built,
+            cut_seconds,
+            cut_bytes: 4 * (cuts.index.len() + cuts.cuts.len()),
+        },
     })
 }
 
@@ -422,8 +464,50 @@ pub fn report_json(
         "render_seconds": result.render_seconds,
         "device": device,
         "invalid_samples_dropped": result.invalid_samples,
+        "regions": if settings.sampler == LightSampler::Wang {
+            serde_json::json!({
+                "grid": settings.regions.grid,
+                "normal_bins": settings.regions.normal_bins,
+                "tau": settings.regions.tau,
+                "k_max": settings.regions.k_max,
+                "stats": result.regions,
+            })
+        } else {
+            serde_json::Value::Null
+        },
         "estimated_mse_of_mean": mse,
         "estimated_rel_mse_of_mean": rel,
         "integrator": "direct illumination, Lambertian, one light sample per pixel sample",
     })
+}
+
+/// The cuts a render uses. For `wang`: one per region the camera's pixel-centre rays reach
+/// (found with the CPU BVH; a sample that lands in another region uses the whole-scene cut,
+/// which is unbiased, only less adapted). Other samplers get just the whole-scene cut.
+pub fn build_cuts(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) -> Cuts {
+    let (lo, hi) = scene.bounds();
+    let grid = Grid::new(lo, hi, &settings.regions);
+    let mut reached = Vec::new();
+    if settings.sampler == LightSampler::Wang {
+        use rayon::prelude::*;
+        let cam = camera_params(scene, settings.width, settings.height);
+        let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+        let (w, h) = (settings.width, settings.height);
+        reached = (0..w * h)
+            .into_par_iter()
+            .filter_map(|p| {
+                let x = ((p % w) as f32 + 0.5) / w as f32 * 2.0 - 1.0;
+                let y = 1.0 - ((p / w) as f32 + 0.5) / h as f32 * 2.0;
+                let d = (v(cam.cam_w) + x * v(cam.cam_u) + y * v(cam.cam_v)).normalize();
+                let (t, prim) = gpu.bvh.intersect(v(cam.cam_pos), d, 0.0, f32::INFINITY)?;
+                let [a, b, c] = scene.triangles[prim as usize];
+                let ng = (b - a).cross(c - a).normalize();
+                let n = if ng.dot(d) < 0.0 { ng } else { -ng };
+                Some(grid.region(v(cam.cam_pos) + t * d, n))
+            })
+            .collect();
+        reached.sort_unstable();
+        reached.dedup();
+    }
+    Cuts::build(&gpu.tree, grid, reached, lo, hi, &settings.regions)
 }

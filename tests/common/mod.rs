@@ -28,3 +28,48 @@ pub fn load(b: &GltfBuilder, name: &str) -> Scene {
 pub fn exe() -> &'static str {
     env!("CARGO_BIN_EXE_lightlearn")
 }
+
+/// Runs `light_sample.comp` (sampler 2 = lightbvh, 3 = wang) on (p, n, u) queries.
+pub fn gpu_light_samples(
+    ctx: &Arc<Context>,
+    tree: &lightlearn::lights::tree::LightTree,
+    cuts: &lightlearn::lights::regions::Cuts,
+    sampler: u32,
+    queries: &[(glam::Vec3, glam::Vec3, f32)],
+) -> Vec<lightlearn::gpu::layout::LightChoice> {
+    use lightlearn::gpu::layout::LightQuery;
+    use lightlearn::gpu::{Buffer, ComputePipeline};
+    let q: Vec<LightQuery> = queries
+        .iter()
+        .map(|(p, n, u)| LightQuery {
+            p: p.to_array(),
+            u: *u,
+            n: n.to_array(),
+            pad: 0,
+        })
+        .collect();
+    let b = |name: &str, data: &[u32]| Buffer::from_slice(ctx, name, data).unwrap();
+    let nodes = Buffer::from_slice(ctx, "nodes", &tree.nodes).unwrap();
+    let order = b("order", &tree.order);
+    let qb = Buffer::from_slice(ctx, "queries", &q).unwrap();
+    let cb = Buffer::zeroed(ctx, "choices", (q.len() * 8) as u64).unwrap();
+    let grid = Buffer::from_slice(ctx, "grid", &[cuts.grid.params]).unwrap();
+    let index = b("region index", &cuts.index);
+    let cut = b("cuts", &cuts.cuts);
+    let k = ComputePipeline::new(
+        ctx,
+        "light_sample",
+        lightlearn::gpu::kernels::LIGHT_SAMPLE,
+        7,
+        4,
+        &[sampler],
+    )
+    .unwrap();
+    k.bind(&[&nodes, &order, &qb, &cb, &grid, &index, &cut])
+        .unwrap();
+    let count = q.len() as u32;
+    ctx.submit(|cmd| k.dispatch(cmd, bytemuck::bytes_of(&count), [count.div_ceil(64), 1, 1]))
+        .unwrap();
+    let out: Vec<lightlearn::gpu::layout::LightChoice> = cb.read().unwrap();
+    out[..q.len()].to_vec()
+}

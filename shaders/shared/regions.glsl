@@ -1,0 +1,69 @@
+// Region lookup and the `wang` sampler (cluster of the region's cut ∝ Ĩ_C(x), light inside
+// by power). Mirror of src/lights/regions.rs. The including kernel declares `grid`
+// (GridParams[1]), `region_index` (uint[]), `cuts` (uint[]) and the light tree buffers.
+#ifndef REGIONS_GLSL
+#define REGIONS_GLSL
+
+#include "light_tree.glsl"
+
+uint region_of(vec3 p, vec3 n) {
+    GridParams g = grid[0];
+    vec3 c = floor((p - g.lo) / g.cell);
+    uvec3 cell = min(uvec3(max(c, vec3(0.0))), g.dims - 1u);
+    uint flat_cell = (cell.z * g.dims.y + cell.y) * g.dims.x + cell.x;
+    uint bin = 0u;
+    if (g.bins == 6u) {
+        vec3 a = abs(n);
+        uint axis = (a.x >= a.y && a.x >= a.z) ? 0u : (a.y >= a.z ? 1u : 2u);
+        bin = 2u * axis + (n[axis] < 0.0 ? 1u : 0u);
+    }
+    return flat_cell * g.bins + bin;
+}
+
+#define MAX_CUT 64  // RegionSettings::k_max is checked against it
+
+uint sample_wang(vec3 p, vec3 n, float u, out float pmf) {
+    uint o = region_index[region_of(p, n)];
+    uint count = cuts[o];
+    float w[MAX_CUT];
+    float total = 0.0;
+    for (uint i = 0u; i < count; ++i) {
+        w[i] = light_importance(light_nodes[cuts[o + 1u + i]], p, n);
+        total += w[i];
+    }
+    pmf = 0.0;
+    if (total <= 0.0) return NO_LIGHT;
+    float target = u * total;
+    float acc = 0.0;
+    uint k = 0u;
+    float acc_k = 0.0;
+    bool chosen = false;
+    for (uint i = 0u; i < count && !chosen; ++i) {
+        if (w[i] > 0.0) {
+            k = i;
+            acc_k = acc;
+            if (target < acc + w[i]) chosen = true;
+            else acc += w[i];
+        }
+    }
+    float v = clamp((target - acc_k) / w[k], 0.0, ONE_MINUS_EPSILON);
+    uint node = cuts[o + 1u + k];
+    pmf = w[k] / total;
+    while (light_nodes[node].count > 1u) {
+        uint l = node + 1u;
+        uint r = light_nodes[node].right;
+        float pl = light_nodes[l].phi / (light_nodes[l].phi + light_nodes[r].phi);
+        if (v < pl) {
+            v = min(v / pl, ONE_MINUS_EPSILON);
+            pmf *= pl;
+            node = l;
+        } else {
+            v = min((v - pl) / (1.0 - pl), ONE_MINUS_EPSILON);
+            pmf *= 1.0 - pl;
+            node = r;
+        }
+    }
+    return light_order[light_nodes[node].begin];
+}
+
+#endif

@@ -1,0 +1,334 @@
+//! Regions and cuts (method.md §2): the scene bounds split into a uniform grid of cubic cells
+//! (`grid` cells along the longest axis), each cell split into 6 normal bins (dominant axis
+//! and sign of the shading normal) so both sides of a wall keep apart; every region that
+//! shading points reach gets a cut of the light tree. The `wang` sampler (Wang & Åkerlund
+//! 2009) picks a cluster of the region's cut ∝ Ĩ_C(x), then a light inside by power.
+//!
+//! Mirrored in `shaders/shared/regions.glsl`; tests/regions.rs checks GPU against CPU.
+
+use std::collections::{BinaryHeap, HashMap};
+
+use glam::Vec3;
+
+use super::tree::{LightBounds, LightTree};
+use crate::gpu::layout::{GridParams, LightNode, LIGHT_NODE_TWO_SIDED};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RegionSettings {
+    /// Cells along the longest axis of the scene bounds.
+    pub grid: u32,
+    /// Split each cell by the dominant axis and sign of the normal (6 bins).
+    pub normal_bins: bool,
+    /// Stop refining a cut when its largest node's importance ≤ τ × the cut's total.
+    pub tau: f32,
+    /// At most this many clusters per cut.
+    pub k_max: u32,
+}
+
+/// Largest `k_max`: the GPU keeps a cut's weights in a local array of this size
+/// (`MAX_CUT` in shaders/shared/regions.glsl).
+pub const MAX_K: u32 = 64;
+
+impl RegionSettings {
+    pub fn check(&self) -> anyhow::Result<()> {
+        if !(1..=1024).contains(&self.grid) {
+            anyhow::bail!("--grid {} is out of range: use 1..=1024", self.grid);
+        }
+        if !(1..=MAX_K).contains(&self.k_max) {
+            anyhow::bail!("--k-max {} is out of range: use 1..={MAX_K}", self.k_max);
+        }
+        if !(self.tau >= 0.0 && self.tau <= 1.0) {
+            anyhow::bail!("--tau {} is out of range: use 0..=1", self.tau);
+        }
+        Ok(())
+    }
+}
+
+impl Default for RegionSettings {
+    /// method.md §2 defaults.
+    fn default() -> Self {
+        RegionSettings {
+            grid: 32,
+            normal_bins: true,
+            tau: 0.02,
+            k_max: 32,
+        }
+    }
+}
+
+/// The grid: which region a shading point (p, n) falls in.
+#[derive(Clone, Copy, Debug)]
+pub struct Grid {
+    pub params: GridParams,
+}
+
+impl Grid {
+    pub fn new(lo: Vec3, hi: Vec3, s: &RegionSettings) -> Grid {
+        let extent = (hi - lo).max(Vec3::splat(1e-6));
+        let cell = extent.max_element() / s.grid as f32;
+        let dims = (extent / cell).ceil().max(Vec3::ONE);
+        Grid {
+            params: GridParams {
+                lo: lo.to_array(),
+                cell,
+                dims: [dims.x as u32, dims.y as u32, dims.z as u32],
+                bins: if s.normal_bins { 6 } else { 1 },
+            },
+        }
+    }
+
+    pub fn region_count(&self) -> u32 {
+        let d = self.params.dims;
+        d[0] * d[1] * d[2] * self.params.bins
+    }
+
+    /// Region index of (p, n); points outside the bounds clamp to the border cells.
+    pub fn region(&self, p: Vec3, n: Vec3) -> u32 {
+        let g = &self.params;
+        let c = ((p - Vec3::from(g.lo)) / g.cell).floor();
+        let cell = |k: usize| (c[k].max(0.0) as u32).min(g.dims[k] - 1);
+        let flat = (cell(2) * g.dims[1] + cell(1)) * g.dims[0] + cell(0);
+        let bin = if g.bins == 6 {
+            let a = n.abs();
+            let axis = if a.x >= a.y && a.x >= a.z {
+                0
+            } else if a.y >= a.z {
+                1
+            } else {
+                2
+            };
+            2 * axis as u32 + (n[axis] < 0.0) as u32
+        } else {
+            0
+        };
+        flat * g.bins + bin
+    }
+
+    /// Centre and half-size of a region's cell.
+    pub fn cell_box(&self, region: u32) -> (Vec3, Vec3) {
+        let g = &self.params;
+        let flat = region / g.bins;
+        let (x, y, z) = (
+            flat % g.dims[0],
+            flat / g.dims[0] % g.dims[1],
+            flat / (g.dims[0] * g.dims[1]),
+        );
+        let lo = Vec3::from(g.lo) + Vec3::new(x as f32, y as f32, z as f32) * g.cell;
+        (lo + Vec3::splat(0.5 * g.cell), Vec3::splat(0.5 * g.cell))
+    }
+}
+
+fn node_bounds(n: &LightNode) -> LightBounds {
+    LightBounds {
+        lo: Vec3::from(n.bmin),
+        hi: Vec3::from(n.bmax),
+        phi: n.phi,
+        axis: Vec3::from(n.axis),
+        cos_o: n.cos_o,
+        cos_e: n.cos_e,
+        two_sided: n.flags & LIGHT_NODE_TWO_SIDED != 0,
+    }
+}
+
+/// A region-conservative importance for building cuts: the node's bounds grown by the
+/// cell's half-size, seen from the cell's centre, with no receiver term (any normal). It only
+/// steers which nodes get refined; sampling uses the point-wise Ĩ_C(x).
+fn region_importance(node: &LightNode, centre: Vec3, half: Vec3) -> f32 {
+    let mut b = node_bounds(node);
+    b.lo -= half;
+    b.hi += half;
+    b.importance(centre, Vec3::ZERO)
+}
+
+#[derive(PartialEq)]
+struct Ranked(f32, u32);
+impl Eq for Ranked {}
+impl PartialOrd for Ranked {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Ranked {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&o.0).then(o.1.cmp(&self.1))
+    }
+}
+
+/// The cut of a region: node indices covering every light exactly once, sorted by the start
+/// of their light range. Refines the largest splittable node until it is ≤ τ × the total or
+/// the cut has `k_max` nodes.
+pub fn build_cut(tree: &LightTree, centre: Vec3, half: Vec3, s: &RegionSettings) -> Vec<u32> {
+    let imp = |i: u32| region_importance(&tree.nodes[i as usize], centre, half);
+    let mut done: Vec<u32> = Vec::new(); // leaves: cannot be split
+    let mut open = BinaryHeap::new();
+    let root_imp = imp(0);
+    let mut total = root_imp;
+    if tree.nodes[0].count == 1 {
+        done.push(0);
+    } else {
+        open.push(Ranked(root_imp, 0));
+    }
+    while let Some(Ranked(top, i)) = open.peek().map(|r| Ranked(r.0, r.1)) {
+        if (done.len() + open.len()) as u32 >= s.k_max
+            || top <= s.tau * total && top >= 0.0 && total > 0.0
+        {
+            break;
+        }
+        open.pop();
+        total -= top;
+        let node = &tree.nodes[i as usize];
+        for child in [i + 1, node.right] {
+            let ci = imp(child);
+            total += ci;
+            if tree.nodes[child as usize].count == 1 {
+                done.push(child);
+            } else {
+                open.push(Ranked(ci, child));
+            }
+        }
+    }
+    let mut cut: Vec<u32> = done
+        .into_iter()
+        .chain(open.into_iter().map(|r| r.1))
+        .collect();
+    cut.sort_by_key(|&i| tree.nodes[i as usize].begin);
+    cut
+}
+
+/// Cuts for the regions reached, in the GPU layout: `index[region]` is the offset in `cuts`
+/// of `[count, node, node, …]` (offset 0: the fallback cut of the whole scene, used by
+/// regions no cut was built for — unbiased, just less adapted).
+pub struct Cuts {
+    pub grid: Grid,
+    pub index: Vec<u32>,
+    pub cuts: Vec<u32>,
+    pub built: usize,
+}
+
+impl Cuts {
+    pub fn build(
+        tree: &LightTree,
+        grid: Grid,
+        reached: impl IntoIterator<Item = u32>,
+        scene_lo: Vec3,
+        scene_hi: Vec3,
+        s: &RegionSettings,
+    ) -> Cuts {
+        let mut cuts = Vec::new();
+        let whole = build_cut(
+            tree,
+            0.5 * (scene_lo + scene_hi),
+            0.5 * (scene_hi - scene_lo),
+            s,
+        );
+        cuts.push(whole.len() as u32);
+        cuts.extend(&whole);
+        let mut index = vec![0u32; grid.region_count() as usize];
+        let mut seen: HashMap<u32, u32> = HashMap::new();
+        for r in reached {
+            if seen.contains_key(&r) {
+                continue;
+            }
+            let (c, h) = grid.cell_box(r);
+            let cut = build_cut(tree, c, h, s);
+            let offset = cuts.len() as u32;
+            cuts.push(cut.len() as u32);
+            cuts.extend(&cut);
+            index[r as usize] = offset;
+            seen.insert(r, offset);
+        }
+        Cuts {
+            grid,
+            index,
+            cuts,
+            built: seen.len(),
+        }
+    }
+
+    /// The cut (node indices) used at (p, n).
+    pub fn cut_at(&self, p: Vec3, n: Vec3) -> &[u32] {
+        let o = self.index[self.grid.region(p, n) as usize] as usize;
+        &self.cuts[o + 1..o + 1 + self.cuts[o] as usize]
+    }
+
+    /// `wang`: cluster ∝ Ĩ_C(x) over the cut, then a light by power. The light and its pmf,
+    /// or None when no cluster can light the front of n at p.
+    pub fn sample(&self, tree: &LightTree, p: Vec3, n: Vec3, u: f32) -> Option<(u32, f32)> {
+        let cut = self.cut_at(p, n);
+        let w: Vec<f32> = cut
+            .iter()
+            .map(|&i| node_bounds(&tree.nodes[i as usize]).importance(p, n))
+            .collect();
+        let total: f32 = w.iter().sum();
+        if total <= 0.0 {
+            return None;
+        }
+        // The first non-zero slot whose cumulative weight passes u × total (the last
+        // non-zero one if rounding walks past the end); the same loop as the GLSL.
+        let target = u * total;
+        let (mut acc, mut chosen, mut last) = (0.0f32, None, (0usize, 0.0f32));
+        for (i, &wi) in w.iter().enumerate() {
+            if wi > 0.0 {
+                last = (i, acc);
+                if target < acc + wi {
+                    chosen = Some((i, acc));
+                    break;
+                }
+                acc += wi;
+            }
+        }
+        let (k, acc) = chosen.unwrap_or(last);
+        let mut v = ((target - acc) / w[k]).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
+        let mut node = cut[k] as usize;
+        let mut pmf = w[k] / total;
+        while tree.nodes[node].count > 1 {
+            let (l, r) = (node + 1, tree.nodes[node].right as usize);
+            let pl = tree.nodes[l].phi / (tree.nodes[l].phi + tree.nodes[r].phi);
+            if v < pl {
+                v = (v / pl).min(1.0 - f32::EPSILON / 2.0);
+                pmf *= pl;
+                node = l;
+            } else {
+                v = ((v - pl) / (1.0 - pl)).min(1.0 - f32::EPSILON / 2.0);
+                pmf *= 1.0 - pl;
+                node = r;
+            }
+        }
+        Some((tree.order[tree.nodes[node].begin as usize], pmf))
+    }
+
+    /// The probability that `sample` returns `light` at (p, n).
+    pub fn pmf(&self, tree: &LightTree, p: Vec3, n: Vec3, light: u32) -> f32 {
+        let pos = tree.position[light as usize];
+        let cut = self.cut_at(p, n);
+        let w: Vec<f32> = cut
+            .iter()
+            .map(|&i| node_bounds(&tree.nodes[i as usize]).importance(p, n))
+            .collect();
+        let total: f32 = w.iter().sum();
+        if total <= 0.0 {
+            return 0.0;
+        }
+        let Some(k) = cut.iter().position(|&i| {
+            let nd = &tree.nodes[i as usize];
+            pos >= nd.begin && pos < nd.begin + nd.count
+        }) else {
+            return 0.0;
+        };
+        let mut node = cut[k] as usize;
+        let mut pmf = w[k] / total;
+        while tree.nodes[node].count > 1 {
+            let (l, r) = (node + 1, tree.nodes[node].right as usize);
+            let pl = tree.nodes[l].phi / (tree.nodes[l].phi + tree.nodes[r].phi);
+            let nl = &tree.nodes[l];
+            if pos < nl.begin + nl.count {
+                pmf *= pl;
+                node = l;
+            } else {
+                pmf *= 1.0 - pl;
+                node = r;
+            }
+        }
+        pmf
+    }
+}

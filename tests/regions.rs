@@ -1,0 +1,208 @@
+//! Regions, cuts and the `wang` sampler: every cut covers every light exactly once; the pmf
+//! returned with a sample equals the pmf recomputed; pmfs sum to one; every light that can
+//! contribute has pmf > 0; the mean of f/p matches the exact sum; GPU and CPU agree.
+
+mod common;
+
+use std::path::Path;
+
+use glam::Vec3;
+use lightlearn::accel::Bvh;
+use lightlearn::lights::regions::{Cuts, Grid, RegionSettings};
+use lightlearn::lights::tree::LightTree;
+use lightlearn::rng::SplitMix64;
+use lightlearn::scene::{gltf_load, Scene};
+
+fn scene(name: &str) -> Scene {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name);
+    gltf_load::load(&p, &mut |w| panic!("{w}")).unwrap()
+}
+
+/// Cuts for the regions hit by rays from random points: as many regions as a render touches.
+fn cuts_for(
+    s: &Scene,
+    tree: &LightTree,
+    settings: &RegionSettings,
+) -> (Cuts, Vec<(Vec3, Vec3, f32)>) {
+    let bvh = Bvh::build(&s.triangles);
+    let (lo, hi) = s.bounds();
+    let grid = Grid::new(lo, hi, settings);
+    let mut r = SplitMix64(21);
+    let mut points = Vec::new();
+    while points.len() < 600 {
+        let o = lo + (hi - lo) * Vec3::new(r.f32(), r.f32(), r.f32());
+        let d = Vec3::new(r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(-1.0, 1.0))
+            .normalize_or(Vec3::X);
+        if let Some((t, prim)) = bvh.intersect(o, d, 0.0, f32::INFINITY) {
+            let [a, b, c] = s.triangles[prim as usize];
+            let ng = (b - a).cross(c - a).normalize();
+            let n = if ng.dot(d) < 0.0 { ng } else { -ng };
+            points.push((o + t * d + n * 1e-3, n, r.f32()));
+        }
+    }
+    // Build cuts for two thirds of the regions; the rest must fall back to the global cut.
+    let reached: Vec<u32> = points[..400]
+        .iter()
+        .map(|(p, n, _)| grid.region(*p, *n))
+        .collect();
+    (Cuts::build(tree, grid, reached, lo, hi, settings), points)
+}
+
+#[test]
+fn cuts_partition_the_lights() {
+    for name in ["rooms.glb", "city.glb", "strings.glb", "cornell.glb"] {
+        let s = scene(name);
+        let tree = LightTree::build(&s);
+        for settings in [
+            RegionSettings::default(),
+            RegionSettings {
+                k_max: 1,
+                ..Default::default()
+            },
+            RegionSettings {
+                tau: 0.0,
+                k_max: 64,
+                normal_bins: false,
+                grid: 8,
+            },
+        ] {
+            let (cuts, _) = cuts_for(&s, &tree, &settings);
+            assert!(cuts.built > 10, "{name}: only {} cuts built", cuts.built);
+            let mut o = 0;
+            while o < cuts.cuts.len() {
+                let k = cuts.cuts[o] as usize;
+                assert!(
+                    k >= 1 && k as u32 <= settings.k_max,
+                    "{name}: cut of {k} nodes"
+                );
+                let mut next = 0;
+                for &node in &cuts.cuts[o + 1..o + 1 + k] {
+                    let nd = &tree.nodes[node as usize];
+                    assert_eq!(
+                        nd.begin, next,
+                        "{name}: cut ranges must tile the lights in order"
+                    );
+                    next += nd.count;
+                }
+                assert_eq!(
+                    next as usize,
+                    s.lights.len(),
+                    "{name}: a cut must cover every light"
+                );
+                o += 1 + k;
+            }
+        }
+    }
+}
+
+#[test]
+fn wang_pmfs_are_exact_normalised_and_cover_every_contributing_light() {
+    for name in ["rooms.glb", "city.glb", "strings.glb", "cornell.glb"] {
+        let s = scene(name);
+        let tree = LightTree::build(&s);
+        let (cuts, points) = cuts_for(&s, &tree, &RegionSettings::default());
+        let lbvh = LightTree::build(&s);
+        let mut sampled = 0;
+        for &(p, n, u) in &points {
+            let total: f64 = (0..s.lights.len() as u32)
+                .map(|l| cuts.pmf(&tree, p, n, l) as f64)
+                .sum();
+            match cuts.sample(&tree, p, n, u) {
+                Some((l, pmf)) => {
+                    sampled += 1;
+                    let again = cuts.pmf(&tree, p, n, l);
+                    assert!(
+                        (pmf - again).abs() <= 1e-5 * pmf,
+                        "{name}: pmf {pmf} vs recomputed {again}"
+                    );
+                    assert!((total - 1.0).abs() < 1e-3, "{name}: pmfs sum to {total}");
+                }
+                None => assert_eq!(total, 0.0, "{name}: no sample, yet pmfs sum to {total}"),
+            }
+            // Cover: any light the (conservative) tree importance says can contribute here
+            // has pmf > 0 (the lightbvh pmf > 0 means some path of non-zero importance).
+            for l in 0..s.lights.len() as u32 {
+                if lbvh.pmf(p, n, l) > 0.0 {
+                    assert!(
+                        cuts.pmf(&tree, p, n, l) > 0.0,
+                        "{name}: light {l} has lightbvh pmf > 0 but wang pmf 0 at {p}"
+                    );
+                }
+            }
+        }
+        assert!(
+            sampled > 300,
+            "{name}: too few points with a sample ({sampled})"
+        );
+    }
+}
+
+#[test]
+fn wang_mean_of_f_over_p_matches_the_exact_sum() {
+    let s = scene("strings.glb");
+    let tree = LightTree::build(&s);
+    let (cuts, points) = cuts_for(&s, &tree, &RegionSettings::default());
+    let contribution = |l: usize, p: Vec3, n: Vec3| -> f64 {
+        let lightlearn::scene::Light::Point {
+            position,
+            intensity,
+        } = s.lights[l]
+        else {
+            unreachable!()
+        };
+        let d = position - p;
+        (lightlearn::scene::luminance(intensity) * n.dot(d.normalize()).max(0.0)
+            / d.length_squared()) as f64
+    };
+    let mut r = SplitMix64(77);
+    for &(p, n, _) in points.iter().step_by(40) {
+        let exact: f64 = (0..s.lights.len()).map(|l| contribution(l, p, n)).sum();
+        let k = 20_000;
+        let (mut sum, mut sum2) = (0f64, 0f64);
+        for _ in 0..k {
+            let x = cuts
+                .sample(&tree, p, n, r.f32())
+                .map_or(0.0, |(l, pmf)| contribution(l as usize, p, n) / pmf as f64);
+            sum += x;
+            sum2 += x * x;
+        }
+        let mean = sum / k as f64;
+        let se = ((sum2 / k as f64 - mean * mean).max(0.0) / k as f64).sqrt();
+        assert!(
+            (mean - exact).abs() <= 5.0 * se + 1e-6 * exact,
+            "at {p}: mean {mean} vs exact {exact} (σ {se})"
+        );
+    }
+}
+
+#[test]
+fn gpu_and_cpu_wang_agree() {
+    let ctx = common::ctx();
+    for name in ["city.glb", "rooms.glb", "strings.glb"] {
+        let s = scene(name);
+        let tree = LightTree::build(&s);
+        let (cuts, points) = cuts_for(&s, &tree, &RegionSettings::default());
+        let got = common::gpu_light_samples(&ctx, &tree, &cuts, 3, &points);
+        let mut same = 0;
+        for (i, &(p, n, u)) in points.iter().enumerate() {
+            let cpu = cuts.sample(&tree, p, n, u).map(|c| c.0);
+            let g = got[i];
+            same += (cpu == (g.light != u32::MAX).then_some(g.light)) as usize;
+            if g.light != u32::MAX {
+                let want = cuts.pmf(&tree, p, n, g.light);
+                assert!(
+                    (g.pmf - want).abs() <= 1e-3 * want,
+                    "{name} query {i}: GPU pmf {} vs CPU {want}",
+                    g.pmf
+                );
+            }
+        }
+        assert!(
+            same * 1000 >= points.len() * 995,
+            "{name}: only {same} of {} agree",
+            points.len()
+        );
+    }
+}
