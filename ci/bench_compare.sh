@@ -8,7 +8,7 @@ t="${1:-10}"
 out="${2:-bench-out}"
 cargo build --release --quiet
 for s in default cornell rooms hall city strings; do
-  ./target/release/lightlearn compare "scenes/$s.glb" --samplers uniform,power,lightbvh --time "$t" \
+  ./target/release/lightlearn compare "scenes/$s.glb" --samplers uniform,power,lightbvh,wang --time "$t" \
     --reference-spp 2048 --width 256 --height 192 --out "$out/$s" -q
 done
 python3 - "$out" <<'PY'
