@@ -1,8 +1,8 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// Runs a light-tree sampler (SAMPLER: 2 lightbvh, 3 wang) for a batch of (p, n, u) queries:
+// Runs a light-tree sampler (SAMPLER: 2 lightbvh, 3 wang, 4 donikian, 5 bayes) for a batch of (p, n, u) queries:
 // the GPU side of the tests that GPU and CPU pick the same light with the same pmf
-// (tests/light_tree.rs, tests/regions.rs).
+// (tests/light_tree.rs, tests/regions.rs, tests/learning.rs).
 #include "types.glsl"
 
 layout(local_size_x = 64) in;
@@ -16,18 +16,24 @@ layout(std430, set = 0, binding = 3) writeonly buffer Choices { LightChoice choi
 layout(std430, set = 0, binding = 4) readonly buffer Grid { GridParams grid[]; };
 layout(std430, set = 0, binding = 5) readonly buffer RegionIndex { uint region_index[]; };
 layout(std430, set = 0, binding = 6) readonly buffer Cuts { uint cuts[]; };
+layout(std430, set = 0, binding = 7) readonly buffer Stats { SlotStats slot_stats[]; };
+layout(std430, set = 0, binding = 8) buffer Delta { SlotDelta slot_delta[]; };
+layout(std430, set = 0, binding = 9) readonly buffer Learn { LearnParams learn[]; };
 
 layout(push_constant) uniform Push { uint query_count; };
 
-#include "regions.glsl"
+#include "learning.glsl"
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= query_count) return;
     LightQuery q = queries[i];
     LightChoice c;
-    c.light = SAMPLER == SAMPLER_WANG ? sample_wang(q.p, q.n, q.u, c.pmf)
-                                      : sample_light_tree(q.p, q.n, q.u, c.pmf);
+    uint slot;
+    float p_slot, d2;
+    if (SAMPLER == SAMPLER_WANG) c.light = sample_wang(q.p, q.n, q.u, c.pmf);
+    else if (SAMPLER == SAMPLER_LIGHTBVH) c.light = sample_light_tree(q.p, q.n, q.u, c.pmf);
+    else c.light = sample_learned(q.p, q.n, q.u, 1.0, c.pmf, slot, p_slot, d2);
     if (c.light == NO_LIGHT) c.pmf = 0.0;
     choices[i] = c;
 }

@@ -9,7 +9,7 @@
 layout(local_size_x = 8, local_size_y = 8) in;
 
 // The light sampler, a closed set (src/render/mod.rs LightSampler): 0 uniform, 1 power,
-// 2 lightbvh, 3 wang.
+// 2 lightbvh, 3 wang, 4 donikian, 5 bayes.
 layout(constant_id = 0) const uint SAMPLER = 0u;
 
 layout(std430, set = 0, binding = 0) readonly buffer Nodes { BvhNode bvh_nodes[]; };
@@ -20,12 +20,16 @@ layout(std430, set = 0, binding = 4) readonly buffer Lights { GpuLight lights[];
 layout(std430, set = 0, binding = 5) readonly buffer Alias { AliasEntry alias_table[]; };
 layout(std430, set = 0, binding = 6) buffer Accum { PixelAccum accum[]; };
 // [0]: samples dropped because they were NaN or Inf (reported, never averaged in).
+// [1]: learned-sampler samples taken in a region without its own cut (the shared fallback).
 layout(std430, set = 0, binding = 7) buffer Counters { uint counters[]; };
 layout(std430, set = 0, binding = 8) readonly buffer LightNodes { LightNode light_nodes[]; };
 layout(std430, set = 0, binding = 9) readonly buffer LightOrder { uint light_order[]; };
 layout(std430, set = 0, binding = 10) readonly buffer Grid { GridParams grid[]; };
 layout(std430, set = 0, binding = 11) readonly buffer RegionIndex { uint region_index[]; };
 layout(std430, set = 0, binding = 12) readonly buffer Cuts { uint cuts[]; };
+layout(std430, set = 0, binding = 13) readonly buffer Stats { SlotStats slot_stats[]; };
+layout(std430, set = 0, binding = 14) buffer Delta { SlotDelta slot_delta[]; };
+layout(std430, set = 0, binding = 15) readonly buffer Learn { LearnParams learn[]; };
 
 layout(push_constant) uniform Push { RenderParams params; };
 
@@ -33,6 +37,7 @@ layout(push_constant) uniform Push { RenderParams params; };
 #include "lights.glsl"
 #include "light_tree.glsl"
 #include "regions.glsl"
+#include "learning.glsl"
 
 // Random-number dimensions of one pixel sample.
 #define DIM_JITTER_X 0u
@@ -73,9 +78,21 @@ void main() {
         float pmf;
         float u_light = sample_rand(seed, pixel, s, DIM_LIGHT);
         uint li;
+        const bool learned = SAMPLER == SAMPLER_BAYES || SAMPLER == SAMPLER_DONIKIAN;
+        uint slot = NO_SLOT;
+        float p_slot = 1.0;
+        float d2_slot = 1.0;
+        // --brdf-aware: the observation includes the (Lambertian) BRDF as luminance.
+        float brdf = (SAMPLER == SAMPLER_BAYES && (learn[0].flags & LEARN_BRDF) != 0u)
+                         ? dot(m.base_color, vec3(0.2126, 0.7152, 0.0722)) / PI : 1.0;
         if (SAMPLER == SAMPLER_LIGHTBVH) li = sample_light_tree(x, n, u_light, pmf);
         else if (SAMPLER == SAMPLER_WANG) li = sample_wang(x, n, u_light, pmf);
+        else if (learned) li = sample_learned(x, n, u_light, brdf, pmf, slot, p_slot, d2_slot);
         else li = pick_light(u_light, params.light_count, pmf);
+        if (learned && li != NO_LIGHT && slot == NO_SLOT) atomicAdd(counters[1], 1u);
+        // The observation of the chosen cluster: Î_C = L_e G V / (P(l|C) p(y|l)) as
+        // luminance (not divided by P(C|x)); zero when occluded or facing away.
+        float observed = 0.0;
         vec3 wi;
         float dist;
         vec2 u = vec2(sample_rand(seed, pixel, s, DIM_LIGHT_U), sample_rand(seed, pixel, s, DIM_LIGHT_V));
@@ -97,8 +114,10 @@ void main() {
             float ts;
             if (trace_ray(so, to_light / sdist, 0.0, tmax, true, ts) == NO_HIT) {
                 L += m.base_color * (1.0 / PI) * Li * (cos_x / pmf);
+                observed = dot(Li, vec3(0.2126, 0.7152, 0.0722)) * cos_x * (p_slot / pmf) * brdf;
             }
         }
+        if (learned && slot != NO_SLOT) record_observation(slot, observed * d2_slot);
     }
 
     if (any(isnan(L)) || any(isinf(L))) {

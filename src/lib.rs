@@ -7,6 +7,7 @@ pub mod compare;
 pub mod film;
 pub mod gpu;
 pub mod io;
+pub mod learning;
 pub mod lights;
 pub mod reference;
 pub mod render;

@@ -15,6 +15,8 @@ use lightlearn::accel::Bvh;
 use lightlearn::compare::{self, reference, report};
 use lightlearn::film::{self, OutputPaths};
 use lightlearn::gpu::{Context, ContextOptions};
+use lightlearn::learning::stats_file::SavedStats;
+use lightlearn::learning::LearnSettings;
 use lightlearn::lights::regions::RegionSettings;
 use lightlearn::render::{self, Budget, GpuScene, LightSampler, RenderSettings};
 use lightlearn::scene::families::{self, Family, FamilyParams};
@@ -92,6 +94,65 @@ impl RegionArgs {
     }
 }
 
+/// The learned samplers (`--sampler bayes|donikian`, method.md §3–§8).
+#[derive(Args)]
+struct LearnArgs {
+    /// Fold new observations into the posteriors every K passes (1 pass = 1 spp).
+    #[arg(long, default_value_t = 1, value_name = "K")]
+    update_every: u32,
+    /// bayes: the 1/d² regression of a cluster's contribution (off: one constant per slot).
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    regression: String,
+    /// bayes: pick clusters ∝ sqrt(mean² + variance) (the method) or ∝ the mean.
+    #[arg(long, default_value = "sqrt", value_parser = ["sqrt", "mean"])]
+    target: String,
+    /// bayes: Beta and Normal-inverse-gamma priors from the unoccluded estimate (off: no
+    /// pseudo-counts; divisions guarded, a slot never seen lit keeps chance ≥ 1/(n+1)).
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    priors: String,
+    /// bayes: observations include the BRDF (luminance of albedo/π).
+    #[arg(long)]
+    brdf_aware: bool,
+    /// bayes: Beta prior pseudo-count of zero observations (n̄_o).
+    #[arg(long, default_value_t = 2.0)]
+    prior_zero: f32,
+    /// bayes: Beta prior pseudo-count of non-zero observations (n̄_v).
+    #[arg(long, default_value_t = 2.0)]
+    prior_nonzero: f32,
+    /// bayes: pseudo-count of the Normal prior on the regression constant (n̄).
+    #[arg(long, default_value_t = 1.0)]
+    prior_n: f32,
+    /// bayes: shape of the inverse-gamma prior on the variance (n̄_α).
+    #[arg(long, default_value_t = 1.0)]
+    prior_alpha: f32,
+    /// bayes: prior coefficient of variation c_v (β = n̄_α (c_v μ0)²).
+    #[arg(long, default_value_t = 1.0)]
+    prior_cv: f32,
+    /// donikian: weight of the unoccluded estimate in the defensive mixture.
+    #[arg(long, default_value_t = 0.1)]
+    lambda: f32,
+}
+
+impl LearnArgs {
+    fn settings(&self) -> Result<LearnSettings> {
+        let s = LearnSettings {
+            update_every: self.update_every,
+            regression: self.regression == "on",
+            target_mean: self.target == "mean",
+            priors: self.priors == "on",
+            brdf_aware: self.brdf_aware,
+            prior_zero: self.prior_zero,
+            prior_nonzero: self.prior_nonzero,
+            prior_n: self.prior_n,
+            prior_alpha: self.prior_alpha,
+            prior_cv: self.prior_cv,
+            lambda: self.lambda,
+        };
+        s.check()?;
+        Ok(s)
+    }
+}
+
 #[derive(Args)]
 struct RenderArgs {
     /// glTF 2.0 scene (.gltf or .glb). Default: the built-in scene (scenes/default.glb).
@@ -127,6 +188,16 @@ struct RenderArgs {
     quiet: bool,
     #[command(flatten)]
     regions: RegionArgs,
+    #[command(flatten)]
+    learn: LearnArgs,
+    /// Save the learned statistics (with their regions and cuts) to FILE after the render
+    /// (bayes, donikian).
+    #[arg(long, value_name = "FILE")]
+    save_stats: Option<PathBuf>,
+    /// Start from statistics saved by --save-stats (same scene and region settings); the
+    /// sample indices continue after the saved render's.
+    #[arg(long, value_name = "FILE")]
+    load_stats: Option<PathBuf>,
     #[command(flatten)]
     device: DeviceArgs,
 }
@@ -166,6 +237,8 @@ struct CompareArgs {
     image: StudyArgs,
     #[command(flatten)]
     regions: RegionArgs,
+    #[command(flatten)]
+    learn: LearnArgs,
     #[command(flatten)]
     device: DeviceArgs,
 }
@@ -333,8 +406,21 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     }
     check_depth(a.max_depth)?;
     let regions = a.regions.settings()?;
-    // Check the output location before spending time on the render.
+    let learn = a.learn.settings()?;
+    if (a.save_stats.is_some() || a.load_stats.is_some()) && !a.sampler.learned() {
+        bail!(
+            "--save-stats/--load-stats need a learning sampler: add --sampler bayes or --sampler donikian"
+        );
+    }
+    // Check the output locations and the statistics file before spending time on the render.
     let paths = OutputPaths::new(&a.out)?;
+    if let Some(p) = &a.save_stats {
+        lightlearn::io::check_parent(p)?;
+    }
+    let loaded = match &a.load_stats {
+        Some(p) => Some(SavedStats::load(p)?),
+        None => None,
+    };
     let scene = load_scene(a.scene.as_deref())?;
     let ctx = context(&a.device)?;
     let t0 = Instant::now();
@@ -359,7 +445,20 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         seed: a.seed,
         sampler: a.sampler,
         regions,
+        learn,
+        resume: None,
     };
+    let mut settings = settings;
+    if let (Some(saved), Some(p)) = (loaded, &a.load_stats) {
+        let want = render::stats_header(
+            &gpu,
+            &render::build_cuts(&scene, &gpu, &settings),
+            &settings,
+            0,
+        );
+        saved.check_matches(&want, p)?;
+        settings.resume = Some(std::sync::Arc::new(saved));
+    }
     let result = render::render(&ctx, &scene, &gpu, &settings, &mut |spp, f| {
         bar.set_position((f * 1000.0) as u64);
         bar.set_message(format!("{spp} spp"));
@@ -372,6 +471,9 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     report["light_tree_build_seconds"] = json!(gpu.light_tree_seconds);
     report["total_seconds"] = json!(started.elapsed().as_secs_f64());
     film::write_outputs(&paths, a.width, a.height, &image, &report)?;
+    if let (Some(p), Some(l)) = (&a.save_stats, &result.learned) {
+        l.saved.save(p)?;
+    }
     if result.invalid_samples > 0 {
         eprintln!(
             "warning: {} samples were NaN/Inf and were dropped; please report this scene",
@@ -491,6 +593,7 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
     check_depth(a.image.max_depth)?;
     let samplers = LightSampler::parse_list(&a.samplers)?;
     let regions = a.regions.settings()?;
+    let learn = a.learn.settings()?;
     let mut budgets = Vec::new();
     if let Some(t) = a.time {
         if !(t.is_finite() && t > 0.0) {
@@ -580,6 +683,7 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
             &gpu,
             &samplers,
             &regions,
+            &learn,
             budget,
             a.image.width,
             a.image.height,

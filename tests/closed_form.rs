@@ -40,6 +40,8 @@ fn render_mean(g: &GltfBuilder, sampler: LightSampler) -> (f64, f64) {
         seed: 3,
         sampler,
         regions: lightlearn::lights::regions::RegionSettings::default(),
+        learn: Default::default(),
+        resume: None,
     };
     let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
     let n = r.mean().len() as f64;

@@ -112,6 +112,7 @@ fn host_and_shader_structs_match() {
     let mut spv = reflect(kernels::RENDER);
     spv.extend(reflect(kernels::TRACE));
     spv.extend(reflect(kernels::LIGHT_SAMPLE));
+    spv.extend(reflect(kernels::FOLD));
     let rust = [
         rust_layout!(BvhNode {
             a_min,
@@ -190,6 +191,36 @@ fn host_and_shader_structs_match() {
         }),
         rust_layout!(LightQuery { p, u, n, pad }),
         rust_layout!(LightChoice { light, pmf }),
+        rust_layout!(SlotStats {
+            n_zero,
+            n_nonzero,
+            sum,
+            sum_sq,
+            scale,
+            pad0,
+            pad1,
+            pad2
+        }),
+        rust_layout!(SlotDelta {
+            n_zero,
+            n_nonzero,
+            sum_lo,
+            sum_hi,
+            sq_lo,
+            sq_hi,
+            pad0,
+            pad1
+        }),
+        rust_layout!(LearnParams {
+            prior_zero,
+            prior_nonzero,
+            prior_n,
+            prior_alpha,
+            prior_cv,
+            lambda,
+            flags,
+            slot_count
+        }),
         rust_layout!(GridParams {
             lo,
             cell,

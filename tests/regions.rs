@@ -69,7 +69,11 @@ fn cuts_partition_the_lights() {
             },
         ] {
             let (cuts, _) = cuts_for(&s, &tree, &settings);
-            assert!(cuts.built > 10, "{name}: only {} cuts built", cuts.built);
+            assert!(
+                cuts.built() > 10,
+                "{name}: only {} cuts built",
+                cuts.built()
+            );
             let mut o = 0;
             while o < cuts.cuts.len() {
                 let k = cuts.cuts[o] as usize;

@@ -130,6 +130,8 @@ fn gpu_render(scene: &Scene, sampler: LightSampler) -> RenderResult {
         seed: 7,
         sampler,
         regions: lightlearn::lights::regions::RegionSettings::default(),
+        learn: Default::default(),
+        resume: None,
     };
     render::render(&ctx, scene, &gpu, &settings, &mut |_, _| {}).unwrap()
 }

@@ -19,6 +19,13 @@ float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
 }
 
 // Unoccluded importance of a node at p for a receiver with normal n (see tree.rs).
+// The squared distance of the importance and of the learned regression (pbrt-v4's clamp:
+// at least half the box diagonal, so points inside a big node do not blow up).
+float node_d2(LightNode nd, vec3 p) {
+    vec3 to = p - 0.5 * (nd.bmin + nd.bmax);
+    return max(dot(to, to), 0.5 * length(nd.bmax - nd.bmin));
+}
+
 float light_importance(LightNode nd, vec3 p, vec3 n) {
     vec3 pc = 0.5 * (nd.bmin + nd.bmax);
     vec3 diag = nd.bmax - nd.bmin;

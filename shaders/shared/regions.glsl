@@ -22,33 +22,29 @@ uint region_of(vec3 p, vec3 n) {
 
 #define MAX_CUT 64  // RegionSettings::k_max is checked against it
 
-uint sample_wang(vec3 p, vec3 n, float u, out float pmf) {
-    uint o = region_index[region_of(p, n)];
-    uint count = cuts[o];
-    float w[MAX_CUT];
-    float total = 0.0;
-    for (uint i = 0u; i < count; ++i) {
-        w[i] = light_importance(light_nodes[cuts[o + 1u + i]], p, n);
-        total += w[i];
-    }
-    pmf = 0.0;
-    if (total <= 0.0) return NO_LIGHT;
+// The weights of the current cut's slots (filled by the sampler that calls pick_in_cut).
+float cut_w[MAX_CUT];
+
+// Picks slot k of the cut at offset o ∝ cut_w (total > 0: their sum), then a light inside the
+// slot's node by power. Returns the light; pmf = P(k) · P(l | k), p_slot = P(k).
+uint pick_in_cut(uint o, uint count, float total, float u, out float pmf, out uint k, out float p_slot) {
     float target = u * total;
     float acc = 0.0;
-    uint k = 0u;
+    k = 0u;
     float acc_k = 0.0;
     bool chosen = false;
     for (uint i = 0u; i < count && !chosen; ++i) {
-        if (w[i] > 0.0) {
+        if (cut_w[i] > 0.0) {
             k = i;
             acc_k = acc;
-            if (target < acc + w[i]) chosen = true;
-            else acc += w[i];
+            if (target < acc + cut_w[i]) chosen = true;
+            else acc += cut_w[i];
         }
     }
-    float v = clamp((target - acc_k) / w[k], 0.0, ONE_MINUS_EPSILON);
+    float v = clamp((target - acc_k) / cut_w[k], 0.0, ONE_MINUS_EPSILON);
     uint node = cuts[o + 1u + k];
-    pmf = w[k] / total;
+    p_slot = cut_w[k] / total;
+    pmf = p_slot;
     while (light_nodes[node].count > 1u) {
         uint l = node + 1u;
         uint r = light_nodes[node].right;
@@ -64,6 +60,21 @@ uint sample_wang(vec3 p, vec3 n, float u, out float pmf) {
         }
     }
     return light_order[light_nodes[node].begin];
+}
+
+uint sample_wang(vec3 p, vec3 n, float u, out float pmf) {
+    uint o = region_index[region_of(p, n)];
+    uint count = cuts[o];
+    float total = 0.0;
+    for (uint i = 0u; i < count; ++i) {
+        cut_w[i] = light_importance(light_nodes[cuts[o + 1u + i]], p, n);
+        total += cut_w[i];
+    }
+    pmf = 0.0;
+    if (total <= 0.0) return NO_LIGHT;
+    uint k;
+    float p_slot;
+    return pick_in_cut(o, count, total, u, pmf, k, p_slot);
 }
 
 #endif

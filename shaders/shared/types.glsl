@@ -10,6 +10,8 @@
 #define SAMPLER_POWER 1u
 #define SAMPLER_LIGHTBVH 2u
 #define SAMPLER_WANG 3u
+#define SAMPLER_DONIKIAN 4u
+#define SAMPLER_BAYES 5u
 
 struct BvhNode {
     vec3 a_min; uint a_ref;
@@ -65,6 +67,34 @@ struct LightChoice {
 struct GridParams {
     vec3 lo; float cell;
     uvec3 dims; uint bins;
+};
+
+// Learned statistics of one (region, cut slot), parallel to the `cuts` array: totals of the
+// observations y (counts of zero and non-zero ones, Σy, Σy²) folded in so far, frozen during a
+// pass, and the scale of the window's fixed-point sums.
+struct SlotStats {
+    float n_zero; float n_nonzero; float sum; float sum_sq;
+    float scale; uint pad0; uint pad1; uint pad2;
+};
+
+// Observations of the current window, summed by atomics in 64-bit fixed point (lo, hi words):
+// integer sums do not depend on the order of the adds, so renders are bit-identical.
+struct SlotDelta {
+    uint n_zero; uint n_nonzero;
+    uint sum_lo; uint sum_hi;
+    uint sq_lo; uint sq_hi;
+    uint pad0; uint pad1;
+};
+
+#define LEARN_REGRESSION 1u
+#define LEARN_TARGET_MEAN 2u
+#define LEARN_PRIORS 4u
+#define LEARN_BRDF 8u
+
+// Hyperparameters and switches of the learned samplers (src/learning/mod.rs LearnSettings).
+struct LearnParams {
+    float prior_zero; float prior_nonzero; float prior_n; float prior_alpha;
+    float prior_cv; float lambda; uint flags; uint slot_count;
 };
 
 #define MATERIAL_TWO_SIDED 1u

@@ -118,6 +118,7 @@ pub fn compare(
     gpu: &GpuScene,
     samplers: &[LightSampler],
     regions: &crate::lights::regions::RegionSettings,
+    learn: &crate::learning::LearnSettings,
     budget: Budget,
     width: u32,
     height: u32,
@@ -134,6 +135,8 @@ pub fn compare(
             seed,
             sampler,
             regions: *regions,
+            learn: *learn,
+            resume: None,
         };
         let mut convergence = Vec::new();
         let result = render::render_with_checkpoints(

@@ -97,6 +97,8 @@ pub fn settings(width: u32, height: u32, spp: u32, seed: u32) -> Result<RenderSe
         seed: reference_seed(seed),
         sampler: REFERENCE_SAMPLER,
         regions: Default::default(),
+        learn: Default::default(),
+        resume: None,
     })
 }
 

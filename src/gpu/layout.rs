@@ -126,6 +126,56 @@ pub struct GridParams {
     pub bins: u32,
 }
 
+/// Learned totals of one (region, cut slot), parallel to the cuts array (see
+/// src/learning/mod.rs): counts of zero and non-zero observations, Σy, Σy², and the scale of
+/// the current window's fixed-point sums.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct SlotStats {
+    pub n_zero: f32,
+    pub n_nonzero: f32,
+    pub sum: f32,
+    pub sum_sq: f32,
+    pub scale: f32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
+}
+
+/// The current window's observations: counts and 64-bit fixed-point sums (lo, hi words) of
+/// y / scale and (y / scale)², 24 fraction bits.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct SlotDelta {
+    pub n_zero: u32,
+    pub n_nonzero: u32,
+    pub sum_lo: u32,
+    pub sum_hi: u32,
+    pub sq_lo: u32,
+    pub sq_hi: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+}
+
+pub const LEARN_REGRESSION: u32 = 1;
+pub const LEARN_TARGET_MEAN: u32 = 2;
+pub const LEARN_PRIORS: u32 = 4;
+pub const LEARN_BRDF: u32 = 8;
+
+/// Hyperparameters and switches of the learned samplers.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct LearnParams {
+    pub prior_zero: f32,
+    pub prior_nonzero: f32,
+    pub prior_n: f32,
+    pub prior_alpha: f32,
+    pub prior_cv: f32,
+    pub lambda: f32,
+    pub flags: u32,
+    pub slot_count: u32,
+}
+
 pub const MATERIAL_TWO_SIDED: u32 = 1;
 
 #[repr(C)]

@@ -202,7 +202,8 @@ pub struct Cuts {
     pub grid: Grid,
     pub index: Vec<u32>,
     pub cuts: Vec<u32>,
-    pub built: usize,
+    /// Offsets of the cuts built for reached regions (the fallback at 0 is not listed).
+    pub offsets: Vec<u32>,
 }
 
 impl Cuts {
@@ -237,12 +238,31 @@ impl Cuts {
             index[r as usize] = offset;
             seen.insert(r, offset);
         }
+        let mut offsets: Vec<u32> = seen.into_values().collect();
+        offsets.sort_unstable();
         Cuts {
             grid,
             index,
             cuts,
-            built: seen.len(),
+            offsets,
         }
+    }
+
+    /// Cuts read back from a statistics file (`--load-stats`).
+    pub fn from_parts(grid: Grid, index: Vec<u32>, cuts: Vec<u32>) -> Cuts {
+        let mut offsets: Vec<u32> = index.iter().copied().filter(|&o| o != 0).collect();
+        offsets.sort_unstable();
+        offsets.dedup();
+        Cuts {
+            grid,
+            index,
+            cuts,
+            offsets,
+        }
+    }
+
+    pub fn built(&self) -> usize {
+        self.offsets.len()
     }
 
     /// The cut (node indices) used at (p, n).
@@ -251,84 +271,105 @@ impl Cuts {
         &self.cuts[o + 1..o + 1 + self.cuts[o] as usize]
     }
 
+    /// Offset in `cuts` of the cut used at (p, n) (0: the fallback).
+    pub fn offset_at(&self, p: Vec3, n: Vec3) -> usize {
+        self.index[self.grid.region(p, n) as usize] as usize
+    }
+
+    /// Ĩ_C(p) of every node of a cut (the `wang` weights).
+    pub fn importances(tree: &LightTree, cut: &[u32], p: Vec3, n: Vec3) -> Vec<f32> {
+        cut.iter()
+            .map(|&i| node_bounds(&tree.nodes[i as usize]).importance(p, n))
+            .collect()
+    }
+
     /// `wang`: cluster ∝ Ĩ_C(x) over the cut, then a light by power. The light and its pmf,
     /// or None when no cluster can light the front of n at p.
     pub fn sample(&self, tree: &LightTree, p: Vec3, n: Vec3, u: f32) -> Option<(u32, f32)> {
         let cut = self.cut_at(p, n);
-        let w: Vec<f32> = cut
-            .iter()
-            .map(|&i| node_bounds(&tree.nodes[i as usize]).importance(p, n))
-            .collect();
-        let total: f32 = w.iter().sum();
-        if total <= 0.0 {
-            return None;
-        }
-        // The first non-zero slot whose cumulative weight passes u × total (the last
-        // non-zero one if rounding walks past the end); the same loop as the GLSL.
-        let target = u * total;
-        let (mut acc, mut chosen, mut last) = (0.0f32, None, (0usize, 0.0f32));
-        for (i, &wi) in w.iter().enumerate() {
-            if wi > 0.0 {
-                last = (i, acc);
-                if target < acc + wi {
-                    chosen = Some((i, acc));
-                    break;
-                }
-                acc += wi;
-            }
-        }
-        let (k, acc) = chosen.unwrap_or(last);
-        let mut v = ((target - acc) / w[k]).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
-        let mut node = cut[k] as usize;
-        let mut pmf = w[k] / total;
-        while tree.nodes[node].count > 1 {
-            let (l, r) = (node + 1, tree.nodes[node].right as usize);
-            let pl = tree.nodes[l].phi / (tree.nodes[l].phi + tree.nodes[r].phi);
-            if v < pl {
-                v = (v / pl).min(1.0 - f32::EPSILON / 2.0);
-                pmf *= pl;
-                node = l;
-            } else {
-                v = ((v - pl) / (1.0 - pl)).min(1.0 - f32::EPSILON / 2.0);
-                pmf *= 1.0 - pl;
-                node = r;
-            }
-        }
-        Some((tree.order[tree.nodes[node].begin as usize], pmf))
+        pick_in_cut(tree, cut, &Self::importances(tree, cut, p, n), u).map(|(l, pmf, _)| (l, pmf))
     }
 
     /// The probability that `sample` returns `light` at (p, n).
     pub fn pmf(&self, tree: &LightTree, p: Vec3, n: Vec3, light: u32) -> f32 {
-        let pos = tree.position[light as usize];
         let cut = self.cut_at(p, n);
-        let w: Vec<f32> = cut
-            .iter()
-            .map(|&i| node_bounds(&tree.nodes[i as usize]).importance(p, n))
-            .collect();
-        let total: f32 = w.iter().sum();
-        if total <= 0.0 {
-            return 0.0;
-        }
-        let Some(k) = cut.iter().position(|&i| {
-            let nd = &tree.nodes[i as usize];
-            pos >= nd.begin && pos < nd.begin + nd.count
-        }) else {
-            return 0.0;
-        };
-        let mut node = cut[k] as usize;
-        let mut pmf = w[k] / total;
-        while tree.nodes[node].count > 1 {
-            let (l, r) = (node + 1, tree.nodes[node].right as usize);
-            let pl = tree.nodes[l].phi / (tree.nodes[l].phi + tree.nodes[r].phi);
-            let nl = &tree.nodes[l];
-            if pos < nl.begin + nl.count {
-                pmf *= pl;
-                node = l;
-            } else {
-                pmf *= 1.0 - pl;
-                node = r;
-            }
-        }
-        pmf
+        pmf_in_cut(tree, cut, &Self::importances(tree, cut, p, n), light)
     }
+}
+
+/// Picks a slot of `cut` ∝ `w`, then a light inside its node by power: (light, pmf, slot), or
+/// None when every weight is 0. The same loop as `pick_in_cut` in regions.glsl.
+pub fn pick_in_cut(tree: &LightTree, cut: &[u32], w: &[f32], u: f32) -> Option<(u32, f32, usize)> {
+    let total: f32 = w.iter().sum();
+    if total <= 0.0 {
+        return None;
+    }
+    // The first non-zero slot whose cumulative weight passes u × total (the last non-zero
+    // one if rounding walks past the end).
+    let target = u * total;
+    let (mut acc, mut chosen, mut last) = (0.0f32, None, (0usize, 0.0f32));
+    for (i, &wi) in w.iter().enumerate() {
+        if wi > 0.0 {
+            last = (i, acc);
+            if target < acc + wi {
+                chosen = Some((i, acc));
+                break;
+            }
+            acc += wi;
+        }
+    }
+    let (k, acc) = chosen.unwrap_or(last);
+    let mut v = ((target - acc) / w[k]).clamp(0.0, 1.0 - f32::EPSILON / 2.0);
+    let mut node = cut[k] as usize;
+    let mut pmf = w[k] / total;
+    while tree.nodes[node].count > 1 {
+        let (l, r) = (node + 1, tree.nodes[node].right as usize);
+        let pl = tree.nodes[l].phi / (tree.nodes[l].phi + tree.nodes[r].phi);
+        if v < pl {
+            v = (v / pl).min(1.0 - f32::EPSILON / 2.0);
+            pmf *= pl;
+            node = l;
+        } else {
+            v = ((v - pl) / (1.0 - pl)).min(1.0 - f32::EPSILON / 2.0);
+            pmf *= 1.0 - pl;
+            node = r;
+        }
+    }
+    Some((tree.order[tree.nodes[node].begin as usize], pmf, k))
+}
+
+/// The slot of `cut` whose light range holds `light` (binary search by range start).
+pub fn slot_of(tree: &LightTree, cut: &[u32], light: u32) -> Option<usize> {
+    let pos = tree.position[light as usize];
+    let k = cut.partition_point(|&i| tree.nodes[i as usize].begin <= pos);
+    let k = k.checked_sub(1)?;
+    let nd = &tree.nodes[cut[k] as usize];
+    (pos < nd.begin + nd.count).then_some(k)
+}
+
+/// The probability that [`pick_in_cut`] returns `light` with weights `w`.
+pub fn pmf_in_cut(tree: &LightTree, cut: &[u32], w: &[f32], light: u32) -> f32 {
+    let total: f32 = w.iter().sum();
+    if total <= 0.0 {
+        return 0.0;
+    }
+    let Some(k) = slot_of(tree, cut, light) else {
+        return 0.0;
+    };
+    let pos = tree.position[light as usize];
+    let mut node = cut[k] as usize;
+    let mut pmf = w[k] / total;
+    while tree.nodes[node].count > 1 {
+        let (l, r) = (node + 1, tree.nodes[node].right as usize);
+        let pl = tree.nodes[l].phi / (tree.nodes[l].phi + tree.nodes[r].phi);
+        let nl = &tree.nodes[l];
+        if pos < nl.begin + nl.count {
+            pmf *= pl;
+            node = l;
+        } else {
+            pmf *= 1.0 - pl;
+            node = r;
+        }
+    }
+    pmf
 }

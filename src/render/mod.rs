@@ -9,7 +9,10 @@ use glam::Vec3;
 
 use crate::accel::Bvh;
 use crate::gpu::layout::{GpuMaterial, PixelAccum, RenderParams, MATERIAL_TWO_SIDED};
+use crate::gpu::layout::{SlotDelta, SlotStats};
 use crate::gpu::{kernels, Buffer, ComputePipeline, Context};
+use crate::learning::stats_file::{self, SavedStats, StatsHeader};
+use crate::learning::{LearnDiagnostics, LearnSettings};
 use crate::lights;
 use crate::lights::regions::{Cuts, Grid, RegionSettings};
 use crate::scene::Scene;
@@ -28,6 +31,12 @@ pub enum LightSampler {
     /// Wang & Åkerlund 2009: a cluster of the region's light-tree cut ∝ its unoccluded
     /// importance at the shading point, then a light inside by power.
     Wang,
+    /// Donikian et al. 2006: the region's cut, clusters by the running mean of their
+    /// observed contributions mixed with the unoccluded estimate (λ = 0.1).
+    Donikian,
+    /// Vévoda et al. 2018: the region's cut, clusters by Bayesian online regression of their
+    /// observed contributions, ∝ sqrt(mean² + variance) (the method).
+    Bayes,
 }
 
 impl LightSampler {
@@ -38,6 +47,8 @@ impl LightSampler {
             LightSampler::Power => "power",
             LightSampler::Lightbvh => "lightbvh",
             LightSampler::Wang => "wang",
+            LightSampler::Donikian => "donikian",
+            LightSampler::Bayes => "bayes",
         }
     }
 
@@ -71,7 +82,19 @@ impl LightSampler {
             LightSampler::Power => 1,
             LightSampler::Lightbvh => 2,
             LightSampler::Wang => 3,
+            LightSampler::Donikian => 4,
+            LightSampler::Bayes => 5,
         }
+    }
+
+    /// Learns from its samples (`donikian`, `bayes`).
+    pub fn learned(self) -> bool {
+        matches!(self, LightSampler::Donikian | LightSampler::Bayes)
+    }
+
+    /// Uses regions and cuts.
+    pub fn uses_cuts(self) -> bool {
+        self == LightSampler::Wang || self.learned()
     }
 }
 
@@ -89,8 +112,13 @@ pub struct RenderSettings {
     pub budget: Budget,
     pub seed: u32,
     pub sampler: LightSampler,
-    /// Regions and cuts (used by `wang`).
+    /// Regions and cuts (used by `wang`, `donikian`, `bayes`).
     pub regions: RegionSettings,
+    /// The learned samplers' settings.
+    pub learn: LearnSettings,
+    /// Statistics to start from (`--load-stats`): their cuts replace the built ones and the
+    /// sample indices continue after theirs.
+    pub resume: Option<Arc<SavedStats>>,
 }
 
 /// What a render produced: per-pixel sums over `spp` samples.
@@ -104,6 +132,14 @@ pub struct RenderResult {
     /// Samples that came out NaN/Inf and were dropped (should be 0).
     pub invalid_samples: u32,
     pub regions: RegionStats,
+    /// The learned state at the end (learned samplers only).
+    pub learned: Option<Learned>,
+}
+
+/// What a learned sampler knows at the end of a render.
+pub struct Learned {
+    pub saved: SavedStats,
+    pub diagnostics: LearnDiagnostics,
 }
 
 /// What the regions and cuts of a render cost.
@@ -311,19 +347,46 @@ pub fn render_with_checkpoints(
     )?;
     let counters = Buffer::zeroed(ctx, "counters", 16)?;
     settings.regions.check()?;
+    settings.learn.check()?;
+    let learned = settings.sampler.learned();
     let t0 = Instant::now();
-    let cuts = build_cuts(scene, gpu, settings);
+    let cuts = match &settings.resume {
+        Some(saved) => {
+            let (lo, hi) = scene.bounds();
+            let grid = Grid::new(lo, hi, &settings.regions);
+            Cuts::from_parts(grid, saved.index.clone(), saved.cuts.clone())
+        }
+        None => build_cuts(scene, gpu, settings),
+    };
     let cut_seconds = t0.elapsed().as_secs_f64();
     let region_buffers = (
         Buffer::from_slice(ctx, "region grid", &[cuts.grid.params])?,
         Buffer::from_slice(ctx, "region index", &cuts.index)?,
         Buffer::from_slice(ctx, "cuts", &cuts.cuts)?,
     );
+    // Learned statistics, one entry per cuts entry (1 dummy entry for the other samplers).
+    let stats0: Vec<SlotStats> = match (&settings.resume, learned) {
+        (Some(saved), true) => saved.stats.clone(),
+        (None, true) => initial_stats(&gpu.tree, &cuts, &settings.learn),
+        (_, false) => vec![SlotStats::default()],
+    };
+    let slot_count = stats0.len() as u32;
+    let stats = Buffer::from_slice(ctx, "learned statistics", &stats0)?;
+    let delta = Buffer::zeroed(
+        ctx,
+        "learning window sums",
+        slot_count as u64 * std::mem::size_of::<SlotDelta>() as u64,
+    )?;
+    let learn_params = Buffer::from_slice(
+        ctx,
+        "learning parameters",
+        &[settings.learn.gpu_params(slot_count)],
+    )?;
     let pipeline = ComputePipeline::new(
         ctx,
         "render",
         kernels::RENDER,
-        13,
+        16,
         std::mem::size_of::<RenderParams>() as u32,
         &[settings.sampler.shader_id()],
     )?;
@@ -341,7 +404,18 @@ pub fn render_with_checkpoints(
         &region_buffers.0,
         &region_buffers.1,
         &region_buffers.2,
+        &stats,
+        &delta,
+        &learn_params,
     ])?;
+    let fold = ComputePipeline::new(ctx, "fold", kernels::FOLD, 2, 4, &[])?;
+    fold.bind(&[&stats, &delta])?;
+    let fold_groups = [slot_count.div_ceil(64), 1, 1];
+    let first_sample = settings
+        .resume
+        .as_ref()
+        .map_or(0, |s| s.header.samples_done);
+    let update_every = settings.learn.update_every;
     let mut params = camera_params(scene, w, h);
     params.seed = settings.seed;
     params.light_count = gpu.light_count;
@@ -381,9 +455,15 @@ pub fn render_with_checkpoints(
         let t0 = Instant::now();
         ctx.submit(|cmd| {
             for i in 0..k {
-                params.sample_index = done + i;
+                params.sample_index = first_sample + done + i;
                 pipeline.dispatch(cmd, bytemuck::bytes_of(&params), groups);
                 ctx.barrier(cmd);
+                // Posteriors stay frozen for a whole pass: each pass's samples depend only
+                // on earlier passes, so the average of passes stays unbiased.
+                if learned && (params.sample_index + 1).is_multiple_of(update_every) {
+                    fold.dispatch(cmd, bytemuck::bytes_of(&slot_count), fold_groups);
+                    ctx.barrier(cmd);
+                }
             }
         })?;
         let dt = t0.elapsed().as_secs_f64();
@@ -423,20 +503,98 @@ pub fn render_with_checkpoints(
         batch = ((target / per_pass.max(1e-9)) as u32).clamp(1, MAX_PASSES_PER_BATCH);
     }
     let accum_data: Vec<PixelAccum> = accum.read()?;
-    let invalid = counters.read::<u32>()?[0];
+    let counter_values = counters.read::<u32>()?;
+    let learned_state = if learned {
+        // Fold what is left of the last window, so the saved statistics hold every sample.
+        if !(first_sample + done).is_multiple_of(update_every) {
+            ctx.submit(|cmd| fold.dispatch(cmd, bytemuck::bytes_of(&slot_count), fold_groups))?;
+        }
+        let totals: Vec<SlotStats> = stats.read()?;
+        let diagnostics = crate::learning::diagnostics(
+            &cuts.cuts,
+            &cuts.offsets,
+            &totals,
+            &settings.learn,
+            counter_values[1] as u64,
+        );
+        Some(Learned {
+            saved: SavedStats {
+                header: stats_header(gpu, &cuts, settings, first_sample + done),
+                index: cuts.index.clone(),
+                cuts: cuts.cuts.clone(),
+                stats: totals,
+            },
+            diagnostics,
+        })
+    } else {
+        None
+    };
     Ok(RenderResult {
         width: w,
         height: h,
         spp: done,
         accum: accum_data[..pixels as usize].to_vec(),
         render_seconds: elapsed,
-        invalid_samples: invalid,
+        invalid_samples: counter_values[0],
         regions: RegionStats {
-            regions_with_cuts: cuts.built,
+            regions_with_cuts: cuts.built(),
             cut_seconds,
             cut_bytes: 4 * (cuts.index.len() + cuts.cuts.len()),
         },
+        learned: learned_state,
     })
+}
+
+/// The header a statistics file of this render has (and a loaded one must match).
+pub fn stats_header(
+    gpu: &GpuScene,
+    cuts: &Cuts,
+    settings: &RenderSettings,
+    samples_done: u32,
+) -> StatsHeader {
+    let (grid_params, grid_dims) = stats_file::grid_fields(&cuts.grid.params);
+    StatsHeader {
+        scene: stats_file::scene_fingerprint(&gpu.tree),
+        sampler: settings.sampler.name().to_string(),
+        grid: settings.regions.grid,
+        normal_bins: settings.regions.normal_bins,
+        regression: settings.learn.regression,
+        brdf_aware: settings.learn.brdf_aware,
+        samples_done,
+        grid_params,
+        grid_dims,
+        regions: cuts.index.len() as u32,
+        cuts_len: cuts.cuts.len() as u32,
+    }
+}
+
+/// Starting totals: no data; the first window's fixed-point scale is the slot's largest
+/// plausible y: Φ/π (y = Î d² ≈ A L cosθ cosθ ≤ Φ/π for a one-sided emitter), ÷ d² to the
+/// region's cell centre without regression (y = Î).
+pub fn initial_stats(
+    tree: &lights::tree::LightTree,
+    cuts: &Cuts,
+    l: &LearnSettings,
+) -> Vec<SlotStats> {
+    let mut stats = vec![SlotStats::default(); cuts.cuts.len()];
+    let mut fill = |o: usize, centre: Option<Vec3>| {
+        for k in 0..cuts.cuts[o] as usize {
+            let nd = &tree.nodes[cuts.cuts[o + 1 + k] as usize];
+            let d2 = match (l.regression, centre) {
+                (false, Some(c)) => crate::learning::node_d2(nd, c),
+                _ => 1.0,
+            };
+            stats[o + 1 + k].scale = (nd.phi * std::f32::consts::FRAC_1_PI / d2).max(1e-30);
+        }
+    };
+    fill(0, None);
+    let mut done = std::collections::HashSet::new();
+    for (r, &o) in cuts.index.iter().enumerate() {
+        if o != 0 && done.insert(o) {
+            fill(o as usize, Some(cuts.grid.cell_box(r as u32).0));
+        }
+    }
+    stats
 }
 
 /// The JSON report written beside every rendered image.
@@ -464,7 +622,15 @@ pub fn report_json(
         "render_seconds": result.render_seconds,
         "device": device,
         "invalid_samples_dropped": result.invalid_samples,
-        "regions": if settings.sampler == LightSampler::Wang {
+        "learning": match &result.learned {
+            Some(l) => serde_json::json!({
+                "settings": settings.learn,
+                "diagnostics": l.diagnostics,
+                "samples_done_including_loaded": l.saved.header.samples_done,
+            }),
+            None => serde_json::Value::Null,
+        },
+        "regions": if settings.sampler.uses_cuts() {
             serde_json::json!({
                 "grid": settings.regions.grid,
                 "normal_bins": settings.regions.normal_bins,
@@ -481,14 +647,14 @@ pub fn report_json(
     })
 }
 
-/// The cuts a render uses. For `wang`: one per region the camera's pixel-centre rays reach
+/// The cuts a render uses. For `wang`, `donikian` and `bayes`: one per region the camera's pixel-centre rays reach
 /// (found with the CPU BVH; a sample that lands in another region uses the whole-scene cut,
 /// which is unbiased, only less adapted). Other samplers get just the whole-scene cut.
 pub fn build_cuts(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) -> Cuts {
     let (lo, hi) = scene.bounds();
     let grid = Grid::new(lo, hi, &settings.regions);
     let mut reached = Vec::new();
-    if settings.sampler == LightSampler::Wang {
+    if settings.sampler.uses_cuts() {
         use rayon::prelude::*;
         let cam = camera_params(scene, settings.width, settings.height);
         let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);

@@ -37,6 +37,22 @@ pub fn gpu_light_samples(
     sampler: u32,
     queries: &[(glam::Vec3, glam::Vec3, f32)],
 ) -> Vec<lightlearn::gpu::layout::LightChoice> {
+    let stats = vec![lightlearn::gpu::layout::SlotStats::default(); cuts.cuts.len()];
+    let params = lightlearn::learning::LearnSettings::default().gpu_params(stats.len() as u32);
+    gpu_learned_samples(ctx, tree, cuts, sampler, &stats, params, queries)
+}
+
+/// `light_sample.comp` with learned statistics (sampler 4 = donikian, 5 = bayes; the BRDF
+/// factor is 1).
+pub fn gpu_learned_samples(
+    ctx: &Arc<Context>,
+    tree: &lightlearn::lights::tree::LightTree,
+    cuts: &lightlearn::lights::regions::Cuts,
+    sampler: u32,
+    stats: &[lightlearn::gpu::layout::SlotStats],
+    params: lightlearn::gpu::layout::LearnParams,
+    queries: &[(glam::Vec3, glam::Vec3, f32)],
+) -> Vec<lightlearn::gpu::layout::LightChoice> {
     use lightlearn::gpu::layout::LightQuery;
     use lightlearn::gpu::{Buffer, ComputePipeline};
     let q: Vec<LightQuery> = queries
@@ -56,16 +72,19 @@ pub fn gpu_light_samples(
     let grid = Buffer::from_slice(ctx, "grid", &[cuts.grid.params]).unwrap();
     let index = b("region index", &cuts.index);
     let cut = b("cuts", &cuts.cuts);
+    let sb = Buffer::from_slice(ctx, "stats", stats).unwrap();
+    let db = Buffer::zeroed(ctx, "deltas", (stats.len() * 32) as u64).unwrap();
+    let lb = Buffer::from_slice(ctx, "learn", &[params]).unwrap();
     let k = ComputePipeline::new(
         ctx,
         "light_sample",
         lightlearn::gpu::kernels::LIGHT_SAMPLE,
-        7,
+        10,
         4,
         &[sampler],
     )
     .unwrap();
-    k.bind(&[&nodes, &order, &qb, &cb, &grid, &index, &cut])
+    k.bind(&[&nodes, &order, &qb, &cb, &grid, &index, &cut, &sb, &db, &lb])
         .unwrap();
     let count = q.len() as u32;
     ctx.submit(|cmd| k.dispatch(cmd, bytemuck::bytes_of(&count), [count.div_ceil(64), 1, 1]))

@@ -1,0 +1,362 @@
+//! Online learning of cluster selection (method.md §3–§8): the settings of the `bayes` and
+//! `donikian` samplers, the Bayesian posterior of one (region, cut slot), the sampling weights
+//! built from it, and the saved-statistics file.
+//!
+//! Where the work happens: the render kernel adds every observation to the slot's window sums
+//! with integer atomics (`shaders/shared/learning.glsl`), and between passes `fold.comp` folds
+//! the window into the frozen totals on the GPU. The posterior itself is never stored: the
+//! kernel evaluates it from the totals at each shading point, because the prior mean depends
+//! on x (below). This module is the CPU mirror the tests check the kernels against.
+//!
+//! One deviation from method.md §3, and why: the prior mean μ0 is the unoccluded estimate at
+//! the shading point x (Ĩ_C(x) · d_C(x)² / π), not at the region centre. With it the `bayes`
+//! pmf before any data is exactly ∝ Ĩ_C(x), i.e. learning starts exactly where `wang` is
+//! (the test), and no region-centre estimate can be zero for a slot that lights x.
+
+pub mod stats_file;
+
+use anyhow::{bail, Result};
+
+use crate::gpu::layout::{
+    LearnParams, SlotDelta, SlotStats, LEARN_BRDF, LEARN_PRIORS, LEARN_REGRESSION,
+    LEARN_TARGET_MEAN,
+};
+
+/// Settings of the learned samplers; defaults are method.md's [ours] values.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct LearnSettings {
+    /// Fold the observations into the posteriors every this many passes.
+    pub update_every: u32,
+    /// The 1/d² regression (off: d ≡ 1).
+    pub regression: bool,
+    /// Sample ∝ the learned mean instead of sqrt(mean² + variance).
+    pub target_mean: bool,
+    /// Use the priors (off: all pseudo-counts 0, divisions guarded).
+    pub priors: bool,
+    /// The observation includes the BRDF (as luminance).
+    pub brdf_aware: bool,
+    /// Beta prior pseudo-counts of zero and non-zero observations (n̄_o, n̄_v).
+    pub prior_zero: f32,
+    pub prior_nonzero: f32,
+    /// Pseudo-count of the Normal prior on k (n̄) and the Inv-Gamma shape (n̄_α).
+    pub prior_n: f32,
+    pub prior_alpha: f32,
+    /// Prior coefficient of variation c_v: β = n̄_α (c_v μ0)².
+    pub prior_cv: f32,
+    /// `donikian`: weight λ of the unoccluded estimate in the defensive mixture.
+    pub lambda: f32,
+}
+
+impl Default for LearnSettings {
+    fn default() -> Self {
+        LearnSettings {
+            update_every: 1,
+            regression: true,
+            target_mean: false,
+            priors: true,
+            brdf_aware: false,
+            prior_zero: 2.0,
+            prior_nonzero: 2.0,
+            prior_n: 1.0,
+            prior_alpha: 1.0,
+            prior_cv: 1.0,
+            lambda: 0.1,
+        }
+    }
+}
+
+impl LearnSettings {
+    pub fn check(&self) -> Result<()> {
+        if self.update_every == 0 {
+            bail!("--update-every must be at least 1 (pass)");
+        }
+        for (name, v) in [
+            ("--prior-zero", self.prior_zero),
+            ("--prior-nonzero", self.prior_nonzero),
+            ("--prior-n", self.prior_n),
+            ("--prior-alpha", self.prior_alpha),
+            ("--prior-cv", self.prior_cv),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                bail!("{name} {v} must be a positive number (use --priors off for no priors)");
+            }
+        }
+        if !(self.lambda > 0.0 && self.lambda <= 1.0) {
+            bail!(
+                "--lambda {} is out of range: use (0, 1] (0 would starve clusters: biased)",
+                self.lambda
+            );
+        }
+        Ok(())
+    }
+
+    /// The kernel's copy.
+    pub fn gpu_params(&self, slot_count: u32) -> LearnParams {
+        let flag = |on: bool, f: u32| if on { f } else { 0 };
+        LearnParams {
+            prior_zero: self.prior_zero,
+            prior_nonzero: self.prior_nonzero,
+            prior_n: self.prior_n,
+            prior_alpha: self.prior_alpha,
+            prior_cv: self.prior_cv,
+            lambda: self.lambda,
+            flags: flag(self.regression, LEARN_REGRESSION)
+                | flag(self.target_mean, LEARN_TARGET_MEAN)
+                | flag(self.priors, LEARN_PRIORS)
+                | flag(self.brdf_aware, LEARN_BRDF),
+            slot_count,
+        }
+    }
+}
+
+/// The posterior of one slot (method.md §3), in f64: Beta(a, b) on p0 and
+/// Normal-inverse-gamma (μ, κ, α, β) on (k, h).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Posterior {
+    pub a: f64,
+    pub b: f64,
+    pub kappa: f64,
+    pub mu: f64,
+    pub alpha: f64,
+    pub beta: f64,
+    /// Without priors: 1 − p̂0 is kept ≥ 1/(n + 1) (a slot never seen lit keeps a chance).
+    pub priors: bool,
+}
+
+impl Posterior {
+    /// From the totals of a slot and the prior mean μ0 of y at the shading point.
+    pub fn new(s: &SlotStats, mu0: f64, l: &LearnSettings) -> Posterior {
+        let (nz, nv) = (s.n_zero as f64, s.n_nonzero as f64);
+        let (s1, s2) = (s.sum as f64, s.sum_sq as f64);
+        let p = l.priors;
+        let pick = |v: f32| if p { v as f64 } else { 0.0 };
+        let (a0, b0, nbar, abar) = (
+            pick(l.prior_zero),
+            pick(l.prior_nonzero),
+            pick(l.prior_n),
+            pick(l.prior_alpha),
+        );
+        let beta0 = if p {
+            abar * (l.prior_cv as f64 * mu0).powi(2)
+        } else {
+            0.0
+        };
+        let kappa = nbar + nv;
+        let mu = if kappa > 0.0 {
+            (nbar * mu0 + s1) / kappa
+        } else {
+            mu0
+        };
+        // Without priors a slot whose observations all rounded to 0 would starve (biased):
+        // it falls back to the unoccluded estimate (the same guard as learning.glsl).
+        let mu = if !p && mu <= 0.0 { mu0 } else { mu };
+        let ybar = if nv > 0.0 { s1 / nv } else { 0.0 };
+        let ss = (s2 - s1 * ybar).max(0.0);
+        let shrink = if kappa > 0.0 {
+            nbar * nv * (ybar - mu0).powi(2) / (2.0 * kappa)
+        } else {
+            0.0
+        };
+        Posterior {
+            a: a0 + nz,
+            b: b0 + nv,
+            kappa,
+            mu,
+            alpha: abar + 0.5 * nv,
+            beta: beta0 + 0.5 * ss + shrink,
+            priors: p,
+        }
+    }
+
+    /// 1 − p̂0: the posterior mean of the chance of a non-zero observation.
+    pub fn nonzero_chance(&self) -> f64 {
+        let n = self.a + self.b;
+        if self.priors {
+            self.b / n
+        } else if n > 0.0 {
+            (self.b / n).max(1.0 / (n + 1.0))
+        } else {
+            1.0
+        }
+    }
+
+    /// ĥ = β' / (α − ½): finite before any data, the unbiased sample variance once data
+    /// dominate (0 where there is no estimate: no priors and fewer than two samples).
+    pub fn h_hat(&self) -> f64 {
+        if self.alpha > 0.5 {
+            self.beta / (self.alpha - 0.5)
+        } else {
+            0.0
+        }
+    }
+
+    /// The weight before the 1/d² factor: sqrt((1 − p̂0)(k̂² + ĥ)), or (1 − p̂0) k̂ for
+    /// `target = mean`.
+    pub fn weight(&self, target_mean: bool) -> f64 {
+        let q = self.nonzero_chance();
+        if target_mean {
+            q * self.mu
+        } else {
+            (q * (self.mu * self.mu + self.h_hat())).sqrt()
+        }
+    }
+}
+
+/// The prior mean of y at a shading point from the cluster's unoccluded importance Ĩ and
+/// regression distance² d2 (1 without regression): Ĩ · d2 · brdf / π (see the module note).
+pub fn prior_mean(importance: f32, d2: f32, brdf: f32) -> f32 {
+    importance * d2 * brdf * std::f32::consts::FRAC_1_PI
+}
+
+/// Window sums of the kernel's fixed point: 24 fraction bits of y / scale.
+pub const FIX_ONE: f64 = 16_777_216.0;
+
+/// The CPU mirror of `fold.comp`: the window's sums folded into the totals (f64 here, f32 on
+/// the GPU; tests compare within rounding).
+pub fn fold(s: &SlotStats, d: &SlotDelta) -> SlotStats {
+    if d.n_zero + d.n_nonzero == 0 {
+        return *s;
+    }
+    let word = |lo: u32, hi: u32| ((hi as u64) << 32 | lo as u64) as f64;
+    let scale = s.scale as f64;
+    let mut out = *s;
+    out.n_zero += d.n_zero as f32;
+    out.n_nonzero += d.n_nonzero as f32;
+    out.sum = (s.sum as f64 + word(d.sum_lo, d.sum_hi) * scale / FIX_ONE) as f32;
+    out.sum_sq = (s.sum_sq as f64 + word(d.sq_lo, d.sq_hi) * scale * scale / FIX_ONE) as f32;
+    if out.sum_sq > 0.0 && out.n_nonzero > 0.0 {
+        out.scale = (out.sum_sq / out.n_nonzero).sqrt();
+    }
+    out
+}
+
+/// What the learning did, for the JSON sidecar.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct LearnDiagnostics {
+    /// Regions with their own cut that received at least one observation.
+    pub regions_touched: usize,
+    /// Regions with their own cut.
+    pub regions_with_cuts: usize,
+    /// Cut slots (over all regions with a cut) and the fraction that have any observation.
+    pub slots: usize,
+    pub fraction_slots_with_data: f64,
+    /// Mean posterior p̂0 over slots with data (prior pseudo-counts included).
+    pub mean_p0: f64,
+    /// Observations folded in, and how many samples fell in regions without a cut (those
+    /// sample as `wang` from the shared fallback cut and do not learn).
+    pub observations: f64,
+    pub samples_in_fallback: u64,
+    /// GPU memory of the statistics (totals + window sums).
+    pub stats_bytes: usize,
+}
+
+/// Summarises the totals of every built cut (`cuts[o]` = count, then the slots).
+pub fn diagnostics(
+    cuts: &[u32],
+    offsets: &[u32],
+    stats: &[SlotStats],
+    l: &LearnSettings,
+    samples_in_fallback: u64,
+) -> LearnDiagnostics {
+    let mut d = LearnDiagnostics {
+        regions_with_cuts: offsets.len(),
+        samples_in_fallback,
+        stats_bytes: stats.len() * 2 * std::mem::size_of::<SlotStats>(),
+        ..Default::default()
+    };
+    let (mut with_data, mut p0_sum) = (0usize, 0f64);
+    for &o in offsets {
+        let o = o as usize;
+        let mut touched = false;
+        for s in &stats[o + 1..o + 1 + cuts[o] as usize] {
+            d.slots += 1;
+            let n = s.n_zero as f64 + s.n_nonzero as f64;
+            if n > 0.0 {
+                touched = true;
+                with_data += 1;
+                d.observations += n;
+                let (a, b) = if l.priors {
+                    (l.prior_zero as f64, l.prior_nonzero as f64)
+                } else {
+                    (0.0, 0.0)
+                };
+                p0_sum += (a + s.n_zero as f64) / (a + b + n);
+            }
+        }
+        d.regions_touched += touched as usize;
+    }
+    d.fraction_slots_with_data = with_data as f64 / d.slots.max(1) as f64;
+    d.mean_p0 = if with_data > 0 {
+        p0_sum / with_data as f64
+    } else {
+        f64::NAN
+    };
+    d
+}
+
+/// The CPU mirror of `sample_learned`'s weights (learning.glsl) over the cut at offset `o`:
+/// `bayes` (posterior weight / d², 0 where Ĩ = 0) or `donikian` (defensive mixture).
+#[allow(clippy::too_many_arguments)]
+pub fn learned_weights(
+    tree: &crate::lights::tree::LightTree,
+    cuts: &[u32],
+    o: usize,
+    stats: &[SlotStats],
+    p: glam::Vec3,
+    n: glam::Vec3,
+    donikian: bool,
+    l: &LearnSettings,
+    brdf: f32,
+) -> Vec<f32> {
+    let cut = &cuts[o + 1..o + 1 + cuts[o] as usize];
+    let slots = &stats[o + 1..o + 1 + cut.len()];
+    let imp = crate::lights::regions::Cuts::importances(tree, cut, p, n);
+    if donikian && o != 0 {
+        let count = |s: &SlotStats| s.n_zero + s.n_nonzero;
+        let mean = |s: &SlotStats| {
+            if count(s) > 0.0 {
+                s.sum / count(s)
+            } else {
+                0.0
+            }
+        };
+        let seen: f32 = slots.iter().map(count).sum();
+        let sum_mean: f32 = slots.iter().map(mean).sum();
+        let sum_imp: f32 = imp.iter().sum();
+        if seen >= cut.len() as f32 && sum_mean > 0.0 && sum_imp > 0.0 {
+            return imp
+                .iter()
+                .zip(slots)
+                .map(|(&i, s)| {
+                    if i > 0.0 {
+                        (1.0 - l.lambda) * mean(s) / sum_mean + l.lambda * i / sum_imp
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+        }
+        return imp;
+    }
+    cut.iter()
+        .zip(&imp)
+        .zip(slots)
+        .map(|((&node, &i), s)| {
+            if i <= 0.0 {
+                return 0.0;
+            }
+            let nd = &tree.nodes[node as usize];
+            let d2 = if l.regression { node_d2(nd, p) } else { 1.0 };
+            let mu0 = prior_mean(i, d2, brdf) as f64;
+            (Posterior::new(s, mu0, l).weight(l.target_mean) / d2 as f64) as f32
+        })
+        .collect()
+}
+
+/// The regression distance² of a node (the same clamp as the importance's).
+pub fn node_d2(nd: &crate::gpu::layout::LightNode, p: glam::Vec3) -> f32 {
+    let (lo, hi) = (glam::Vec3::from(nd.bmin), glam::Vec3::from(nd.bmax));
+    (p - 0.5 * (lo + hi))
+        .length_squared()
+        .max(0.5 * (hi - lo).length())
+}
