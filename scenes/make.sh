@@ -8,6 +8,7 @@ lightlearn() { cargo run --release --quiet -- "$@"; }
 lightlearn scene rooms --lights 240 --seed 1 --out default.glb
 lightlearn scene cornell --lights 6 --seed 1 --out cornell.glb
 lightlearn scene rooms --lights 100 --seed 1 --out rooms.glb
+lightlearn scene rooms --lights 400 --seed 1 --rooms 4x4 --out rooms16.glb
 lightlearn scene hall --lights 64 --seed 1 --out hall.glb
 lightlearn scene city --lights 2000 --seed 1 --out city.glb
 lightlearn scene strings --lights 1000 --seed 1 --resolution 24 --out strings.glb

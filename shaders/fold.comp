@@ -1,15 +1,18 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// Folds the window's fixed-point sums (SlotDelta) into the frozen totals (SlotStats) and
-// clears them; runs between passes, one invocation per slot. The next window's scale is the
-// slot's root mean square of y so far, which keeps y / scale near 1 and far from the clamp.
-// Mirror of src/learning/mod.rs `fold`.
+// Folds the window's fixed-point sums (SlotDelta) into the frozen totals (SlotStats), clears
+// them and recomputes the slot's weight coefficients; runs between passes (and once before
+// the first, to set the coefficients of fresh or loaded statistics), one invocation per slot.
+// The next window's scale is the slot's root mean square of y so far, which keeps y / scale
+// near 1 and far from the fixed-point clamp. Mirror of src/learning/mod.rs `fold`.
 #include "types.glsl"
+#include "posterior.glsl"
 
 layout(local_size_x = 64) in;
 
 layout(std430, set = 0, binding = 0) buffer Stats { SlotStats slot_stats[]; };
 layout(std430, set = 0, binding = 1) buffer Delta { SlotDelta slot_delta[]; };
+layout(std430, set = 0, binding = 2) readonly buffer Learn { LearnParams learn[]; };
 
 layout(push_constant) uniform Push { uint slot_count; };
 
@@ -20,15 +23,21 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= slot_count) return;
     SlotDelta d = slot_delta[i];
-    if (d.n_zero + d.n_nonzero == 0u) return;
     SlotStats s = slot_stats[i];
-    float sum = (float(d.sum_hi) * TWO_POW_32 + float(d.sum_lo)) * (s.scale / FIX_ONE);
-    float sq = (float(d.sq_hi) * TWO_POW_32 + float(d.sq_lo)) * (s.scale * s.scale / FIX_ONE);
-    s.n_zero += float(d.n_zero);
-    s.n_nonzero += float(d.n_nonzero);
-    s.sum += sum;
-    s.sum_sq += sq;
-    if (s.sum_sq > 0.0 && s.n_nonzero > 0.0) s.scale = sqrt(s.sum_sq / s.n_nonzero);
+    if (!(s.scale > 0.0)) s.scale = 1.0;
+    if (d.n_zero + d.n_nonzero > 0u) {
+        float sum = (float(d.sum_hi) * TWO_POW_32 + float(d.sum_lo)) * (s.scale / FIX_ONE);
+        float sq = (float(d.sq_hi) * TWO_POW_32 + float(d.sq_lo)) * (s.scale * s.scale / FIX_ONE);
+        s.n_zero += float(d.n_zero);
+        s.n_nonzero += float(d.n_nonzero);
+        s.sum += sum;
+        s.sum_sq += sq;
+        if (s.sum_sq > 0.0 && s.n_nonzero > 0.0) s.scale = sqrt(s.sum_sq / s.n_nonzero);
+        slot_delta[i] = SlotDelta(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
+    }
+    vec3 c = weight_coefficients(s, learn[0]);
+    s.coef_a = c.x;
+    s.coef_b = c.y;
+    s.coef_c = c.z;
     slot_stats[i] = s;
-    slot_delta[i] = SlotDelta(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
 }

@@ -11,6 +11,8 @@ layout(local_size_x = 8, local_size_y = 8) in;
 // The light sampler, a closed set (src/render/mod.rs LightSampler): 0 uniform, 1 power,
 // 2 lightbvh, 3 wang, 4 donikian, 5 bayes.
 layout(constant_id = 0) const uint SAMPLER = 0u;
+// How a cut's cluster picks its light: 0 by power, 1 by importance (RegionSettings).
+layout(constant_id = 1) const uint IN_CLUSTER = 0u;
 
 layout(std430, set = 0, binding = 0) readonly buffer Nodes { BvhNode bvh_nodes[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Tris { BvhTri bvh_tris[]; };
@@ -55,8 +57,10 @@ void main() {
     uint s = params.sample_index;
     uint seed = params.seed;
 
-    // Box filter: a uniform point in the pixel.
-    vec2 jitter = vec2(sample_rand(seed, pixel, s, DIM_JITTER_X), sample_rand(seed, pixel, s, DIM_JITTER_Y));
+    // Box filter: a uniform point in the pixel (stratified over passes, or independent).
+    vec2 jitter = params.stratified != 0u
+        ? pixel_jitter_r2(seed, pixel, s)
+        : vec2(sample_rand(seed, pixel, s, DIM_JITTER_X), sample_rand(seed, pixel, s, DIM_JITTER_Y));
     vec2 ndc = vec2((float(px.x) + jitter.x) / float(params.width) * 2.0 - 1.0,
                     1.0 - (float(px.y) + jitter.y) / float(params.height) * 2.0);
     vec3 dir = normalize(params.cam_w.xyz + ndc.x * params.cam_u.xyz + ndc.y * params.cam_v.xyz);

@@ -79,6 +79,10 @@ struct RegionArgs {
     /// At most this many clusters per cut (1..=64).
     #[arg(long, default_value_t = 32)]
     k_max: u32,
+    /// How a chosen cluster picks its light: by power (Wang & Åkerlund) or by importance at
+    /// the shading point (a light-BVH descent of the cluster's subtree).
+    #[arg(long, default_value = "power", value_parser = ["power", "importance"])]
+    in_cluster: String,
 }
 
 impl RegionArgs {
@@ -88,6 +92,7 @@ impl RegionArgs {
             normal_bins: self.normal_bins == "on",
             tau: self.tau,
             k_max: self.k_max,
+            in_cluster_importance: self.in_cluster == "importance",
         };
         s.check()?;
         Ok(s)
@@ -131,6 +136,10 @@ struct LearnArgs {
     /// donikian: weight of the unoccluded estimate in the defensive mixture.
     #[arg(long, default_value_t = 0.1)]
     lambda: f32,
+    /// bayes: prior mean μ0 = Ĩ · d² · S, Ĩ's power in the units of the observations
+    /// [default: 1/π, exact for one-sided area lights; 1/(4π) is exact for point lights].
+    #[arg(long, value_name = "S")]
+    prior_scale: Option<f32>,
 }
 
 impl LearnArgs {
@@ -147,6 +156,9 @@ impl LearnArgs {
             prior_alpha: self.prior_alpha,
             prior_cv: self.prior_cv,
             lambda: self.lambda,
+            prior_scale: self
+                .prior_scale
+                .unwrap_or(LearnSettings::default().prior_scale),
         };
         s.check()?;
         Ok(s)
@@ -447,6 +459,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         regions,
         learn,
         resume: None,
+        stratified: true,
     };
     let mut settings = settings;
     if let (Some(saved), Some(p)) = (loaded, &a.load_stats) {
@@ -642,18 +655,17 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
     };
 
     let (scene, ctx, gpu) = prepare(a.scene.as_deref(), &a.device)?;
-    let (reference_image, reference_note) = match given {
+    let (reference_image, reference_note, reference_noise) = match given {
         Some((p, px)) => {
             let sidecar: Option<serde_json::Value> = std::fs::read(p.with_extension("json"))
                 .ok()
                 .and_then(|b| serde_json::from_slice(&b).ok());
-            let noise = sidecar
-                .and_then(|v| v["estimated_rel_mse_of_mean"].as_f64())
-                .map_or(
-                    String::from("its own error is unknown (no JSON beside it)"),
-                    |e| format!("its own estimated relMSE {e:.2e}"),
-                );
-            (px, format!("{} (given); {noise}", p.display()))
+            let noise = sidecar.as_ref().and_then(reference::noise);
+            let note = noise.map_or(
+                String::from("its own error is unknown (no JSON beside it)"),
+                |e| format!("its own estimated relMSE {:.2e}", e.rel_mse),
+            );
+            (px, format!("{} (given); {note}", p.display()), noise)
         }
         None => {
             let bar = progress_bar(a.image.quiet);
@@ -689,6 +701,7 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
             a.image.height,
             a.image.seed,
             &reference_image,
+            reference_noise,
             &mut |sampler, spp, f| bar_progress(&bar, sampler.name())(spp, f),
         )?;
         bar.finish_and_clear();
@@ -743,8 +756,15 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
         for c in &comparisons {
             eprintln!("{}:", c.kind);
             for r in &c.runs {
+                let corrected = match (r.corrected, r.speedup_corrected) {
+                    (Some(m), Some(s)) => format!(
+                        "  (reference noise out: relMSE {:.3e}, MSE {:.3e}, speed-up {s:.2})",
+                        m.rel_mse, m.mse
+                    ),
+                    _ => String::new(),
+                };
                 eprintln!(
-                    "  {:<8} {:>6} spp {:>7.2} s  relMSE {:.3e}  MSE {:.3e}  speed-up vs {} {:.2}",
+                    "  {:<8} {:>6} spp {:>7.2} s  relMSE {:.3e}  MSE {:.3e}  speed-up vs {} {:.2}{corrected}",
                     r.sampler.name(),
                     r.spp,
                     r.seconds,

@@ -21,6 +21,19 @@ pub fn sample_rand(seed: u32, pixel: u32, sample: u32, dim: u32) -> f32 {
     (h >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
+/// The point in the pixel of sample `s` when jitter is stratified (mirror of
+/// `pixel_jitter_r2` in rng.glsl): the R2 sequence in 32-bit fixed point, rotated per pixel.
+pub fn pixel_jitter_r2(seed: u32, pixel: u32, s: u32) -> [f32; 2] {
+    let ox = hash32(seed ^ hash32(pixel ^ 0x68bc_21eb));
+    let oy = hash32(ox ^ 0x02e5_be93);
+    let x = s.wrapping_mul(3_242_174_889).wrapping_add(ox);
+    let y = s.wrapping_mul(2_447_445_414).wrapping_add(oy);
+    [
+        (x >> 8) as f32 * (1.0 / 16_777_216.0),
+        (y >> 8) as f32 * (1.0 / 16_777_216.0),
+    ]
+}
+
 /// A small sequential generator (SplitMix64) for host-side work: scene generation, test data.
 #[derive(Clone, Debug)]
 pub struct SplitMix64(pub u64);

@@ -42,6 +42,7 @@ fn render_mean(g: &GltfBuilder, sampler: LightSampler) -> (f64, f64) {
         regions: lightlearn::lights::regions::RegionSettings::default(),
         learn: Default::default(),
         resume: None,
+        stratified: true,
     };
     let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
     let n = r.mean().len() as f64;

@@ -160,7 +160,7 @@ fn host_and_shader_structs_match() {
             seed,
             light_count,
             ray_eps,
-            pad0,
+            stratified,
             pad1
         }),
         rust_layout!(GpuRay {
@@ -197,9 +197,9 @@ fn host_and_shader_structs_match() {
             sum,
             sum_sq,
             scale,
-            pad0,
-            pad1,
-            pad2
+            coef_a,
+            coef_b,
+            coef_c
         }),
         rust_layout!(SlotDelta {
             n_zero,
@@ -219,7 +219,7 @@ fn host_and_shader_structs_match() {
             prior_cv,
             lambda,
             flags,
-            slot_count
+            prior_scale
         }),
         rust_layout!(GridParams {
             lo,

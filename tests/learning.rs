@@ -134,6 +134,25 @@ fn weights_are_finite_and_positive_for_any_counts() {
                                 w.is_finite() && w > 0.0,
                                 "priors {priors}, mean {target_mean}: weight {w} for n_zero {nz}, n_nonzero {nv}, y {m}, mu0 {mu0}"
                             );
+                            // The kernels' f32 path (scale: the slot's RMS, as the fold sets it).
+                            let s = fold(
+                                &SlotStats {
+                                    scale: if nv > 0.0 && m > 0.0 { m } else { 1.0 },
+                                    ..s
+                                },
+                                &SlotDelta::default(),
+                                &l,
+                            );
+                            let wc = lightlearn::learning::coefficient_weight(
+                                &s,
+                                [s.coef_a, s.coef_b, s.coef_c],
+                                mu0 as f32,
+                                &l,
+                            );
+                            assert!(
+                                wc.is_finite() && wc > 0.0,
+                                "priors {priors}, mean {target_mean}: f32 weight {wc} for n_zero {nz}, n_nonzero {nv}, y {m}, mu0 {mu0}"
+                            );
                         }
                     }
                 }
@@ -143,10 +162,14 @@ fn weights_are_finite_and_positive_for_any_counts() {
 }
 
 /// Cuts for the regions around random surface points of a scene, and those points.
-fn cuts_and_points(s: &Scene, tree: &LightTree, count: usize) -> (Cuts, Vec<(Vec3, Vec3, f32)>) {
+fn cuts_and_points(
+    s: &Scene,
+    tree: &LightTree,
+    count: usize,
+    settings: RegionSettings,
+) -> (Cuts, Vec<(Vec3, Vec3, f32)>) {
     let bvh = Bvh::build(&s.triangles);
     let (lo, hi) = s.bounds();
-    let settings = RegionSettings::default();
     let grid = Grid::new(lo, hi, &settings);
     let mut r = SplitMix64(5);
     let mut points = Vec::new();
@@ -231,19 +254,11 @@ fn adversarial_stats(len: usize, seed: u64) -> Vec<SlotStats> {
 fn bayes_starts_as_wang_on_gpu_and_cpu() {
     let s = scene("rooms.glb");
     let tree = LightTree::build(&s);
-    let (cuts, points) = cuts_and_points(&s, &tree, 2000);
+    let (cuts, points) = cuts_and_points(&s, &tree, 2000, RegionSettings::default());
     let ctx = common::ctx();
     let zero = vec![SlotStats::default(); cuts.cuts.len()];
     let l = LearnSettings::default();
-    let bayes = common::gpu_learned_samples(
-        &ctx,
-        &tree,
-        &cuts,
-        5,
-        &zero,
-        l.gpu_params(zero.len() as u32),
-        &points,
-    );
+    let bayes = common::gpu_learned_samples(&ctx, &tree, &cuts, 5, &zero, l.gpu_params(), &points);
     let wang = common::gpu_light_samples(&ctx, &tree, &cuts, 3, &points);
     let mut same = 0;
     for (i, ((b, w), &(p, n, _))) in bayes.iter().zip(&wang).zip(&points).enumerate() {
@@ -281,10 +296,18 @@ fn bayes_starts_as_wang_on_gpu_and_cpu() {
 
 #[test]
 fn learned_pmfs_are_exact_cover_every_light_and_match_the_gpu() {
-    for name in ["rooms.glb", "city.glb"] {
+    for (name, in_cluster_importance) in [
+        ("rooms.glb", false),
+        ("city.glb", false),
+        ("rooms.glb", true),
+    ] {
         let s = scene(name);
         let tree = LightTree::build(&s);
-        let (cuts, points) = cuts_and_points(&s, &tree, 600);
+        let settings = RegionSettings {
+            in_cluster_importance,
+            ..Default::default()
+        };
+        let (cuts, points) = cuts_and_points(&s, &tree, 600, settings);
         let ctx = common::ctx();
         for (sampler, donikian) in [(5u32, false), (4u32, true)] {
             for seed in [1u64, 2] {
@@ -296,7 +319,7 @@ fn learned_pmfs_are_exact_cover_every_light_and_match_the_gpu() {
                     &cuts,
                     sampler,
                     &st,
-                    l.gpu_params(st.len() as u32),
+                    l.gpu_params(),
                     &points,
                 );
                 let mut agree = 0;
@@ -308,10 +331,14 @@ fn learned_pmfs_are_exact_cover_every_light_and_match_the_gpu() {
                         w.iter().all(|x| x.is_finite() && *x >= 0.0),
                         "{name}: weights {w:?}"
                     );
-                    let cpu = lightlearn::lights::regions::pick_in_cut(&tree, cut, &w, u);
+                    let inside = cuts.inside(p, n);
+                    let cpu = lightlearn::lights::regions::pick_in_cut(&tree, cut, &w, u, inside);
                     // The pmf returned with the sample equals the one recomputed for its light.
+                    if cpu.is_none() && g.light == u32::MAX {
+                        agree += 1; // both met no light (all weights 0 or a dead end)
+                    }
                     if let Some((light, pmf, _)) = cpu {
-                        let again = pmf_in_cut(&tree, cut, &w, light);
+                        let again = pmf_in_cut(&tree, cut, &w, light, inside);
                         assert!(
                             (pmf - again).abs() <= 1e-5 * pmf,
                             "{name} query {i}: pmf {pmf} vs recomputed {again}"
@@ -327,14 +354,17 @@ fn learned_pmfs_are_exact_cover_every_light_and_match_the_gpu() {
                     }
                     // Cover: every light that can contribute (lightbvh pmf > 0) keeps pmf > 0.
                     let total: f64 = (0..s.lights.len() as u32)
-                        .map(|li| pmf_in_cut(&tree, cut, &w, li) as f64)
+                        .map(|li| pmf_in_cut(&tree, cut, &w, li, inside) as f64)
                         .sum();
-                    if cpu.is_some() {
+                    // Sum to 1, or below 1 by the chance of a dead end inside a cluster (no
+                    // light below can reach here: a zero sample, as in lightbvh).
+                    if cpu.is_some() && !in_cluster_importance {
                         assert!((total - 1.0).abs() < 1e-3, "{name}: pmfs sum to {total}");
                     }
+                    assert!(total < 1.0 + 1e-3, "{name}: pmfs sum to {total}");
                     for li in 0..s.lights.len() as u32 {
                         if tree.pmf(p, n, li) > 0.0 {
-                            assert!(pmf_in_cut(&tree, cut, &w, li) > 0.0, "{name}, sampler {sampler}: light {li} can contribute at {p} but has pmf 0 under adversarial statistics");
+                            assert!(pmf_in_cut(&tree, cut, &w, li, inside) > 0.0, "{name}, sampler {sampler}: light {li} can contribute at {p} but has pmf 0 under adversarial statistics");
                         }
                     }
                 }
@@ -387,10 +417,12 @@ fn fold_kernel_matches_its_cpu_mirror() {
             ..Default::default()
         });
     }
+    let l = LearnSettings::default();
     let sb = Buffer::from_slice(&ctx, "stats", &st).unwrap();
     let db = Buffer::from_slice(&ctx, "deltas", &de).unwrap();
-    let k = ComputePipeline::new(&ctx, "fold", kernels::FOLD, 2, 4, &[]).unwrap();
-    k.bind(&[&sb, &db]).unwrap();
+    let lb = Buffer::from_slice(&ctx, "learn", &[l.gpu_params()]).unwrap();
+    let k = ComputePipeline::new(&ctx, "fold", kernels::FOLD, 3, 4, &[]).unwrap();
+    k.bind(&[&sb, &db, &lb]).unwrap();
     let count = n as u32;
     ctx.submit(|cmd| k.dispatch(cmd, bytemuck::bytes_of(&count), [count.div_ceil(64), 1, 1]))
         .unwrap();
@@ -398,7 +430,7 @@ fn fold_kernel_matches_its_cpu_mirror() {
     let cleared: Vec<SlotDelta> = db.read().unwrap();
     let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * a.abs().max(b.abs()) + 1e-30;
     for i in 0..n {
-        let want = fold(&st[i], &de[i]);
+        let want = fold(&st[i], &de[i], &l);
         let g = got[i];
         assert!(
             close(g.n_zero, want.n_zero)
@@ -437,6 +469,8 @@ fn render_scene(
         regions: RegionSettings::default(),
         learn,
         resume: resume.map(std::sync::Arc::new),
+        // Independent jitter: the reference's per-pixel variance is then its true error.
+        stratified: false,
     };
     render::render(&ctx, s, &gpu, &settings, &mut |_, _| {}).unwrap()
 }
@@ -803,5 +837,47 @@ fn bad_statistics_files_are_refused_with_the_fix() {
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(1), "{err}");
         assert!(err.contains(want), "error should say '{want}': {err}");
+    }
+}
+
+/// The kernels evaluate the weight from three per-slot coefficients of the prior mean; they
+/// must give what the posterior formulas give directly.
+#[test]
+fn coefficients_give_the_posterior_weight() {
+    let mut r = SplitMix64(17);
+    for priors in [true, false] {
+        for target_mean in [false, true] {
+            let l = LearnSettings {
+                priors,
+                target_mean,
+                ..Default::default()
+            };
+            for i in 0..20_000 {
+                let scale = 10f32.powf(r.range(-4.0, 4.0));
+                let nv = [0.0, 1.0, 2.0, (r.f32() * 1e4).floor()][i % 4];
+                let mean = scale * r.range(0.01, 3.0);
+                let s = SlotStats {
+                    n_zero: [0.0, 1.0, (r.f32() * 1e4).floor()][i % 3],
+                    n_nonzero: nv,
+                    sum: nv * mean,
+                    sum_sq: nv * mean * mean * r.range(1.0, 5.0),
+                    scale: scale * r.range(0.3, 3.0),
+                    ..Default::default()
+                };
+                let mu0 = scale * 10f32.powf(r.range(-3.0, 1.0));
+                let s = fold(&s, &SlotDelta::default(), &l);
+                let c = lightlearn::learning::coefficient_weight(
+                    &s,
+                    [s.coef_a, s.coef_b, s.coef_c],
+                    mu0,
+                    &l,
+                );
+                let direct = Posterior::new(&s, mu0 as f64, &l).weight(target_mean);
+                assert!(
+                    ((c as f64) - direct).abs() <= 1e-3 * direct,
+                    "priors {priors}, mean {target_mean}: coefficients give {c}, the posterior {direct} ({s:?}, mu0 {mu0})"
+                );
+            }
+        }
     }
 }

@@ -66,6 +66,7 @@ fn cuts_partition_the_lights() {
                 k_max: 64,
                 normal_bins: false,
                 grid: 8,
+                in_cluster_importance: true,
             },
         ] {
             let (cuts, _) = cuts_for(&s, &tree, &settings);

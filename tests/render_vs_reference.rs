@@ -132,6 +132,7 @@ fn gpu_render(scene: &Scene, sampler: LightSampler) -> RenderResult {
         regions: lightlearn::lights::regions::RegionSettings::default(),
         learn: Default::default(),
         resume: None,
+        stratified: false,
     };
     render::render(&ctx, scene, &gpu, &settings, &mut |_, _| {}).unwrap()
 }

@@ -19,43 +19,16 @@
 #define FIX_CLAMP 4096.0
 #define TWO_POW_32 4294967296.0
 
-// The posterior's sampling weight of one slot at x (method.md §4), before the 1/d² factor:
-// sqrt((1 − p̂0)(k̂² + ĥ)) or, with target = mean, (1 − p̂0) k̂. mu0 is the prior mean of
-// y at x: the unoccluded estimate in the units of k.
+// The posterior's sampling weight of one slot at x (method.md §4) before the 1/d² factor,
+// from the coefficients fold.comp stored (posterior.glsl); mu0 is the prior mean of y at x.
 float bayes_weight(SlotStats s, float mu0) {
-    LearnParams L = learn[0];
-    bool priors = (L.flags & LEARN_PRIORS) != 0u;
-    float nz = s.n_zero;
-    float nv = s.n_nonzero;
-    float n_all = nz + nv;
-    float a0 = priors ? L.prior_zero : 0.0;
-    float b0 = priors ? L.prior_nonzero : 0.0;
-    float nbar = priors ? L.prior_n : 0.0;
-    float abar = priors ? L.prior_alpha : 0.0;
-    float beta0 = priors ? abar * (L.prior_cv * mu0) * (L.prior_cv * mu0) : 0.0;
-    // 1 − p̂0, the posterior mean of the non-zero chance; without priors the frequency, kept
-    // ≥ 1/(n + 1) so that a slot never seen lit keeps a chance (guarded division).
-    float q = priors ? (b0 + nv) / (a0 + b0 + n_all)
-                     : (n_all > 0.0 ? max(nv / n_all, 1.0 / (n_all + 1.0)) : 1.0);
-    float kappa = nbar + nv;
-    float mu = kappa > 0.0 ? (nbar * mu0 + s.sum) / kappa : mu0;
-    // Without priors a slot whose observations all rounded to 0 would starve (biased):
-    // it falls back to the unoccluded estimate.
-    if (!priors && !(mu > 0.0)) mu = mu0;
-    float alpha = abar + 0.5 * nv;
-    float ybar = nv > 0.0 ? s.sum / nv : 0.0;
-    float ss = max(s.sum_sq - s.sum * ybar, 0.0);
-    float dm = ybar - mu0;
-    float beta = beta0 + 0.5 * ss + (kappa > 0.0 ? nbar * nv * dm * dm / (2.0 * kappa) : 0.0);
-    float h = alpha > 0.5 ? beta / (alpha - 0.5) : 0.0;
-    if ((L.flags & LEARN_TARGET_MEAN) != 0u) return q * mu;
-    // sqrt(mu² + h) without squaring tiny or huge values.
-    float sh = sqrt(h);
-    float m = max(abs(mu), sh);
-    if (m <= 0.0) return 0.0;
-    float a = mu / m;
-    float b = sh / m;
-    return sqrt(q) * m * sqrt(a * a + b * b);
+    // t is clamped so that t² stays a normal float: only absurd prior/scale ratios are
+    // touched, and the weight stays positive and finite (the estimator unbiased).
+    float t = clamp(mu0 / s.scale, 1e-15, 1e15);
+    if ((learn[0].flags & LEARN_TARGET_MEAN) != 0u) return s.scale * max(s.coef_a * t + s.coef_b, 0.0);
+    float v = (s.coef_a * t + s.coef_b) * t + s.coef_c;
+    // v underflows only without data (b = c = 0), where the weight is t · sqrt(a).
+    return s.scale * (v > 0.0 ? sqrt(v) : t * sqrt(s.coef_a));
 }
 
 // A cluster of the region's cut by the learned weights, then a light inside by power.
@@ -104,14 +77,15 @@ uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint
     } else {
         for (uint i = 0u; i < count; ++i) {
             LightNode nd = light_nodes[cuts[o + 1u + i]];
-            float imp = light_importance(nd, p, n);
+            float dn;
+            float imp = light_importance_d2(nd, p, n, dn);
             float w = 0.0;
             if (imp > 0.0) {
-                float di = regression ? node_d2(nd, p) : 1.0;
-                // The prior mean of y = Î · d²: Ĩ · d² (Ĩ without its distance), ÷ π
-                // because a node's power is Φ = π A L for a one-sided emitter while
-                // Î · d² ≈ A L cosθ_x cosθ_y. Before any data w ∝ Ĩ: bayes starts as wang.
-                float mu0 = imp * di * brdf * (1.0 / 3.14159265358979);
+                float di = regression ? dn : 1.0;
+                // The prior mean of y = Î · d²: Ĩ · d² (Ĩ without its distance) in the
+                // observation's units (prior_scale: 1/π maps a one-sided emitter's power
+                // Φ = π A L to A L). Before any data w ∝ Ĩ: bayes starts as wang.
+                float mu0 = imp * di * brdf * learn[0].prior_scale;
                 w = bayes_weight(slot_stats[o + 1u + i], mu0) / di;
             }
             cut_w[i] = w;
@@ -120,7 +94,7 @@ uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint
     }
     if (total <= 0.0) return NO_LIGHT;
     uint k;
-    uint li = pick_in_cut(o, count, total, u, pmf, k, p_slot);
+    uint li = pick_in_cut(o, count, total, u, p, n, pmf, k, p_slot);
     if (o != 0u) {
         slot = o + 1u + k;
         if (regression && SAMPLER == SAMPLER_BAYES) d2 = node_d2(light_nodes[cuts[slot]], p);

@@ -18,7 +18,6 @@ float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
     return cos_a > cos_b ? 0.0 : sin_a * cos_b - cos_a * sin_b;
 }
 
-// Unoccluded importance of a node at p for a receiver with normal n (see tree.rs).
 // The squared distance of the importance and of the learned regression (pbrt-v4's clamp:
 // at least half the box diagonal, so points inside a big node do not blow up).
 float node_d2(LightNode nd, vec3 p) {
@@ -26,12 +25,14 @@ float node_d2(LightNode nd, vec3 p) {
     return max(dot(to, to), 0.5 * length(nd.bmax - nd.bmin));
 }
 
-float light_importance(LightNode nd, vec3 p, vec3 n) {
+// Unoccluded importance of a node at p for a receiver with normal n (see tree.rs); also
+// returns its clamped distance² (node_d2), which the learned samplers need.
+float light_importance_d2(LightNode nd, vec3 p, vec3 n, out float d2) {
     vec3 pc = 0.5 * (nd.bmin + nd.bmax);
     vec3 diag = nd.bmax - nd.bmin;
     vec3 to = p - pc;
     float dist2 = dot(to, to);
-    float d2 = max(dist2, 0.5 * length(diag));
+    d2 = max(dist2, 0.5 * length(diag));
     vec3 wi = dist2 > 0.0 ? to / sqrt(dist2) : vec3(0.0);
     float cos_w = dot(nd.axis, wi);
     if ((nd.flags & LIGHT_NODE_TWO_SIDED) != 0u) cos_w = abs(cos_w);
@@ -56,6 +57,11 @@ float light_importance(LightNode nd, vec3 p, vec3 n) {
         imp *= max(cos_sub_clamped(sin_i, cos_i, sin_b, cos_b), 0.0);
     }
     return max(imp, 0.0);
+}
+
+float light_importance(LightNode nd, vec3 p, vec3 n) {
+    float d2;
+    return light_importance_d2(nd, p, n, d2);
 }
 
 // One descent by importance: the light index (or NO_LIGHT) and its pmf.

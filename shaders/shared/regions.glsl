@@ -26,8 +26,10 @@ uint region_of(vec3 p, vec3 n) {
 float cut_w[MAX_CUT];
 
 // Picks slot k of the cut at offset o ∝ cut_w (total > 0: their sum), then a light inside the
-// slot's node by power. Returns the light; pmf = P(k) · P(l | k), p_slot = P(k).
-uint pick_in_cut(uint o, uint count, float total, float u, out float pmf, out uint k, out float p_slot) {
+// slot's node: by power (IN_CLUSTER 0, Wang & Åkerlund), or by descending the node's subtree
+// by importance at (p, n) like lightbvh (IN_CLUSTER 1; NO_LIGHT at a dead end, where no
+// light of the node can reach p). Returns the light; pmf = P(k) · P(l | k), p_slot = P(k).
+uint pick_in_cut(uint o, uint count, float total, float u, vec3 p, vec3 n, out float pmf, out uint k, out float p_slot) {
     float target = u * total;
     float acc = 0.0;
     k = 0u;
@@ -48,7 +50,18 @@ uint pick_in_cut(uint o, uint count, float total, float u, out float pmf, out ui
     while (light_nodes[node].count > 1u) {
         uint l = node + 1u;
         uint r = light_nodes[node].right;
-        float pl = light_nodes[l].phi / (light_nodes[l].phi + light_nodes[r].phi);
+        float pl;
+        if (IN_CLUSTER == 1u) {
+            float il = light_importance(light_nodes[l], p, n);
+            float ir = light_importance(light_nodes[r], p, n);
+            if (il + ir <= 0.0) {
+                pmf = 0.0;
+                return NO_LIGHT;
+            }
+            pl = il / (il + ir);
+        } else {
+            pl = light_nodes[l].phi / (light_nodes[l].phi + light_nodes[r].phi);
+        }
         if (v < pl) {
             v = min(v / pl, ONE_MINUS_EPSILON);
             pmf *= pl;
@@ -74,7 +87,7 @@ uint sample_wang(vec3 p, vec3 n, float u, out float pmf) {
     if (total <= 0.0) return NO_LIGHT;
     uint k;
     float p_slot;
-    return pick_in_cut(o, count, total, u, pmf, k, p_slot);
+    return pick_in_cut(o, count, total, u, p, n, pmf, k, p_slot);
 }
 
 #endif

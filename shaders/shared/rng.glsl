@@ -16,4 +16,18 @@ float sample_rand(uint seed, uint pixel, uint sample_index, uint dim) {
     return float(h >> 8) * (1.0 / 16777216.0);
 }
 
+// The point in the pixel of sample s, stratified over the passes: the R2 sequence (Roberts
+// 2018, the plastic-number Kronecker lattice) in 32-bit fixed point, so it stays exact for
+// any sample count, shifted per pixel by a random offset (Cranley–Patterson rotation: each
+// sample is still uniform over the pixel, so the estimate stays unbiased). Edge pixels of
+// visible emitters converge far faster than with independent jitter; measured on rooms16,
+// 128×96, 256 spp: pixels with ref > 1 held 50–70 % of every sampler's squared error.
+vec2 pixel_jitter_r2(uint seed, uint pixel, uint s) {
+    uint ox = hash32(seed ^ hash32(pixel ^ 0x68bc21ebu));
+    uint oy = hash32(ox ^ 0x02e5be93u);
+    uint x = s * 3242174889u + ox;  // round(0.7548776662 · 2^32)
+    uint y = s * 2447445414u + oy;  // round(0.5698402910 · 2^32)
+    return vec2(float(x >> 8), float(y >> 8)) * (1.0 / 16777216.0);
+}
+
 #endif

@@ -71,10 +71,11 @@ struct GridParams {
 
 // Learned statistics of one (region, cut slot), parallel to the `cuts` array: totals of the
 // observations y (counts of zero and non-zero ones, Σy, Σy²) folded in so far, frozen during a
-// pass, and the scale of the window's fixed-point sums.
+// pass, the scale of the window's fixed-point sums, and the bayes weight's coefficients
+// (weight² = scale² (a t² + b t + c), t = prior mean / scale; see fold.comp).
 struct SlotStats {
     float n_zero; float n_nonzero; float sum; float sum_sq;
-    float scale; uint pad0; uint pad1; uint pad2;
+    float scale; float coef_a; float coef_b; float coef_c;
 };
 
 // Observations of the current window, summed by atomics in 64-bit fixed point (lo, hi words):
@@ -94,7 +95,7 @@ struct SlotDelta {
 // Hyperparameters and switches of the learned samplers (src/learning/mod.rs LearnSettings).
 struct LearnParams {
     float prior_zero; float prior_nonzero; float prior_n; float prior_alpha;
-    float prior_cv; float lambda; uint flags; uint slot_count;
+    float prior_cv; float lambda; uint flags; float prior_scale;
 };
 
 #define MATERIAL_TWO_SIDED 1u
@@ -115,7 +116,7 @@ struct RenderParams {
     uint seed;
     uint light_count;
     float ray_eps;
-    uint pad0;
+    uint stratified;
     uint pad1;
 };
 

@@ -80,6 +80,13 @@ pub struct SamplerRun {
     pub metrics: Metrics,
     /// MSE(baseline) / MSE(this): the equal-time speed-up (at equal spp: the MSE ratio).
     pub speedup: f64,
+    /// The errors with the reference's own noise taken out: E[(x − ref)²] = error(x) +
+    /// Var(ref) for an independent reference, so its estimated variance is subtracted (None
+    /// when the reference's noise is unknown). Can come out ≤ 0 when the reference's noise
+    /// dominates: then only the raw numbers mean something.
+    pub corrected: Option<Metrics>,
+    /// The speed-up from the corrected MSEs (None unless both are > 0).
+    pub speedup_corrected: Option<f64>,
     pub convergence: Vec<ConvergencePoint>,
     #[serde(skip)]
     pub image: Vec<[f32; 3]>,
@@ -124,6 +131,7 @@ pub fn compare(
     height: u32,
     seed: u32,
     reference: &[[f32; 3]],
+    reference_noise: Option<Metrics>,
     progress: &mut dyn FnMut(LightSampler, u32, f64),
 ) -> Result<Comparison> {
     let mut runs = Vec::new();
@@ -137,6 +145,7 @@ pub fn compare(
             regions: *regions,
             learn: *learn,
             resume: None,
+            stratified: true,
         };
         let mut convergence = Vec::new();
         let result = render::render_with_checkpoints(
@@ -156,22 +165,34 @@ pub fn compare(
             &mut |spp, f| progress(sampler, spp, f),
         )?;
         let image = result.mean();
+        let m = metrics(&image, reference);
         runs.push(SamplerRun {
             sampler,
             spp: result.spp,
             seconds: result.render_seconds,
-            metrics: metrics(&image, reference),
+            metrics: m,
             speedup: 1.0,
+            corrected: reference_noise.map(|n| Metrics {
+                mse: m.mse - n.mse,
+                rel_mse: m.rel_mse - n.rel_mse,
+                rmse: (m.mse - n.mse).max(0.0).sqrt(),
+            }),
+            speedup_corrected: None,
             convergence,
             image,
         });
     }
     let base = runs[0].metrics.mse;
+    let base_corrected = runs[0].corrected.map(|c| c.mse);
     for r in &mut runs {
         r.speedup = if r.metrics.mse > 0.0 {
             base / r.metrics.mse
         } else {
             f64::INFINITY
+        };
+        r.speedup_corrected = match (base_corrected, r.corrected) {
+            (Some(b), Some(c)) if b > 0.0 && c.mse > 0.0 => Some(b / c.mse),
+            _ => None,
         };
     }
     let (kind, budget_seconds, budget_spp) = match budget {

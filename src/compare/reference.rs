@@ -99,6 +99,7 @@ pub fn settings(width: u32, height: u32, spp: u32, seed: u32) -> Result<RenderSe
         regions: Default::default(),
         learn: Default::default(),
         resume: None,
+        stratified: false,
     })
 }
 
@@ -143,8 +144,18 @@ pub fn store_in_cache(scene: &Scene, settings: &RenderSettings, written: &Output
     }
 }
 
+/// A reference's own estimated error (variance of its mean), from its JSON report.
+pub fn noise(report: &serde_json::Value) -> Option<super::Metrics> {
+    let mse = report["estimated_mse_of_mean"].as_f64()?;
+    Some(super::Metrics {
+        mse,
+        rel_mse: report["estimated_rel_mse_of_mean"].as_f64()?,
+        rmse: mse.sqrt(),
+    })
+}
+
 /// The cached reference for these settings, rendered (and cached) now if missing. Returns
-/// the image and a note on how it was made and its own estimated error.
+/// the image, a note on how it was made and its own estimated error.
 pub fn cached(
     ctx: &Arc<Context>,
     scene: &Scene,
@@ -152,14 +163,14 @@ pub fn cached(
     settings: &RenderSettings,
     progress: &mut dyn FnMut(u32, f64),
     log: &mut dyn FnMut(String),
-) -> Result<(Vec<[f32; 3]>, String)> {
+) -> Result<(Vec<[f32; 3]>, String, Option<super::Metrics>)> {
     let (_, paths) = cache_paths(scene, settings);
     let Budget::Samples(spp) = settings.budget else {
         unreachable!("references have a sample budget")
     };
     let note = |report: &serde_json::Value| {
         format!(
-            "{} at {spp} spp, cached as {}; its own estimated relMSE {:.2e} (a floor under every relMSE below)",
+            "{} at {spp} spp, cached as {}; its own estimated relMSE {:.2e} (a floor under every raw relMSE below; the corrected numbers subtract it)",
             settings.sampler.name(),
             paths.exr.display(),
             report["estimated_rel_mse_of_mean"].as_f64().unwrap_or(f64::NAN)
@@ -170,7 +181,7 @@ pub fn cached(
         let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&paths.json)?)?;
         if (w, h) == (settings.width, settings.height) {
             log(format!("using cached reference {}", paths.exr.display()));
-            return Ok((px, note(&report)));
+            return Ok((px, note(&report), noise(&report)));
         }
     }
     let dir = cache_dir();
@@ -180,5 +191,5 @@ pub fn cached(
         "rendering the reference once ({spp} spp; cached for later runs)"
     ));
     let (image, report) = render_to(ctx, scene, gpu, settings, &paths, progress)?;
-    Ok((image, note(&report)))
+    Ok((image, note(&report), noise(&report)))
 }

@@ -127,8 +127,9 @@ pub struct GridParams {
 }
 
 /// Learned totals of one (region, cut slot), parallel to the cuts array (see
-/// src/learning/mod.rs): counts of zero and non-zero observations, Σy, Σy², and the scale of
-/// the current window's fixed-point sums.
+/// src/learning/mod.rs): counts of zero and non-zero observations, Σy, Σy², the scale of
+/// the current window's fixed-point sums, and the posterior's sampling weight as a quadratic
+/// in the prior mean (`coef_a..c`, written by the fold kernel).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct SlotStats {
@@ -137,9 +138,9 @@ pub struct SlotStats {
     pub sum: f32,
     pub sum_sq: f32,
     pub scale: f32,
-    pub pad0: u32,
-    pub pad1: u32,
-    pub pad2: u32,
+    pub coef_a: f32,
+    pub coef_b: f32,
+    pub coef_c: f32,
 }
 
 /// The current window's observations: counts and 64-bit fixed-point sums (lo, hi words) of
@@ -173,7 +174,8 @@ pub struct LearnParams {
     pub prior_cv: f32,
     pub lambda: f32,
     pub flags: u32,
-    pub slot_count: u32,
+    /// μ0 = Ĩ · d² · prior_scale: Ĩ's power Φ in the units of the observations.
+    pub prior_scale: f32,
 }
 
 pub const MATERIAL_TWO_SIDED: u32 = 1;
@@ -206,7 +208,8 @@ pub struct RenderParams {
     pub light_count: u32,
     /// Offset of secondary ray origins, relative to the scene size.
     pub ray_eps: f32,
-    pub pad0: u32,
+    /// 1: pixel jitter stratified over passes (R2); 0: independent per sample.
+    pub stratified: u32,
     pub pad1: u32,
 }
 

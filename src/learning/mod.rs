@@ -45,6 +45,9 @@ pub struct LearnSettings {
     pub prior_cv: f32,
     /// `donikian`: weight λ of the unoccluded estimate in the defensive mixture.
     pub lambda: f32,
+    /// The prior mean is μ0 = Ĩ_C(x) · d² · prior_scale: Ĩ counts power Φ, while the
+    /// observation y = Î d² ≈ Φ/π for a one-sided area light and Φ/(4π) for a point light.
+    pub prior_scale: f32,
 }
 
 impl Default for LearnSettings {
@@ -61,6 +64,7 @@ impl Default for LearnSettings {
             prior_alpha: 1.0,
             prior_cv: 1.0,
             lambda: 0.1,
+            prior_scale: std::f32::consts::FRAC_1_PI,
         }
     }
 }
@@ -74,12 +78,24 @@ impl LearnSettings {
             ("--prior-zero", self.prior_zero),
             ("--prior-nonzero", self.prior_nonzero),
             ("--prior-n", self.prior_n),
-            ("--prior-alpha", self.prior_alpha),
             ("--prior-cv", self.prior_cv),
         ] {
             if !(v.is_finite() && v > 0.0) {
                 bail!("{name} {v} must be a positive number (use --priors off for no priors)");
             }
+        }
+        // ĥ = β'/(α' − ½) must be finite before any data.
+        if !(self.prior_alpha.is_finite() && self.prior_alpha > 0.5) {
+            bail!(
+                "--prior-alpha {} must be greater than 0.5 (the variance estimate is β/(α − ½))",
+                self.prior_alpha
+            );
+        }
+        if !(self.prior_scale.is_finite() && self.prior_scale > 0.0) {
+            bail!(
+                "--prior-scale {} must be a positive number",
+                self.prior_scale
+            );
         }
         if !(self.lambda > 0.0 && self.lambda <= 1.0) {
             bail!(
@@ -91,7 +107,7 @@ impl LearnSettings {
     }
 
     /// The kernel's copy.
-    pub fn gpu_params(&self, slot_count: u32) -> LearnParams {
+    pub fn gpu_params(&self) -> LearnParams {
         let flag = |on: bool, f: u32| if on { f } else { 0 };
         LearnParams {
             prior_zero: self.prior_zero,
@@ -104,7 +120,7 @@ impl LearnSettings {
                 | flag(self.target_mean, LEARN_TARGET_MEAN)
                 | flag(self.priors, LEARN_PRIORS)
                 | flag(self.brdf_aware, LEARN_BRDF),
-            slot_count,
+            prior_scale: self.prior_scale,
         }
     }
 }
@@ -203,31 +219,98 @@ impl Posterior {
 }
 
 /// The prior mean of y at a shading point from the cluster's unoccluded importance Ĩ and
-/// regression distance² d2 (1 without regression): Ĩ · d2 · brdf / π (see the module note).
-pub fn prior_mean(importance: f32, d2: f32, brdf: f32) -> f32 {
-    importance * d2 * brdf * std::f32::consts::FRAC_1_PI
+/// regression distance² d2 (1 without regression): Ĩ · d2 · brdf · prior_scale.
+pub fn prior_mean(importance: f32, d2: f32, brdf: f32, l: &LearnSettings) -> f32 {
+    importance * d2 * brdf * l.prior_scale
 }
 
 /// Window sums of the kernel's fixed point: 24 fraction bits of y / scale.
 pub const FIX_ONE: f64 = 16_777_216.0;
 
-/// The CPU mirror of `fold.comp`: the window's sums folded into the totals (f64 here, f32 on
-/// the GPU; tests compare within rounding).
-pub fn fold(s: &SlotStats, d: &SlotDelta) -> SlotStats {
-    if d.n_zero + d.n_nonzero == 0 {
-        return *s;
-    }
-    let word = |lo: u32, hi: u32| ((hi as u64) << 32 | lo as u64) as f64;
-    let scale = s.scale as f64;
+/// The CPU mirror of `fold.comp`: the window's sums folded into the totals, then the weight
+/// coefficients recomputed (f64 sums here, f32 on the GPU; tests compare within rounding).
+pub fn fold(s: &SlotStats, d: &SlotDelta, l: &LearnSettings) -> SlotStats {
     let mut out = *s;
-    out.n_zero += d.n_zero as f32;
-    out.n_nonzero += d.n_nonzero as f32;
-    out.sum = (s.sum as f64 + word(d.sum_lo, d.sum_hi) * scale / FIX_ONE) as f32;
-    out.sum_sq = (s.sum_sq as f64 + word(d.sq_lo, d.sq_hi) * scale * scale / FIX_ONE) as f32;
-    if out.sum_sq > 0.0 && out.n_nonzero > 0.0 {
-        out.scale = (out.sum_sq / out.n_nonzero).sqrt();
+    if out.scale.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        out.scale = 1.0;
     }
+    if d.n_zero + d.n_nonzero > 0 {
+        let word = |lo: u32, hi: u32| ((hi as u64) << 32 | lo as u64) as f64;
+        let scale = out.scale as f64;
+        out.n_zero += d.n_zero as f32;
+        out.n_nonzero += d.n_nonzero as f32;
+        out.sum = (s.sum as f64 + word(d.sum_lo, d.sum_hi) * scale / FIX_ONE) as f32;
+        out.sum_sq = (s.sum_sq as f64 + word(d.sq_lo, d.sq_hi) * scale * scale / FIX_ONE) as f32;
+        if out.sum_sq > 0.0 && out.n_nonzero > 0.0 {
+            out.scale = (out.sum_sq / out.n_nonzero).sqrt();
+        }
+    }
+    [out.coef_a, out.coef_b, out.coef_c] = coefficients(&out, l);
     out
+}
+
+/// The bayes weight of a slot as coefficients of its prior mean (posterior.glsl has the
+/// derivation): with t = μ0 / scale, w = scale · sqrt(a t² + b t + c), or scale · (a t + b)
+/// for `target = mean`. The same f32 arithmetic as the GLSL.
+pub fn coefficients(s: &SlotStats, l: &LearnSettings) -> [f32; 3] {
+    let p = l.priors;
+    let pick = |v: f32| if p { v } else { 0.0 };
+    let (a0, b0, nbar, abar) = (
+        pick(l.prior_zero),
+        pick(l.prior_nonzero),
+        pick(l.prior_n),
+        pick(l.prior_alpha),
+    );
+    let (nz, nv) = (s.n_zero, s.n_nonzero);
+    let n_all = nz + nv;
+    let r = if p {
+        (b0 + nv) / (a0 + b0 + n_all)
+    } else if n_all > 0.0 {
+        (nv / n_all).max(1.0 / (n_all + 1.0))
+    } else {
+        1.0
+    };
+    let sc = s.scale;
+    let (s1, s2) = (s.sum / sc, s.sum_sq / (sc * sc));
+    let ybar = if nv > 0.0 { s1 / nv } else { 0.0 };
+    let kappa = nbar + nv;
+    let (mut pp, mut q) = if kappa > 0.0 {
+        (nbar / kappa, s1 / kappa)
+    } else {
+        (1.0, 0.0)
+    };
+    if !p && q <= 0.0 {
+        (pp, q) = (1.0, 0.0);
+    }
+    let den = abar + 0.5 * nv - 0.5;
+    let (mut h2, mut h0, mut h1) = (0.0, 0.0, 0.0);
+    if den > 0.0 {
+        h2 = abar * l.prior_cv * l.prior_cv / den;
+        h0 = 0.5 * (s2 - s1 * ybar).max(0.0) / den;
+        h1 = if kappa > 0.0 {
+            nbar * nv / (2.0 * kappa * den)
+        } else {
+            0.0
+        };
+    }
+    if l.target_mean {
+        return [r * pp, r * q, 0.0];
+    }
+    [
+        r * (pp * pp + h2 + h1),
+        r * (2.0 * pp * q - 2.0 * h1 * ybar),
+        r * (q * q + h0 + h1 * ybar * ybar),
+    ]
+}
+
+/// The mirror of `bayes_weight` (learning.glsl): the weight before 1/d² at prior mean mu0.
+pub fn coefficient_weight(s: &SlotStats, c: [f32; 3], mu0: f32, l: &LearnSettings) -> f32 {
+    let t = (mu0 / s.scale).clamp(1e-15, 1e15);
+    if l.target_mean {
+        return s.scale * (c[0] * t + c[1]).max(0.0);
+    }
+    let v = (c[0] * t + c[1]) * t + c[2];
+    s.scale * if v > 0.0 { v.sqrt() } else { t * c[0].sqrt() }
 }
 
 /// What the learning did, for the JSON sidecar.
@@ -347,8 +430,9 @@ pub fn learned_weights(
             }
             let nd = &tree.nodes[node as usize];
             let d2 = if l.regression { node_d2(nd, p) } else { 1.0 };
-            let mu0 = prior_mean(i, d2, brdf) as f64;
-            (Posterior::new(s, mu0, l).weight(l.target_mean) / d2 as f64) as f32
+            let s = fold(s, &SlotDelta::default(), l);
+            let c = [s.coef_a, s.coef_b, s.coef_c];
+            coefficient_weight(&s, c, prior_mean(i, d2, brdf, l), l) / d2
         })
         .collect()
 }

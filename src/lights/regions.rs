@@ -23,6 +23,9 @@ pub struct RegionSettings {
     pub tau: f32,
     /// At most this many clusters per cut.
     pub k_max: u32,
+    /// Inside a chosen cluster pick the light by importance at the shading point (a
+    /// lightbvh-style descent of the cluster's subtree) instead of by power.
+    pub in_cluster_importance: bool,
 }
 
 /// Largest `k_max`: the GPU keeps a cut's weights in a local array of this size
@@ -52,6 +55,7 @@ impl Default for RegionSettings {
             normal_bins: true,
             tau: 0.02,
             k_max: 32,
+            in_cluster_importance: false,
         }
     }
 }
@@ -204,6 +208,8 @@ pub struct Cuts {
     pub cuts: Vec<u32>,
     /// Offsets of the cuts built for reached regions (the fallback at 0 is not listed).
     pub offsets: Vec<u32>,
+    /// Lights inside a cluster by importance (else by power).
+    pub in_cluster_importance: bool,
 }
 
 impl Cuts {
@@ -245,11 +251,17 @@ impl Cuts {
             index,
             cuts,
             offsets,
+            in_cluster_importance: s.in_cluster_importance,
         }
     }
 
     /// Cuts read back from a statistics file (`--load-stats`).
-    pub fn from_parts(grid: Grid, index: Vec<u32>, cuts: Vec<u32>) -> Cuts {
+    pub fn from_parts(
+        grid: Grid,
+        index: Vec<u32>,
+        cuts: Vec<u32>,
+        in_cluster_importance: bool,
+    ) -> Cuts {
         let mut offsets: Vec<u32> = index.iter().copied().filter(|&o| o != 0).collect();
         offsets.sort_unstable();
         offsets.dedup();
@@ -258,6 +270,7 @@ impl Cuts {
             index,
             cuts,
             offsets,
+            in_cluster_importance,
         }
     }
 
@@ -287,19 +300,71 @@ impl Cuts {
     /// or None when no cluster can light the front of n at p.
     pub fn sample(&self, tree: &LightTree, p: Vec3, n: Vec3, u: f32) -> Option<(u32, f32)> {
         let cut = self.cut_at(p, n);
-        pick_in_cut(tree, cut, &Self::importances(tree, cut, p, n), u).map(|(l, pmf, _)| (l, pmf))
+        let w = Self::importances(tree, cut, p, n);
+        let inside = self.inside(p, n);
+        pick_in_cut(tree, cut, &w, u, inside).map(|(l, pmf, _)| (l, pmf))
     }
 
     /// The probability that `sample` returns `light` at (p, n).
     pub fn pmf(&self, tree: &LightTree, p: Vec3, n: Vec3, light: u32) -> f32 {
         let cut = self.cut_at(p, n);
-        pmf_in_cut(tree, cut, &Self::importances(tree, cut, p, n), light)
+        pmf_in_cut(
+            tree,
+            cut,
+            &Self::importances(tree, cut, p, n),
+            light,
+            self.inside(p, n),
+        )
+    }
+
+    /// How this cut picks a light inside a cluster at (p, n).
+    pub fn inside(&self, p: Vec3, n: Vec3) -> Inside {
+        if self.in_cluster_importance {
+            Inside::Importance(p, n)
+        } else {
+            Inside::Power
+        }
     }
 }
 
-/// Picks a slot of `cut` ∝ `w`, then a light inside its node by power: (light, pmf, slot), or
-/// None when every weight is 0. The same loop as `pick_in_cut` in regions.glsl.
-pub fn pick_in_cut(tree: &LightTree, cut: &[u32], w: &[f32], u: f32) -> Option<(u32, f32, usize)> {
+/// How a light is picked inside a chosen cluster.
+#[derive(Clone, Copy, Debug)]
+pub enum Inside {
+    /// ∝ power (Wang & Åkerlund 2009; method.md §4's default).
+    Power,
+    /// By descending the cluster's subtree ∝ importance at this shading point.
+    Importance(Vec3, Vec3),
+}
+
+/// The probability of the left child at a node, or None at a dead end (no light below can
+/// reach the shading point).
+fn left_chance(tree: &LightTree, node: usize, inside: Inside) -> Option<f32> {
+    let (l, r) = (
+        &tree.nodes[node + 1],
+        &tree.nodes[tree.nodes[node].right as usize],
+    );
+    match inside {
+        Inside::Power => Some(l.phi / (l.phi + r.phi)),
+        Inside::Importance(p, n) => {
+            let (il, ir) = (
+                node_bounds(l).importance(p, n),
+                node_bounds(r).importance(p, n),
+            );
+            (il + ir > 0.0).then(|| il / (il + ir))
+        }
+    }
+}
+
+/// Picks a slot of `cut` ∝ `w`, then a light inside its node: (light, pmf, slot), or None
+/// when every weight is 0 or the descent inside meets a dead end. The same loop as
+/// `pick_in_cut` in regions.glsl.
+pub fn pick_in_cut(
+    tree: &LightTree,
+    cut: &[u32],
+    w: &[f32],
+    u: f32,
+    inside: Inside,
+) -> Option<(u32, f32, usize)> {
     let total: f32 = w.iter().sum();
     if total <= 0.0 {
         return None;
@@ -324,7 +389,7 @@ pub fn pick_in_cut(tree: &LightTree, cut: &[u32], w: &[f32], u: f32) -> Option<(
     let mut pmf = w[k] / total;
     while tree.nodes[node].count > 1 {
         let (l, r) = (node + 1, tree.nodes[node].right as usize);
-        let pl = tree.nodes[l].phi / (tree.nodes[l].phi + tree.nodes[r].phi);
+        let pl = left_chance(tree, node, inside)?;
         if v < pl {
             v = (v / pl).min(1.0 - f32::EPSILON / 2.0);
             pmf *= pl;
@@ -348,7 +413,7 @@ pub fn slot_of(tree: &LightTree, cut: &[u32], light: u32) -> Option<usize> {
 }
 
 /// The probability that [`pick_in_cut`] returns `light` with weights `w`.
-pub fn pmf_in_cut(tree: &LightTree, cut: &[u32], w: &[f32], light: u32) -> f32 {
+pub fn pmf_in_cut(tree: &LightTree, cut: &[u32], w: &[f32], light: u32, inside: Inside) -> f32 {
     let total: f32 = w.iter().sum();
     if total <= 0.0 {
         return 0.0;
@@ -361,7 +426,9 @@ pub fn pmf_in_cut(tree: &LightTree, cut: &[u32], w: &[f32], light: u32) -> f32 {
     let mut pmf = w[k] / total;
     while tree.nodes[node].count > 1 {
         let (l, r) = (node + 1, tree.nodes[node].right as usize);
-        let pl = tree.nodes[l].phi / (tree.nodes[l].phi + tree.nodes[r].phi);
+        let Some(pl) = left_chance(tree, node, inside) else {
+            return 0.0;
+        };
         let nl = &tree.nodes[l];
         if pos < nl.begin + nl.count {
             pmf *= pl;

@@ -116,6 +116,10 @@ pub struct RenderSettings {
     pub regions: RegionSettings,
     /// The learned samplers' settings.
     pub learn: LearnSettings,
+    /// Pixel jitter stratified over passes (R2 with a per-pixel rotation) rather than
+    /// independent per sample. Both are unbiased; references use independent jitter so that
+    /// their per-pixel variance estimate is the true error of their mean.
+    pub stratified: bool,
     /// Statistics to start from (`--load-stats`): their cuts replace the built ones and the
     /// sample indices continue after theirs.
     pub resume: Option<Arc<SavedStats>>,
@@ -354,7 +358,12 @@ pub fn render_with_checkpoints(
         Some(saved) => {
             let (lo, hi) = scene.bounds();
             let grid = Grid::new(lo, hi, &settings.regions);
-            Cuts::from_parts(grid, saved.index.clone(), saved.cuts.clone())
+            Cuts::from_parts(
+                grid,
+                saved.index.clone(),
+                saved.cuts.clone(),
+                settings.regions.in_cluster_importance,
+            )
         }
         None => build_cuts(scene, gpu, settings),
     };
@@ -377,18 +386,18 @@ pub fn render_with_checkpoints(
         "learning window sums",
         slot_count as u64 * std::mem::size_of::<SlotDelta>() as u64,
     )?;
-    let learn_params = Buffer::from_slice(
-        ctx,
-        "learning parameters",
-        &[settings.learn.gpu_params(slot_count)],
-    )?;
+    let learn_params =
+        Buffer::from_slice(ctx, "learning parameters", &[settings.learn.gpu_params()])?;
     let pipeline = ComputePipeline::new(
         ctx,
         "render",
         kernels::RENDER,
         16,
         std::mem::size_of::<RenderParams>() as u32,
-        &[settings.sampler.shader_id()],
+        &[
+            settings.sampler.shader_id(),
+            settings.regions.in_cluster_importance as u32,
+        ],
     )?;
     pipeline.bind(&[
         &gpu.nodes,
@@ -408,18 +417,23 @@ pub fn render_with_checkpoints(
         &delta,
         &learn_params,
     ])?;
-    let fold = ComputePipeline::new(ctx, "fold", kernels::FOLD, 2, 4, &[])?;
-    fold.bind(&[&stats, &delta])?;
+    let fold = ComputePipeline::new(ctx, "fold", kernels::FOLD, 3, 4, &[])?;
+    fold.bind(&[&stats, &delta, &learn_params])?;
     let fold_groups = [slot_count.div_ceil(64), 1, 1];
     let first_sample = settings
         .resume
         .as_ref()
         .map_or(0, |s| s.header.samples_done);
     let update_every = settings.learn.update_every;
+    if learned {
+        // The weight coefficients of fresh or loaded statistics (under this render's settings).
+        ctx.submit(|cmd| fold.dispatch(cmd, bytemuck::bytes_of(&slot_count), fold_groups))?;
+    }
     let mut params = camera_params(scene, w, h);
     params.seed = settings.seed;
     params.light_count = gpu.light_count;
     params.ray_eps = gpu.ray_eps;
+    params.stratified = settings.stratified as u32;
     let groups = [w.div_ceil(8), h.div_ceil(8), 1];
     let read_mean = |spp: u32| -> Result<Vec<[f32; 3]>> {
         let data: Vec<PixelAccum> = accum.read()?;
@@ -636,6 +650,7 @@ pub fn report_json(
                 "normal_bins": settings.regions.normal_bins,
                 "tau": settings.regions.tau,
                 "k_max": settings.regions.k_max,
+                "in_cluster": if settings.regions.in_cluster_importance { "importance" } else { "power" },
                 "stats": result.regions,
             })
         } else {

@@ -38,7 +38,7 @@ pub fn gpu_light_samples(
     queries: &[(glam::Vec3, glam::Vec3, f32)],
 ) -> Vec<lightlearn::gpu::layout::LightChoice> {
     let stats = vec![lightlearn::gpu::layout::SlotStats::default(); cuts.cuts.len()];
-    let params = lightlearn::learning::LearnSettings::default().gpu_params(stats.len() as u32);
+    let params = lightlearn::learning::LearnSettings::default().gpu_params();
     gpu_learned_samples(ctx, tree, cuts, sampler, &stats, params, queries)
 }
 
@@ -75,13 +75,20 @@ pub fn gpu_learned_samples(
     let sb = Buffer::from_slice(ctx, "stats", stats).unwrap();
     let db = Buffer::zeroed(ctx, "deltas", (stats.len() * 32) as u64).unwrap();
     let lb = Buffer::from_slice(ctx, "learn", &[params]).unwrap();
+    // The fold kernel with empty windows writes the weight coefficients.
+    let fold =
+        ComputePipeline::new(ctx, "fold", lightlearn::gpu::kernels::FOLD, 3, 4, &[]).unwrap();
+    fold.bind(&[&sb, &db, &lb]).unwrap();
+    let slots = stats.len() as u32;
+    ctx.submit(|cmd| fold.dispatch(cmd, bytemuck::bytes_of(&slots), [slots.div_ceil(64), 1, 1]))
+        .unwrap();
     let k = ComputePipeline::new(
         ctx,
         "light_sample",
         lightlearn::gpu::kernels::LIGHT_SAMPLE,
         10,
         4,
-        &[sampler],
+        &[sampler, cuts.in_cluster_importance as u32],
     )
     .unwrap();
     k.bind(&[&nodes, &order, &qb, &cb, &grid, &index, &cut, &sb, &db, &lb])
