@@ -104,10 +104,21 @@ fn cuts_partition_the_lights() {
 
 #[test]
 fn wang_pmfs_are_exact_normalised_and_cover_every_contributing_light() {
-    for name in ["rooms.glb", "city.glb", "strings.glb", "cornell.glb"] {
+    for (name, importance) in [
+        ("rooms.glb", true),
+        ("city.glb", true),
+        ("strings.glb", true),
+        ("cornell.glb", true),
+        ("rooms.glb", false),
+        ("city.glb", false),
+    ] {
         let s = scene(name);
         let tree = LightTree::build(&s);
-        let (cuts, points) = cuts_for(&s, &tree, &RegionSettings::default());
+        let settings = RegionSettings {
+            in_cluster_importance: importance,
+            ..Default::default()
+        };
+        let (cuts, points) = cuts_for(&s, &tree, &settings);
         let lbvh = LightTree::build(&s);
         let mut sampled = 0;
         for &(p, n, u) in &points {
@@ -122,8 +133,14 @@ fn wang_pmfs_are_exact_normalised_and_cover_every_contributing_light() {
                         (pmf - again).abs() <= 1e-5 * pmf,
                         "{name}: pmf {pmf} vs recomputed {again}"
                     );
-                    assert!((total - 1.0).abs() < 1e-3, "{name}: pmfs sum to {total}");
+                    // By power the pmfs sum to 1; by importance they may fall short by the
+                    // chance of a dead end inside a cluster (a zero sample, as in lightbvh).
+                    assert!(
+                        (total - 1.0).abs() < 1e-3 || importance && total < 1.0,
+                        "{name}: pmfs sum to {total}"
+                    );
                 }
+                None if importance => assert!(total < 1.0, "{name}: pmfs sum to {total}"),
                 None => assert_eq!(total, 0.0, "{name}: no sample, yet pmfs sum to {total}"),
             }
             // Cover: any light the (conservative) tree importance says can contribute here

@@ -55,7 +55,10 @@ impl Default for RegionSettings {
             normal_bins: true,
             tau: 0.02,
             k_max: 32,
-            in_cluster_importance: false,
+            // Measured (rooms16 128×96 256 spp, city 256×192 64 spp, noise-corrected MSE):
+            // wang 1.48e-4 → 1.32e-4 and 6.65e-3 → 3.06e-3, bayes 6.0e-5 → 5.1e-5 and
+            // 1.99e-3 → 7.4e-4 with importance instead of power inside the cluster.
+            in_cluster_importance: true,
         }
     }
 }
