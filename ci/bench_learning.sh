@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# The README's learning tables (issue #6): `lightlearn compare` at equal time on rooms16, city
+# and hall — wang, donikian and bayes against one lightbvh reference per scene, with the
+# reference's own noise subtracted — then the bayes ablations on rooms16 and city.
+# Usage: ci/bench_learning.sh [SECONDS_PER_SAMPLER] [SECONDS_PER_ABLATION] [OUT_DIR] [REFERENCE_SPP]
+#        (defaults: 60, 20, bench-learning, 65536; references are rendered once and cached:
+#        about 10 minutes each at 65536 spp on 2 cores)
+# Prints markdown rows from each report's metrics.json.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+t="${1:-60}"
+ta="${2:-20}"
+out="${3:-bench-learning}"
+ref="${4:-65536}"
+cargo build --release --quiet
+run() { # name scene seconds samplers [switches...]
+  local name=$1 scene=$2 secs=$3 samplers=$4
+  shift 4
+  ./target/release/lightlearn compare "scenes/$scene.glb" --samplers "$samplers" --time "$secs" \
+    --reference-spp "$ref" --width 128 --height 96 --out "$out/$name" -q "$@"
+}
+for s in rooms16 city hall; do
+  run "$s" "$s" "$t" wang,donikian,bayes
+  run "$s-power" "$s" "$t" wang,bayes --in-cluster power
+done
+for s in rooms16 city; do
+  run "$s-defaults" "$s" "$ta" wang,bayes
+  run "$s-regression-off" "$s" "$ta" wang,bayes --regression off
+  run "$s-target-mean" "$s" "$ta" wang,bayes --target mean
+  run "$s-priors-off" "$s" "$ta" wang,bayes --priors off
+  run "$s-brdf-aware" "$s" "$ta" wang,bayes --brdf-aware
+  run "$s-normal-bins-off" "$s" "$ta" wang,bayes --normal-bins off
+  for g in 16 64 128; do
+    run "$s-grid-$g" "$s" "$ta" wang,bayes --grid "$g"
+  done
+done
+python3 - "$out" <<'PY'
+import json, sys, pathlib
+root = pathlib.Path(sys.argv[1])
+print("| run | sampler | spp in the budget | µs per sample·pixel | MSE (noise out) | relMSE (noise out) | MSE(wang)/MSE |")
+print("|---|---|---|---|---|---|---|")
+for d in sorted(p for p in root.iterdir() if (p / "metrics.json").exists()):
+    m = json.loads((d / "metrics.json").read_text())
+    px = m["width"] * m["height"]
+    for r in m["comparisons"][0]["runs"]:
+        c = r["corrected"] or {"mse": float("nan"), "rel_mse": float("nan")}
+        us = 1e6 * r["seconds"] / (r["spp"] * px)
+        sp = r["speedup_corrected"]
+        print(f"| {d.name} | {r['sampler']} | {r['spp']} | {us:.3f} | {c['mse']:.3e} | {c['rel_mse']:.3e} | "
+              + (f"{sp:.2f}" if sp else "n/a") + " |")
+PY
