@@ -7,16 +7,18 @@ cd "$(dirname "$0")/.."
 t="${1:-10}"
 out="${2:-bench-out}"
 cargo build --release --quiet
-for s in default cornell rooms hall city strings; do
-  ./target/release/lightlearn compare "scenes/$s.glb" --samplers uniform,power,lightbvh,wang --time "$t" \
+for s in default cornell rooms rooms16 hall city strings; do
+  ./target/release/lightlearn compare "scenes/$s.glb" --samplers uniform,power,lightbvh,wang,donikian,bayes --time "$t" \
     --reference-spp 2048 --width 256 --height 192 --out "$out/$s" -q
 done
 python3 - "$out" <<'PY'
 import json, sys, pathlib
-print("| scene | sampler | spp in the budget | relMSE | speed-up vs uniform |")
-print("|---|---|---|---|---|")
-for s in ["default", "cornell", "rooms", "hall", "city", "strings"]:
+print("| scene | sampler | spp in the budget | relMSE | MSE | relMSE, noise out | speed-up vs uniform, noise out |")
+print("|---|---|---|---|---|---|---|")
+for s in ["default", "cornell", "rooms", "rooms16", "hall", "city", "strings"]:
     m = json.loads(pathlib.Path(sys.argv[1], s, "metrics.json").read_text())
     for r in m["comparisons"][0]["runs"]:
-        print(f"| {s} | {r['sampler']} | {r['spp']} | {r['rel_mse']:.3e} | {r['speedup']:.2f} |")
+        c, sp = r["corrected"], r["speedup_corrected"]
+        print(f"| {s} | {r['sampler']} | {r['spp']} | {r['rel_mse']:.3e} | {r['mse']:.3e} | {c['rel_mse']:.3e} | "
+              + (f"{sp:.2f}" if sp else "n/a") + " |")
 PY

@@ -14,7 +14,10 @@ layout(std430, set = 0, binding = 0) buffer Stats { SlotStats slot_stats[]; };
 layout(std430, set = 0, binding = 1) buffer Delta { SlotDelta slot_delta[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Learn { LearnParams learn[]; };
 
-layout(push_constant) uniform Push { uint slot_count; };
+// force: recompute every slot's coefficients (fresh or loaded statistics); otherwise slots
+// whose window is empty are left alone (their coefficients cannot have changed). Most slots
+// see no sample in a pass, so this skips most of the memory traffic of a fold.
+layout(push_constant) uniform Push { uint slot_count; uint force; };
 
 const float FIX_ONE = 16777216.0;
 const float TWO_POW_32 = 4294967296.0;
@@ -23,6 +26,7 @@ void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= slot_count) return;
     SlotDelta d = slot_delta[i];
+    if (force == 0u && d.n_zero + d.n_nonzero == 0u) return;
     SlotStats s = slot_stats[i];
     if (!(s.scale > 0.0)) s.scale = 1.0;
     if (d.n_zero + d.n_nonzero > 0u) {

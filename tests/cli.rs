@@ -82,7 +82,13 @@ fn same_seed_same_bits_other_seed_other_bits() {
     let report: serde_json::Value = serde_json::from_slice(&read("a.json")).unwrap();
     assert_eq!(report["spp"], 4);
     assert_eq!(report["seed"], 3);
-    assert_eq!(report["sampler"], "lightbvh");
+    assert_eq!(report["sampler"], "bayes");
+    assert!(
+        report["learning"]["diagnostics"]["observations"]
+            .as_f64()
+            .unwrap()
+            > 0.0
+    );
     assert!(report["device"].as_str().unwrap().len() > 3);
     assert!(read("a.png").starts_with(b"\x89PNG"));
     let (w, h, px) = lightlearn::film::read_exr(&d.join("a.exr")).unwrap();

@@ -417,7 +417,7 @@ pub fn render_with_checkpoints(
         &delta,
         &learn_params,
     ])?;
-    let fold = ComputePipeline::new(ctx, "fold", kernels::FOLD, 3, 4, &[])?;
+    let fold = ComputePipeline::new(ctx, "fold", kernels::FOLD, 3, 8, &[])?;
     fold.bind(&[&stats, &delta, &learn_params])?;
     let fold_groups = [slot_count.div_ceil(64), 1, 1];
     let first_sample = settings
@@ -425,9 +425,10 @@ pub fn render_with_checkpoints(
         .as_ref()
         .map_or(0, |s| s.header.samples_done);
     let update_every = settings.learn.update_every;
+    let (fold_all, fold_touched) = ([slot_count, 1u32], [slot_count, 0u32]);
     if learned {
         // The weight coefficients of fresh or loaded statistics (under this render's settings).
-        ctx.submit(|cmd| fold.dispatch(cmd, bytemuck::bytes_of(&slot_count), fold_groups))?;
+        ctx.submit(|cmd| fold.dispatch(cmd, bytemuck::cast_slice(&fold_all), fold_groups))?;
     }
     let mut params = camera_params(scene, w, h);
     params.seed = settings.seed;
@@ -475,7 +476,7 @@ pub fn render_with_checkpoints(
                 // Posteriors stay frozen for a whole pass: each pass's samples depend only
                 // on earlier passes, so the average of passes stays unbiased.
                 if learned && (params.sample_index + 1).is_multiple_of(update_every) {
-                    fold.dispatch(cmd, bytemuck::bytes_of(&slot_count), fold_groups);
+                    fold.dispatch(cmd, bytemuck::cast_slice(&fold_touched), fold_groups);
                     ctx.barrier(cmd);
                 }
             }
@@ -521,7 +522,7 @@ pub fn render_with_checkpoints(
     let learned_state = if learned {
         // Fold what is left of the last window, so the saved statistics hold every sample.
         if !(first_sample + done).is_multiple_of(update_every) {
-            ctx.submit(|cmd| fold.dispatch(cmd, bytemuck::bytes_of(&slot_count), fold_groups))?;
+            ctx.submit(|cmd| fold.dispatch(cmd, bytemuck::cast_slice(&fold_touched), fold_groups))?;
         }
         let totals: Vec<SlotStats> = stats.read()?;
         let diagnostics = crate::learning::diagnostics(

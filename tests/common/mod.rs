@@ -77,11 +77,17 @@ pub fn gpu_learned_samples(
     let lb = Buffer::from_slice(ctx, "learn", &[params]).unwrap();
     // The fold kernel with empty windows writes the weight coefficients.
     let fold =
-        ComputePipeline::new(ctx, "fold", lightlearn::gpu::kernels::FOLD, 3, 4, &[]).unwrap();
+        ComputePipeline::new(ctx, "fold", lightlearn::gpu::kernels::FOLD, 3, 8, &[]).unwrap();
     fold.bind(&[&sb, &db, &lb]).unwrap();
-    let slots = stats.len() as u32;
-    ctx.submit(|cmd| fold.dispatch(cmd, bytemuck::bytes_of(&slots), [slots.div_ceil(64), 1, 1]))
-        .unwrap();
+    let slots = [stats.len() as u32, 1];
+    ctx.submit(|cmd| {
+        fold.dispatch(
+            cmd,
+            bytemuck::cast_slice(&slots),
+            [slots[0].div_ceil(64), 1, 1],
+        )
+    })
+    .unwrap();
     let k = ComputePipeline::new(
         ctx,
         "light_sample",
