@@ -168,22 +168,9 @@ fn cuts_and_points(
     count: usize,
     settings: RegionSettings,
 ) -> (Cuts, Vec<(Vec3, Vec3, f32)>) {
-    let bvh = Bvh::build(&s.triangles);
     let (lo, hi) = s.bounds();
     let grid = Grid::new(lo, hi, &settings);
-    let mut r = SplitMix64(5);
-    let mut points = Vec::new();
-    while points.len() < count {
-        let o = lo + (hi - lo) * Vec3::new(r.f32(), r.f32(), r.f32());
-        let d = Vec3::new(r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(-1.0, 1.0))
-            .normalize_or(Vec3::X);
-        if let Some((t, prim)) = bvh.intersect(o, d, 0.0, f32::INFINITY) {
-            let [a, b, c] = s.triangles[prim as usize];
-            let ng = (b - a).cross(c - a).normalize();
-            let n = if ng.dot(d) < 0.0 { ng } else { -ng };
-            points.push((o + t * d + n * 1e-3, n, r.f32()));
-        }
-    }
+    let points = common::surface_points(s, count, 5);
     let reached: Vec<u32> = points.iter().map(|(p, n, _)| grid.region(*p, *n)).collect();
     (Cuts::build(tree, grid, reached, lo, hi, &settings), points)
 }

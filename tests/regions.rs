@@ -7,7 +7,6 @@ mod common;
 use std::path::Path;
 
 use glam::Vec3;
-use lightlearn::accel::Bvh;
 use lightlearn::lights::regions::{Cuts, Grid, RegionSettings};
 use lightlearn::lights::tree::LightTree;
 use lightlearn::rng::SplitMix64;
@@ -26,22 +25,9 @@ fn cuts_for(
     tree: &LightTree,
     settings: &RegionSettings,
 ) -> (Cuts, Vec<(Vec3, Vec3, f32)>) {
-    let bvh = Bvh::build(&s.triangles);
     let (lo, hi) = s.bounds();
     let grid = Grid::new(lo, hi, settings);
-    let mut r = SplitMix64(21);
-    let mut points = Vec::new();
-    while points.len() < 600 {
-        let o = lo + (hi - lo) * Vec3::new(r.f32(), r.f32(), r.f32());
-        let d = Vec3::new(r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(-1.0, 1.0))
-            .normalize_or(Vec3::X);
-        if let Some((t, prim)) = bvh.intersect(o, d, 0.0, f32::INFINITY) {
-            let [a, b, c] = s.triangles[prim as usize];
-            let ng = (b - a).cross(c - a).normalize();
-            let n = if ng.dot(d) < 0.0 { ng } else { -ng };
-            points.push((o + t * d + n * 1e-3, n, r.f32()));
-        }
-    }
+    let points = common::surface_points(s, 600, 21);
     // Build cuts for two thirds of the regions; the rest must fall back to the global cut.
     let reached: Vec<u32> = points[..400]
         .iter()

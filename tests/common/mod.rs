@@ -105,3 +105,25 @@ pub fn gpu_learned_samples(
     let out: Vec<lightlearn::gpu::layout::LightChoice> = cb.read().unwrap();
     out[..q.len()].to_vec()
 }
+
+/// Random shading points on a scene's surfaces, as (point lifted off the surface, normal facing
+/// the ray, a uniform number): hits of rays from random points in the bounds.
+pub fn surface_points(s: &Scene, count: usize, seed: u64) -> Vec<(glam::Vec3, glam::Vec3, f32)> {
+    use glam::Vec3;
+    let bvh = lightlearn::accel::Bvh::build(&s.triangles);
+    let (lo, hi) = s.bounds();
+    let mut r = lightlearn::rng::SplitMix64(seed);
+    let mut points = Vec::new();
+    while points.len() < count {
+        let o = lo + (hi - lo) * Vec3::new(r.f32(), r.f32(), r.f32());
+        let d = Vec3::new(r.range(-1.0, 1.0), r.range(-1.0, 1.0), r.range(-1.0, 1.0))
+            .normalize_or(Vec3::X);
+        if let Some((t, prim)) = bvh.intersect(o, d, 0.0, f32::INFINITY) {
+            let [a, b, c] = s.triangles[prim as usize];
+            let ng = (b - a).cross(c - a).normalize();
+            let n = if ng.dot(d) < 0.0 { ng } else { -ng };
+            points.push((o + t * d + n * 1e-3, n, r.f32()));
+        }
+    }
+    points
+}
