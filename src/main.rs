@@ -465,12 +465,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     };
     let mut settings = settings;
     if let (Some(saved), Some(p)) = (loaded, &a.load_stats) {
-        let want = render::stats_header(
-            &gpu,
-            &render::build_cuts(&scene, &gpu, &settings),
-            &settings,
-            0,
-        );
+        let want = render::stats_header(&scene, &gpu, &settings);
         saved.check_matches(&want, p)?;
         settings.resume = Some(std::sync::Arc::new(saved));
     }

@@ -534,7 +534,12 @@ pub fn render_with_checkpoints(
         );
         Some(Learned {
             saved: SavedStats {
-                header: stats_header(gpu, &cuts, settings, first_sample + done),
+                header: StatsHeader {
+                    samples_done: first_sample + done,
+                    regions: cuts.index.len() as u32,
+                    cuts_len: cuts.cuts.len() as u32,
+                    ..stats_header(scene, gpu, settings)
+                },
                 index: cuts.index.clone(),
                 cuts: cuts.cuts.clone(),
                 stats: totals,
@@ -560,14 +565,12 @@ pub fn render_with_checkpoints(
     })
 }
 
-/// The header a statistics file of this render has (and a loaded one must match).
-pub fn stats_header(
-    gpu: &GpuScene,
-    cuts: &Cuts,
-    settings: &RenderSettings,
-    samples_done: u32,
-) -> StatsHeader {
-    let (grid_params, grid_dims) = stats_file::grid_fields(&cuts.grid.params);
+/// The header of a statistics file of this scene and these settings with no cuts yet (what
+/// a loaded file must match); [`Cuts`] sizes and the sample count are filled in on saving.
+pub fn stats_header(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) -> StatsHeader {
+    let (lo, hi) = scene.bounds();
+    let grid = Grid::new(lo, hi, &settings.regions);
+    let (grid_params, grid_dims) = stats_file::grid_fields(&grid.params);
     StatsHeader {
         scene: stats_file::scene_fingerprint(&gpu.tree),
         sampler: settings.sampler.name().to_string(),
@@ -575,11 +578,11 @@ pub fn stats_header(
         normal_bins: settings.regions.normal_bins,
         regression: settings.learn.regression,
         brdf_aware: settings.learn.brdf_aware,
-        samples_done,
+        samples_done: 0,
         grid_params,
         grid_dims,
-        regions: cuts.index.len() as u32,
-        cuts_len: cuts.cuts.len() as u32,
+        regions: 0,
+        cuts_len: 0,
     }
 }
 
