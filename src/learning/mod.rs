@@ -434,6 +434,7 @@ pub fn learned_weights(
             }
             let nd = &tree.nodes[node as usize];
             let d2 = if l.regression { node_d2(nd, p) } else { 1.0 };
+            // What fold.comp leaves in the slot: its coefficients (and a scale of 1 if unset).
             let s = fold(s, &SlotDelta::default(), l);
             let c = [s.coef_a, s.coef_b, s.coef_c];
             coefficient_weight(&s, c, prior_mean(i, d2, brdf, l), l) / d2
@@ -443,8 +444,5 @@ pub fn learned_weights(
 
 /// The regression distance² of a node (the same clamp as the importance's).
 pub fn node_d2(nd: &crate::gpu::layout::LightNode, p: glam::Vec3) -> f32 {
-    let (lo, hi) = (glam::Vec3::from(nd.bmin), glam::Vec3::from(nd.bmax));
-    (p - 0.5 * (lo + hi))
-        .length_squared()
-        .max(0.5 * (hi - lo).length())
+    crate::lights::tree::clamped_d2(nd.bmin.into(), nd.bmax.into(), p)
 }

@@ -139,6 +139,15 @@ fn cone_union(a: Vec3, cos_a: f32, b: Vec3, cos_b: f32) -> (Vec3, f32) {
     (axis.normalize(), theta_o.cos())
 }
 
+/// The squared distance from p to a box's centre, at least half the box diagonal (pbrt-v4's
+/// clamp): the importance's distance and the learned samplers' regression distance
+/// (`node_d2` in light_tree.glsl).
+pub fn clamped_d2(lo: Vec3, hi: Vec3, p: Vec3) -> f32 {
+    (p - 0.5 * (lo + hi))
+        .length_squared()
+        .max(0.5 * (hi - lo).length())
+}
+
 /// The importance function, argument by argument as in the GLSL.
 #[allow(clippy::too_many_arguments)]
 pub fn importance(
@@ -154,7 +163,7 @@ pub fn importance(
 ) -> f32 {
     let pc = 0.5 * (lo + hi);
     let diag = hi - lo;
-    let d2 = (p - pc).length_squared().max(0.5 * diag.length());
+    let d2 = clamped_d2(lo, hi, p);
     let wi = (p - pc).normalize_or_zero();
     let mut cos_w = axis.dot(wi);
     if two_sided {
