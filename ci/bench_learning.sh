@@ -29,6 +29,7 @@ for s in rooms16 city; do
   run "$s-target-mean" "$s" "$ta" wang,bayes --target mean
   run "$s-priors-off" "$s" "$ta" wang,bayes --priors off
   run "$s-brdf-aware" "$s" "$ta" wang,bayes --brdf-aware
+  run "$s-control-variates" "$s" "$ta" wang,bayes --control-variates
   run "$s-normal-bins-off" "$s" "$ta" wang,bayes --normal-bins off
   for g in 16 64 128; do
     run "$s-grid-$g" "$s" "$ta" wang,bayes --grid "$g"

@@ -31,11 +31,13 @@ void main() {
     if (i >= query_count) return;
     LightQuery q = queries[i];
     LightChoice c;
+    c.cv_total = 0.0;
+    c.cv_chosen = 0.0;
     uint slot;
     float p_slot, d2;
     if (SAMPLER == SAMPLER_WANG) c.light = sample_wang(q.p, q.n, q.u, c.pmf);
     else if (SAMPLER == SAMPLER_LIGHTBVH) c.light = sample_light_tree(q.p, q.n, q.u, c.pmf);
-    else c.light = sample_learned(q.p, q.n, q.u, 1.0, c.pmf, slot, p_slot, d2);
+    else c.light = sample_learned(q.p, q.n, q.u, 1.0, c.pmf, slot, p_slot, d2, c.cv_total, c.cv_chosen);
     if (c.light == NO_LIGHT) c.pmf = 0.0;
     choices[i] = c;
 }

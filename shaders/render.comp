@@ -86,17 +86,20 @@ void main() {
         uint slot = NO_SLOT;
         float p_slot = 1.0;
         float d2_slot = 1.0;
+        float cv_total = 0.0;
+        float cv_chosen = 0.0;
         // --brdf-aware: the observation includes the (Lambertian) BRDF as luminance.
         float brdf = (SAMPLER == SAMPLER_BAYES && (learn[0].flags & LEARN_BRDF) != 0u)
                          ? dot(m.base_color, vec3(0.2126, 0.7152, 0.0722)) / PI : 1.0;
         if (SAMPLER == SAMPLER_LIGHTBVH) li = sample_light_tree(x, n, u_light, pmf);
         else if (SAMPLER == SAMPLER_WANG) li = sample_wang(x, n, u_light, pmf);
-        else if (learned) li = sample_learned(x, n, u_light, brdf, pmf, slot, p_slot, d2_slot);
+        else if (learned) li = sample_learned(x, n, u_light, brdf, pmf, slot, p_slot, d2_slot, cv_total, cv_chosen);
         else li = pick_light(u_light, params.light_count, pmf);
         if (learned && li != NO_LIGHT && slot == NO_SLOT) atomicAdd(counters[1], 1u);
         // The observation of the chosen cluster: Î_C = L_e G V / (P(l|C) p(y|l)) as
         // luminance (not divided by P(C|x)); zero when occluded or facing away.
         float observed = 0.0;
+        vec3 Ic = vec3(0.0);  // Î_C in RGB, for the control variate
         vec3 wi;
         float dist;
         vec2 u = vec2(sample_rand(seed, pixel, s, DIM_LIGHT_U), sample_rand(seed, pixel, s, DIM_LIGHT_V));
@@ -118,10 +121,19 @@ void main() {
             float ts;
             if (trace_ray(so, to_light / sdist, 0.0, tmax, true, ts) == NO_HIT) {
                 L += m.base_color * (1.0 / PI) * Li * (cos_x / pmf);
+                Ic = Li * (cos_x * p_slot / pmf);
                 observed = dot(Li, vec3(0.2126, 0.7152, 0.0722)) * cos_x * (p_slot / pmf) * brdf;
             }
         }
         if (learned && slot != NO_SLOT) record_observation(slot, observed * d2_slot);
+        // --control-variates (method.md §6): Σ_C g_C + (Î_C − g_C) / P(C) instead of
+        // Î_C / P(C), with g_C the model's predicted mean of Î_C (gray: the model learns
+        // luminance). Unbiased for any g fixed within the pass; also where the sample was
+        // occluded or a dead end (Î_C = 0), which is why it is added here, outside the
+        // shadow-ray branch. p_slot = 0 only where no cluster can light x (g's all 0).
+        if (cv_total > 0.0 && p_slot > 0.0) {
+            L += m.base_color * (1.0 / PI) * (vec3(cv_total) - vec3(cv_chosen) / p_slot);
+        }
     }
 
     if (any(isnan(L)) || any(isinf(L))) {

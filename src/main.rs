@@ -119,6 +119,10 @@ struct LearnArgs {
     /// bayes: observations include the BRDF (luminance of albedo/π).
     #[arg(long)]
     brdf_aware: bool,
+    /// bayes: subtract the model's predicted mean of every cluster as a control variate
+    /// (method.md §6); off by default (see README for the measurement).
+    #[arg(long)]
+    control_variates: bool,
     /// bayes: Beta prior pseudo-count of zero observations (n̄_o).
     #[arg(long, default_value_t = 2.0)]
     prior_zero: f32,
@@ -152,6 +156,7 @@ impl LearnArgs {
             target_mean: self.target == "mean",
             priors: self.priors == "on",
             brdf_aware: self.brdf_aware,
+            control_variates: self.control_variates,
             prior_zero: self.prior_zero,
             prior_nonzero: self.prior_nonzero,
             prior_n: self.prior_n,
@@ -421,6 +426,9 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     check_depth(a.max_depth)?;
     let regions = a.regions.settings()?;
     let learn = a.learn.settings()?;
+    if learn.control_variates && a.sampler != LightSampler::Bayes {
+        bail!("--control-variates needs the learned model: add --sampler bayes");
+    }
     if (a.save_stats.is_some() || a.load_stats.is_some()) && !a.sampler.learned() {
         bail!(
             "--save-stats/--load-stats need a learning sampler: add --sampler bayes or --sampler donikian"
@@ -604,6 +612,9 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
     let samplers = LightSampler::parse_list(&a.samplers)?;
     let regions = a.regions.settings()?;
     let learn = a.learn.settings()?;
+    if learn.control_variates && !samplers.contains(&LightSampler::Bayes) {
+        bail!("--control-variates applies to bayes only: add bayes to --samplers");
+    }
     let mut budgets = Vec::new();
     if let Some(t) = a.time {
         if !(t.is_finite() && t > 0.0) {

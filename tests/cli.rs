@@ -194,6 +194,16 @@ fn bad_input_fails_cleanly() {
     ];
     args.extend_from_slice(SMALL);
     expect_failure(&args, d, &[], &["--k-max 65", "1..=64"]);
+    let mut args = vec![
+        "render",
+        "--sampler",
+        "wang",
+        "--control-variates",
+        "--out",
+        "out.exr",
+    ];
+    args.extend_from_slice(SMALL);
+    expect_failure(&args, d, &[], &["--control-variates", "--sampler bayes"]);
 
     // No Vulkan driver at all, and a device name that matches nothing.
     let mut args = vec!["render", "--out", "out.exr"];

@@ -190,7 +190,12 @@ fn host_and_shader_structs_match() {
             flags
         }),
         rust_layout!(LightQuery { p, u, n, pad }),
-        rust_layout!(LightChoice { light, pmf }),
+        rust_layout!(LightChoice {
+            light,
+            pmf,
+            cv_total,
+            cv_chosen
+        }),
         rust_layout!(SlotStats {
             n_zero,
             n_nonzero,

@@ -15,7 +15,7 @@ use lightlearn::accel::Bvh;
 use lightlearn::gpu::layout::{SlotDelta, SlotStats};
 use lightlearn::gpu::{kernels, Buffer, ComputePipeline};
 use lightlearn::learning::stats_file::SavedStats;
-use lightlearn::learning::{fold, learned_weights, LearnSettings, Posterior};
+use lightlearn::learning::{fold, learned_weights, predicted_means, LearnSettings, Posterior};
 use lightlearn::lights::regions::{pmf_in_cut, Cuts, Grid, RegionSettings};
 use lightlearn::lights::tree::LightTree;
 use lightlearn::render::{self, Budget, GpuScene, LightSampler, RenderSettings};
@@ -299,7 +299,11 @@ fn learned_pmfs_are_exact_cover_every_light_and_match_the_gpu() {
         for (sampler, donikian) in [(5u32, false), (4u32, true)] {
             for seed in [1u64, 2] {
                 let st = adversarial_stats(cuts.cuts.len(), seed);
-                let l = LearnSettings::default();
+                // Control variates on: bayes reports its g's (checked below), donikian 0.
+                let l = LearnSettings {
+                    control_variates: true,
+                    ..Default::default()
+                };
                 let gpu = common::gpu_learned_samples(
                     &ctx,
                     &tree,
@@ -320,11 +324,24 @@ fn learned_pmfs_are_exact_cover_every_light_and_match_the_gpu() {
                     );
                     let inside = cuts.inside(p, n);
                     let cpu = lightlearn::lights::regions::pick_in_cut(&tree, cut, &w, u, inside);
+                    let cv = if donikian {
+                        vec![0.0; cut.len()]
+                    } else {
+                        predicted_means(&tree, &cuts.cuts, o, &st, p, n, &l, 1.0)
+                    };
+                    let cv_total: f32 = cv.iter().sum();
+                    let near =
+                        |a: f32, b: f32| (a - b).abs() <= 1e-3 * a.abs().max(b.abs()) + 1e-30;
+                    assert!(
+                        near(g.cv_total, cv_total),
+                        "{name} query {i}: GPU Σg {} vs CPU {cv_total}",
+                        g.cv_total
+                    );
                     // The pmf returned with the sample equals the one recomputed for its light.
                     if cpu.is_none() && g.light == u32::MAX {
                         agree += 1; // both met no light (all weights 0 or a dead end)
                     }
-                    if let Some((light, pmf, _)) = cpu {
+                    if let Some((light, pmf, k)) = cpu {
                         let again = pmf_in_cut(&tree, cut, &w, light, inside);
                         assert!(
                             (pmf - again).abs() <= 1e-5 * pmf,
@@ -332,6 +349,12 @@ fn learned_pmfs_are_exact_cover_every_light_and_match_the_gpu() {
                         );
                         if g.light == light {
                             agree += 1;
+                            assert!(
+                                near(g.cv_chosen, cv[k]),
+                                "{name} query {i}: GPU g of the chosen slot {} vs CPU {}",
+                                g.cv_chosen,
+                                cv[k]
+                            );
                             assert!(
                                 (g.pmf - pmf).abs() <= 1e-3 * pmf,
                                 "{name} query {i}: GPU pmf {} vs CPU {pmf}",
@@ -494,7 +517,13 @@ fn adversarial_statistics_stay_unbiased() {
     );
     let ref_mean = reference.mean();
     let ref_var = reference.variance_of_mean();
-    for sampler in [LightSampler::Bayes, LightSampler::Donikian] {
+    // bayes also with control variates: lying statistics make its g's wrong, which may cost
+    // variance but must not bias.
+    for (sampler, control_variates) in [
+        (LightSampler::Bayes, false),
+        (LightSampler::Bayes, true),
+        (LightSampler::Donikian, false),
+    ] {
         // The statistics and cuts a 1-spp learned render uses, with lying totals.
         let first = render_scene(&s, sampler, 1, 1, None, LearnSettings::default(), size);
         let mut saved = first.learned.unwrap().saved;
@@ -502,6 +531,7 @@ fn adversarial_statistics_stay_unbiased() {
         saved.header.samples_done = 0;
         let frozen = LearnSettings {
             update_every: 1_000_000,
+            control_variates,
             ..Default::default()
         };
         let runs = 64;
@@ -562,7 +592,7 @@ fn adversarial_statistics_stay_unbiased() {
             d / v.sqrt()
         };
         eprintln!(
-            "{sampler:?}: whole-image z {:.2}, with a 5 % bias {:.2}",
+            "{sampler:?} (cv {control_variates}): whole-image z {:.2}, with a 5 % bias {:.2}",
             whole(1.0),
             whole(1.05)
         );
@@ -572,18 +602,22 @@ fn adversarial_statistics_stay_unbiased() {
         let (biased_z2, biased_max) = stats(&z_scores(1.05));
         assert!(
             biased_z2 > 2.5 || biased_max > 5.0 || whole(1.05).abs() > 4.0,
-            "{sampler:?}: a 5 % bias would go unnoticed (z² {biased_z2:.2}, max {biased_max:.2}, whole {:.2})",
+            "{sampler:?} (cv {control_variates}): a 5 % bias would go unnoticed (z² {biased_z2:.2}, max {biased_max:.2}, whole {:.2})",
             whole(1.05)
         );
         assert!(
             whole(1.0).abs() < 4.0,
-            "{sampler:?}: whole-image z {:.2}",
+            "{sampler:?} (cv {control_variates}): whole-image z {:.2}",
             whole(1.0)
         );
-        assert!(zs.len() >= 20, "{sampler:?}: only {} lit blocks", zs.len());
+        assert!(
+            zs.len() >= 20,
+            "{sampler:?} (cv {control_variates}): only {} lit blocks",
+            zs.len()
+        );
         assert!(
             mean_z2 < 2.5 && max_z < 5.0,
-            "{sampler:?} with adversarial statistics: block z² mean {mean_z2:.2}, max |z| {max_z:.2} (unbiased: ≈1 and < 5)"
+            "{sampler:?} (cv {control_variates}) with adversarial statistics: block z² mean {mean_z2:.2}, max |z| {max_z:.2} (unbiased: ≈1 and < 5)"
         );
     }
 }

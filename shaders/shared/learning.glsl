@@ -8,6 +8,7 @@
 #define LEARNING_GLSL
 
 #include "regions.glsl"
+#include "posterior.glsl"
 
 #define NO_SLOT 0xffffffffu
 
@@ -31,13 +32,25 @@ float bayes_weight(SlotStats s, float mu0) {
     return s.scale * (v > 0.0 ? sqrt(v) : t * sqrt(s.coef_a));
 }
 
+// The posterior's predicted mean of the observation Î_C at x (method.md §6): (1 − p̂0) μ / d²
+// with μ the regression constant's posterior mean at prior mean mu0, divided by the
+// observation's BRDF factor (brdf; 1 unless --brdf-aware) so that it predicts Î_C itself.
+float predicted_mean(SlotStats s, float mu0, float di, float brdf) {
+    if (!(brdf > 0.0)) return 0.0;
+    vec2 c = mean_coefficients(s, learn[0]);
+    return max(c.x * mu0 + c.y * s.scale, 0.0) / (di * brdf);
+}
+
 // A cluster of the region's cut by the learned weights, then a light inside by power.
 // slot: the index of the chosen slot in `cuts` (and in the statistics), NO_SLOT where the
 // region has no cut of its own (the shared fallback cut does not learn: it samples as
 // `wang`). p_slot: P(C | x); d2: the regression distance² to C (1 without regression);
-// brdf: the observation's BRDF factor (1 unless --brdf-aware).
+// brdf: the observation's BRDF factor (1 unless --brdf-aware). With --control-variates
+// (bayes only) cv_total = Σ_C g_C(x) over the cut and cv_chosen = g of the chosen slot, the
+// predicted means of Î_C (predicted_mean; 0 for a slot of weight 0, which lights nothing
+// here); both 0 otherwise.
 uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint slot,
-                    out float p_slot, out float d2) {
+                    out float p_slot, out float d2, out float cv_total, out float cv_chosen) {
     uint o = region_index[region_of(p, n)];
     uint count = cuts[o];
     bool regression = (learn[0].flags & LEARN_REGRESSION) != 0u;
@@ -46,6 +59,9 @@ uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint
     slot = NO_SLOT;
     p_slot = 0.0;
     d2 = 1.0;
+    cv_total = 0.0;
+    cv_chosen = 0.0;
+    const bool cv = SAMPLER == SAMPLER_BAYES && (learn[0].flags & LEARN_CONTROL_VARIATES) != 0u;
     if (SAMPLER == SAMPLER_DONIKIAN && o != 0u) {
         // Running mean of the observations (zeros included), mixed with the unoccluded
         // estimate: P = (1 − λ) mean / Σ mean + λ Ĩ / Σ Ĩ; Ĩ alone until the region has
@@ -86,7 +102,9 @@ uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint
                 // observation's units (prior_scale: 1/π maps a one-sided emitter's power
                 // Φ = π A L to A L). Before any data w ∝ Ĩ: bayes starts as wang.
                 float mu0 = imp * di * brdf * learn[0].prior_scale;
-                w = bayes_weight(slot_stats[o + 1u + i], mu0) / di;
+                SlotStats st = slot_stats[o + 1u + i];
+                w = bayes_weight(st, mu0) / di;
+                if (cv && w > 0.0) cv_total += predicted_mean(st, mu0, di, brdf);
             }
             cut_w[i] = w;
             total += w;
@@ -98,6 +116,14 @@ uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint
     if (o != 0u) {
         slot = o + 1u + k;
         if (regression && SAMPLER == SAMPLER_BAYES) d2 = node_d2(light_nodes[cuts[slot]], p);
+    }
+    if (cv) {
+        // The chosen slot's g again, by the same arithmetic as in the sum above (the
+        // estimator is unbiased only if this g is the one that Σ counted).
+        float dn;
+        float imp = light_importance_d2(light_nodes[cuts[o + 1u + k]], p, n, dn);
+        float di = regression ? dn : 1.0;
+        cv_chosen = predicted_mean(slot_stats[o + 1u + k], imp * di * brdf * learn[0].prior_scale, di, brdf);
     }
     return li;
 }

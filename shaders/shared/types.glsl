@@ -62,6 +62,8 @@ struct LightQuery {
 struct LightChoice {
     uint light;
     float pmf;
+    float cv_total;
+    float cv_chosen;
 };
 
 struct GridParams {
@@ -91,6 +93,7 @@ struct SlotDelta {
 #define LEARN_TARGET_MEAN 2u
 #define LEARN_PRIORS 4u
 #define LEARN_BRDF 8u
+#define LEARN_CONTROL_VARIATES 16u
 
 // Hyperparameters and switches of the learned samplers (src/learning/mod.rs LearnSettings).
 struct LearnParams {

@@ -107,12 +107,15 @@ pub struct LightQuery {
     pub pad: u32,
 }
 
-/// The answer: the light chosen (`u32::MAX`: none can contribute) and its pmf.
+/// The answer: the light chosen (`u32::MAX`: none can contribute) and its pmf; for `bayes`
+/// with control variates also Σ_C g_C and the chosen slot's g (0 otherwise).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct LightChoice {
     pub light: u32,
     pub pmf: f32,
+    pub cv_total: f32,
+    pub cv_chosen: f32,
 }
 
 /// The region grid (src/lights/regions.rs): cubic cells of size `cell` from `lo`,
@@ -162,6 +165,7 @@ pub const LEARN_REGRESSION: u32 = 1;
 pub const LEARN_TARGET_MEAN: u32 = 2;
 pub const LEARN_PRIORS: u32 = 4;
 pub const LEARN_BRDF: u32 = 8;
+pub const LEARN_CONTROL_VARIATES: u32 = 16;
 
 /// Hyperparameters and switches of the learned samplers.
 #[repr(C)]

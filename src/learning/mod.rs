@@ -18,8 +18,8 @@ pub mod stats_file;
 use anyhow::{bail, Result};
 
 use crate::gpu::layout::{
-    LearnParams, SlotDelta, SlotStats, LEARN_BRDF, LEARN_PRIORS, LEARN_REGRESSION,
-    LEARN_TARGET_MEAN,
+    LearnParams, SlotDelta, SlotStats, LEARN_BRDF, LEARN_CONTROL_VARIATES, LEARN_PRIORS,
+    LEARN_REGRESSION, LEARN_TARGET_MEAN,
 };
 
 /// Settings of the learned samplers; defaults are method.md's [ours] values.
@@ -35,6 +35,9 @@ pub struct LearnSettings {
     pub priors: bool,
     /// The observation includes the BRDF (as luminance).
     pub brdf_aware: bool,
+    /// `bayes`: the pixel estimate subtracts the model's predicted mean as a control variate
+    /// (method.md §6).
+    pub control_variates: bool,
     /// Beta prior pseudo-counts of zero and non-zero observations (n̄_o, n̄_v).
     pub prior_zero: f32,
     pub prior_nonzero: f32,
@@ -58,6 +61,7 @@ impl Default for LearnSettings {
             target_mean: false,
             priors: true,
             brdf_aware: false,
+            control_variates: false,
             prior_zero: 2.0,
             prior_nonzero: 2.0,
             prior_n: 1.0,
@@ -123,7 +127,8 @@ impl LearnSettings {
             flags: flag(self.regression, LEARN_REGRESSION)
                 | flag(self.target_mean, LEARN_TARGET_MEAN)
                 | flag(self.priors, LEARN_PRIORS)
-                | flag(self.brdf_aware, LEARN_BRDF),
+                | flag(self.brdf_aware, LEARN_BRDF)
+                | flag(self.control_variates, LEARN_CONTROL_VARIATES),
             prior_scale: self.prior_scale,
         }
     }
@@ -253,18 +258,12 @@ pub fn fold(s: &SlotStats, d: &SlotDelta, l: &LearnSettings) -> SlotStats {
     out
 }
 
-/// The bayes weight of a slot as coefficients of its prior mean (posterior.glsl has the
-/// derivation): with t = μ0 / scale, w = scale · sqrt(a t² + b t + c), or scale · (a t + b)
-/// for `target = mean`. The same f32 arithmetic as the GLSL.
-pub fn coefficients(s: &SlotStats, l: &LearnSettings) -> [f32; 3] {
+/// R = 1 − p̂0 and the regression constant's posterior mean μ = P μ0 + Q · scale: the part
+/// the weight and the predicted mean share (`posterior_rpq` in posterior.glsl).
+fn posterior_rpq(s: &SlotStats, l: &LearnSettings) -> (f32, f32, f32) {
     let p = l.priors;
     let pick = |v: f32| if p { v } else { 0.0 };
-    let (a0, b0, nbar, abar) = (
-        pick(l.prior_zero),
-        pick(l.prior_nonzero),
-        pick(l.prior_n),
-        pick(l.prior_alpha),
-    );
+    let (a0, b0, nbar) = (pick(l.prior_zero), pick(l.prior_nonzero), pick(l.prior_n));
     let (nz, nv) = (s.n_zero, s.n_nonzero);
     let n_all = nz + nv;
     let r = if p {
@@ -274,9 +273,7 @@ pub fn coefficients(s: &SlotStats, l: &LearnSettings) -> [f32; 3] {
     } else {
         1.0
     };
-    let sc = s.scale;
-    let (s1, s2) = (s.sum / sc, s.sum_sq / (sc * sc));
-    let ybar = if nv > 0.0 { s1 / nv } else { 0.0 };
+    let s1 = s.sum / s.scale;
     let kappa = nbar + nv;
     let (mut pp, mut q) = if kappa > 0.0 {
         (nbar / kappa, s1 / kappa)
@@ -286,6 +283,39 @@ pub fn coefficients(s: &SlotStats, l: &LearnSettings) -> [f32; 3] {
     if !p && q <= 0.0 {
         (pp, q) = (1.0, 0.0);
     }
+    (r, pp, q)
+}
+
+/// The posterior's predicted mean of y as coefficients of the prior mean:
+/// E[y] = (1 − p̂0) μ = c0 μ0 + c1 · scale (`mean_coefficients` in posterior.glsl).
+pub fn mean_coefficients(s: &SlotStats, l: &LearnSettings) -> [f32; 2] {
+    let (r, pp, q) = posterior_rpq(s, l);
+    [r * pp, r * q]
+}
+
+/// The control variate of method.md §6 (`predicted_mean` in learning.glsl): the predicted
+/// mean of the observation Î_C = y / d² at prior mean mu0, regression distance² di (1
+/// without regression) and BRDF factor brdf (1 unless --brdf-aware; 0 gives 0).
+pub fn predicted_mean(s: &SlotStats, mu0: f32, di: f32, brdf: f32, l: &LearnSettings) -> f32 {
+    if brdf.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return 0.0;
+    }
+    let c = mean_coefficients(s, l);
+    (c[0] * mu0 + c[1] * s.scale).max(0.0) / (di * brdf)
+}
+
+/// The bayes weight of a slot as coefficients of its prior mean (posterior.glsl has the
+/// derivation): with t = μ0 / scale, w = scale · sqrt(a t² + b t + c), or scale · (a t + b)
+/// for `target = mean`. The same f32 arithmetic as the GLSL.
+pub fn coefficients(s: &SlotStats, l: &LearnSettings) -> [f32; 3] {
+    let pick = |v: f32| if l.priors { v } else { 0.0 };
+    let (nbar, abar) = (pick(l.prior_n), pick(l.prior_alpha));
+    let nv = s.n_nonzero;
+    let (r, pp, q) = posterior_rpq(s, l);
+    let sc = s.scale;
+    let (s1, s2) = (s.sum / sc, s.sum_sq / (sc * sc));
+    let ybar = if nv > 0.0 { s1 / nv } else { 0.0 };
+    let kappa = nbar + nv;
     let den = abar + 0.5 * nv - 0.5;
     let (mut h2, mut h0, mut h1) = (0.0, 0.0, 0.0);
     if den > 0.0 {
@@ -438,6 +468,41 @@ pub fn learned_weights(
             let s = fold(s, &SlotDelta::default(), l);
             let c = [s.coef_a, s.coef_b, s.coef_c];
             coefficient_weight(&s, c, prior_mean(i, d2, brdf, l), l) / d2
+        })
+        .collect()
+}
+
+/// The CPU mirror of the control variates in `sample_learned` (learning.glsl): every slot's
+/// predicted mean g_C of the observation Î_C at (p, n) over the cut at offset `o`, 0 where
+/// the bayes weight is 0 (Ĩ = 0: the slot lights nothing here).
+#[allow(clippy::too_many_arguments)]
+pub fn predicted_means(
+    tree: &crate::lights::tree::LightTree,
+    cuts: &[u32],
+    o: usize,
+    stats: &[SlotStats],
+    p: glam::Vec3,
+    n: glam::Vec3,
+    l: &LearnSettings,
+    brdf: f32,
+) -> Vec<f32> {
+    let cut = &cuts[o + 1..o + 1 + cuts[o] as usize];
+    let slots = &stats[o + 1..o + 1 + cut.len()];
+    let imp = crate::lights::regions::Cuts::importances(tree, cut, p, n);
+    cut.iter()
+        .zip(&imp)
+        .zip(slots)
+        .map(|((&node, &i), s)| {
+            if i <= 0.0 {
+                return 0.0;
+            }
+            let d2 = if l.regression {
+                node_d2(&tree.nodes[node as usize], p)
+            } else {
+                1.0
+            };
+            let s = fold(s, &SlotDelta::default(), l);
+            predicted_mean(&s, prior_mean(i, d2, brdf, l), d2, brdf, l)
         })
         .collect()
 }

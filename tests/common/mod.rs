@@ -68,7 +68,12 @@ pub fn gpu_learned_samples(
     let nodes = Buffer::from_slice(ctx, "nodes", &tree.nodes).unwrap();
     let order = b("order", &tree.order);
     let qb = Buffer::from_slice(ctx, "queries", &q).unwrap();
-    let cb = Buffer::zeroed(ctx, "choices", (q.len() * 8) as u64).unwrap();
+    let cb = Buffer::zeroed(
+        ctx,
+        "choices",
+        (q.len() * std::mem::size_of::<lightlearn::gpu::layout::LightChoice>()) as u64,
+    )
+    .unwrap();
     let grid = Buffer::from_slice(ctx, "grid", &[cuts.grid.params]).unwrap();
     let index = b("region index", &cuts.index);
     let cut = b("cuts", &cuts.cuts);
