@@ -38,8 +38,8 @@ done
 python3 - "$out" <<'PY'
 import json, sys, pathlib
 root = pathlib.Path(sys.argv[1])
-print("| run | sampler | spp in the budget | µs per sample·pixel | MSE (noise out) | relMSE (noise out) | MSE(wang)/MSE |")
-print("|---|---|---|---|---|---|---|")
+print("| run | sampler | spp in the budget | µs per sample·pixel | MSE (noise out) | relMSE (noise out) | MSE(wang)/MSE | zero light samples |")
+print("|---|---|---|---|---|---|---|---|")
 for d in sorted(p for p in root.iterdir() if (p / "metrics.json").exists()):
     m = json.loads((d / "metrics.json").read_text())
     px = m["width"] * m["height"]
@@ -48,5 +48,21 @@ for d in sorted(p for p in root.iterdir() if (p / "metrics.json").exists()):
         us = 1e6 * r["seconds"] / (r["spp"] * px)
         sp = r["speedup_corrected"]
         print(f"| {d.name} | {r['sampler']} | {r['spp']} | {us:.3f} | {c['mse']:.3e} | {c['rel_mse']:.3e} | "
-              + (f"{sp:.2f}" if sp else "n/a") + " |")
+              + (f"{sp:.2f}" if sp else "n/a") + f" | {100 * r['zero_sample_fraction']:.1f} % |")
+# Learning curves of the main runs: MSE × seconds at each checkpoint (constant for a sampler
+# that does not learn; falling while bayes learns), with the reference's noise taken out.
+print()
+print("| run | sampler | MSE × s (noise out) at 1/64, 1/16, 1/4, 1 of the budget |")
+print("|---|---|---|")
+for d in sorted(p for p in root.iterdir() if (p / "metrics.json").exists() and "-" not in p.name):
+    m = json.loads((d / "metrics.json").read_text())
+    for r in m["comparisons"][0]["runs"]:
+        noise = r["mse"] - r["corrected"]["mse"] if r["corrected"] else 0.0
+        pts = [p for p in r["convergence"] if p["seconds"] > 0]
+        T = pts[-1]["seconds"]
+        row = []
+        for f in (1 / 64, 1 / 16, 1 / 4, 1):
+            p = min(pts, key=lambda p: abs(p["seconds"] - f * T))
+            row.append(f"{(p['mse'] - noise) * p['seconds']:.2e} ({p['seconds']:.1f} s)")
+        print(f"| {d.name} | {r['sampler']} | " + " · ".join(row) + " |")
 PY

@@ -2,7 +2,9 @@
 #extension GL_GOOGLE_include_directive : require
 // One progressive pass of direct illumination: for every pixel one jittered camera ray, the
 // emission seen directly, and one next-event sample (light chosen by SAMPLER, point on it,
-// shadow ray, Lambertian BRDF). Sums of the sample and of its square go to `accum`.
+// shadow ray, Lambertian BRDF). Sums of the sample and of its square go to `accum` (.xyz);
+// accum.sum.w counts the light samples that came out zero (occluded, facing away, a dead
+// end) and accum.sum_sq.w all light samples: the zero-sample rate learning is meant to cut.
 #include "types.glsl"
 #include "rng.glsl"
 
@@ -67,6 +69,8 @@ void main() {
     vec3 origin = params.cam_pos.xyz;
 
     vec3 L = vec3(0.0);
+    float zero_samples = 0.0;
+    float light_samples = 0.0;
     float t;
     uint slot = trace_ray(origin, dir, 0.0, 3.0e38, false, t);
     if (slot != NO_HIT) {
@@ -126,6 +130,8 @@ void main() {
             }
         }
         if (learned && slot != NO_SLOT) record_observation(slot, observed * d2_slot);
+        light_samples = 1.0;
+        zero_samples = any(greaterThan(Ic, vec3(0.0))) ? 0.0 : 1.0;
         // --control-variates (method.md §6): Σ_C g_C + (Î_C − g_C) / P(C) instead of
         // Î_C / P(C), with g_C the model's predicted mean of Î_C (gray: the model learns
         // luminance). Unbiased for any g fixed within the pass; also where the sample was
@@ -141,7 +147,7 @@ void main() {
         L = vec3(0.0);
     }
     PixelAccum a = accum[pixel];
-    a.sum.xyz += L;
-    a.sum_sq.xyz += L * L;
+    a.sum += vec4(L, zero_samples);
+    a.sum_sq += vec4(L * L, light_samples);
     accum[pixel] = a;
 }

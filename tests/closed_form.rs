@@ -120,3 +120,49 @@ fn floor_under_a_point_light_and_a_spot() {
     let want = ALBEDO as f64 / pi * (3.0 / 4.0 + 2.0 / 1.0);
     every_sampler_matches(&g, want);
 }
+
+/// The zero-light-sample count (accum .w) is exact: under a point light every light sample
+/// of the floor is non-zero; with an opaque sheet between them every one is zero.
+#[test]
+fn zero_light_samples_are_counted() {
+    let fraction = |blocked: bool| {
+        let mut g = GltfBuilder::new();
+        floor_scene(&mut g);
+        g.point_light("bulb", Vec3::new(0.0, 2.0, 0.0), Vec3::ONE, 3.0);
+        if blocked {
+            let m = g.material("sheet", Vec3::splat(0.5), Vec3::ZERO, true);
+            g.quad(
+                "sheet",
+                [
+                    Vec3::new(-3.0, 1.0, -3.0),
+                    Vec3::new(-3.0, 1.0, 3.0),
+                    Vec3::new(3.0, 1.0, 3.0),
+                    Vec3::new(3.0, 1.0, -3.0),
+                ],
+                m,
+            );
+        }
+        let scene = common::load(&g, "zero samples");
+        let ctx = common::ctx();
+        let gpu = GpuScene::upload(&ctx, &scene, &Bvh::build(&scene.triangles)).unwrap();
+        let settings = RenderSettings {
+            width: 8,
+            height: 8,
+            budget: Budget::Samples(16),
+            seed: 1,
+            sampler: LightSampler::Bayes,
+            regions: Default::default(),
+            learn: Default::default(),
+            resume: None,
+            stratified: true,
+        };
+        let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
+        assert!(r
+            .zero_sample_map()
+            .iter()
+            .all(|&f| (0.0..=1.0).contains(&f)));
+        r.zero_sample_fraction()
+    };
+    assert_eq!(fraction(false), 0.0);
+    assert_eq!(fraction(true), 1.0);
+}

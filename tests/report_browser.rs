@@ -87,8 +87,8 @@ fn report_renders_in_a_browser() {
         dom[i..].split('"').next().unwrap().parse().unwrap()
     };
     let (loaded, total) = (attr("data-images-loaded"), attr("data-images-total"));
-    // Per comparison: reference + 2 images, 2 error maps, 2 flip images.
-    assert_eq!(total, 2 * 7, "images on the page");
+    // Per comparison: reference + 2 images, 2 error maps, 2 zero-sample maps, 2 flip images.
+    assert_eq!(total, 2 * 9, "images on the page");
     assert_eq!(loaded, total, "every image decoded");
     assert_eq!(dom.matches("<table class=\"metrics\">").count(), 2);
     assert_eq!(

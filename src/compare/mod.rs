@@ -87,7 +87,13 @@ pub struct SamplerRun {
     pub corrected: Option<Metrics>,
     /// The speed-up from the corrected MSEs (None unless both are > 0).
     pub speedup_corrected: Option<f64>,
+    /// The fraction of light samples that came out zero (occluded, facing away, a dead end
+    /// in a cluster): what learning exists to cut.
+    pub zero_sample_fraction: f64,
     pub convergence: Vec<ConvergencePoint>,
+    /// Per pixel, the fraction of its light samples that came out zero.
+    #[serde(skip)]
+    pub zero_map: Vec<f32>,
     #[serde(skip)]
     pub image: Vec<[f32; 3]>,
 }
@@ -178,6 +184,8 @@ pub fn compare(
                 rmse: (m.mse - n.mse).max(0.0).sqrt(),
             }),
             speedup_corrected: None,
+            zero_sample_fraction: result.zero_sample_fraction(),
+            zero_map: result.zero_sample_map(),
             convergence,
             image,
         });

@@ -66,6 +66,12 @@ fn error_uri(w: u32, h: u32, image: &[[f32; 3]], reference: &[[f32; 3]]) -> Resu
     Ok(data_uri(&film::png_bytes(w, h, &rgb8)?))
 }
 
+/// A map of fractions in [0, 1] on the inferno scale.
+fn fraction_uri(w: u32, h: u32, f: &[f32]) -> Result<String> {
+    let rgb8: Vec<u8> = f.iter().flat_map(|&x| inferno(x)).collect();
+    Ok(data_uri(&film::png_bytes(w, h, &rgb8)?))
+}
+
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
@@ -201,20 +207,21 @@ pub fn html(input: &ReportInput) -> Result<String> {
         };
         let _ = write!(
             body,
-            r#"<section class="cmp" id="cmp{ci}"><h2>{} — {budget}</h2><table class="metrics"><thead><tr><th>sampler</th><th>spp</th><th>seconds</th><th>MSE</th><th>relMSE</th><th>RMSE</th><th>{ratio}</th></tr></thead><tbody>"#,
+            r#"<section class="cmp" id="cmp{ci}"><h2>{} — {budget}</h2><table class="metrics"><thead><tr><th>sampler</th><th>spp</th><th>seconds</th><th>MSE</th><th>relMSE</th><th>RMSE</th><th>{ratio}</th><th>zero light samples</th></tr></thead><tbody>"#,
             c.kind
         );
         for r in &c.runs {
             let _ = write!(
                 body,
-                "<tr><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td></tr>",
+                "<tr><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td><td>{:.1} %</td></tr>",
                 r.sampler.name(),
                 r.spp,
                 r.seconds,
                 sci(r.metrics.mse),
                 sci(r.metrics.rel_mse),
                 sci(r.metrics.rmse),
-                r.speedup
+                r.speedup,
+                100.0 * r.zero_sample_fraction
             );
         }
         body.push_str("</tbody></table>");
@@ -261,6 +268,18 @@ pub fn html(input: &ReportInput) -> Result<String> {
             r#"</div><div class="legend"><span>10<sup>{ERR_LOG_MIN}</sup></span><div class="bar" style="background:linear-gradient(to right,{})"></div><span>10<sup>{ERR_LOG_MAX}</sup></span></div>"#,
             stops.join(",")
         );
+        // Where the light samples are wasted: the map learning should darken.
+        body.push_str(r#"<h3>Zero light samples <small>(per pixel, the fraction of light samples that were occluded, faced away or met a dead end: black 0, yellow 1)</small></h3><div class="grid">"#);
+        for r in &c.runs {
+            let n = r.sampler.name().to_string();
+            let _ = write!(
+                body,
+                r#"<figure><div class="view"><img class="zoom" alt="{n} zero samples" src="{}"></div><figcaption>{n}: {:.1} % zero</figcaption></figure>"#,
+                fraction_uri(w, h, &r.zero_map)?,
+                100.0 * r.zero_sample_fraction
+            );
+        }
+        body.push_str("</div>");
         // Flip / slider between any two images of this comparison.
         let options: String = names
             .iter()

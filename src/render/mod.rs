@@ -167,6 +167,29 @@ impl RenderResult {
             .collect()
     }
 
+    /// The fraction of the light samples (one per pixel sample that hit a surface) that came
+    /// out zero: occluded, facing away, or a dead end inside a cluster. NaN with no samples.
+    pub fn zero_sample_fraction(&self) -> f64 {
+        let zero: f64 = self.accum.iter().map(|a| a.sum[3] as f64).sum();
+        let all: f64 = self.accum.iter().map(|a| a.sum_sq[3] as f64).sum();
+        zero / all
+    }
+
+    /// Per pixel, the same fraction (0 where the pixel saw no surface): a map of where the
+    /// light samples are wasted.
+    pub fn zero_sample_map(&self) -> Vec<f32> {
+        self.accum
+            .iter()
+            .map(|a| {
+                if a.sum_sq[3] > 0.0 {
+                    a.sum[3] / a.sum_sq[3]
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    }
+
     /// The image's own estimated error: mean over pixels and channels of the variance of the
     /// mean, absolute (an MSE) and relative as relMSE (÷ (mean² + 0.01)).
     pub fn estimated_error(&self) -> (f64, f64) {
@@ -662,6 +685,7 @@ pub fn report_json(
         },
         "estimated_mse_of_mean": mse,
         "estimated_rel_mse_of_mean": rel,
+        "zero_light_sample_fraction": result.zero_sample_fraction(),
         "integrator": "direct illumination, Lambertian, one light sample per pixel sample",
     })
 }
