@@ -1,8 +1,9 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// Runs a light-tree sampler (SAMPLER: 2 lightbvh, 3 wang, 4 donikian, 5 bayes) for a batch of (p, n, u) queries:
-// the GPU side of the tests that GPU and CPU pick the same light with the same pmf
-// (tests/light_tree.rs, tests/regions.rs, tests/learning.rs).
+// Runs a light-tree sampler (SAMPLER: 2 lightbvh, 3 wang, 4 donikian, 5 bayes) for a batch of
+// (p, n, u) queries: the GPU side of the tests that GPU and CPU pick the same light with the
+// same pmf (tests/light_tree.rs, tests/regions.rs, tests/learning.rs), and that light_pmf
+// gives every light the pmf its sampler picks it with (tests/light_pmf.rs).
 #include "types.glsl"
 
 layout(local_size_x = 64) in;
@@ -21,10 +22,11 @@ layout(std430, set = 0, binding = 6) readonly buffer Cuts { uint cuts[]; };
 layout(std430, set = 0, binding = 7) readonly buffer Stats { SlotStats slot_stats[]; };
 layout(std430, set = 0, binding = 8) buffer Delta { SlotDelta slot_delta[]; };
 layout(std430, set = 0, binding = 9) readonly buffer Learn { LearnParams learn[]; };
+layout(std430, set = 0, binding = 10) readonly buffer Position { uint light_position[]; };
 
 layout(push_constant) uniform Push { uint query_count; };
 
-#include "learning.glsl"
+#include "light_pmf.glsl"
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
@@ -39,5 +41,8 @@ void main() {
     else if (SAMPLER == SAMPLER_LIGHTBVH) c.light = sample_light_tree(q.p, q.n, q.u, c.pmf);
     else c.light = sample_learned(q.p, q.n, q.u, 1.0, c.pmf, slot, p_slot, d2, c.cv_total, c.cv_chosen);
     if (c.light == NO_LIGHT) c.pmf = 0.0;
+    // light_pmf of the chosen light, and of the query's own light (q.light; none: 0).
+    c.pmf_again = c.light == NO_LIGHT ? 0.0 : light_pmf(q.p, q.n, c.light, 0u, 1.0);
+    c.pmf_query = q.light == NO_LIGHT ? 0.0 : light_pmf(q.p, q.n, q.light, 0u, 1.0);
     choices[i] = c;
 }

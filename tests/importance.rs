@@ -51,7 +51,7 @@ fn glsl_and_rust_importance_agree_on_random_inputs() {
             p: p.to_array(),
             u: 0.0,
             n: n.to_array(),
-            pad: 0,
+            light: u32::MAX,
         });
     }
     let nb = Buffer::from_slice(&ctx, "nodes", &nodes).unwrap();

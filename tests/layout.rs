@@ -189,12 +189,14 @@ fn host_and_shader_structs_match() {
             count,
             flags
         }),
-        rust_layout!(LightQuery { p, u, n, pad }),
+        rust_layout!(LightQuery { p, u, n, light }),
         rust_layout!(LightChoice {
             light,
             pmf,
             cv_total,
-            cv_chosen
+            cv_chosen,
+            pmf_again,
+            pmf_query
         }),
         rust_layout!(SlotStats {
             n_zero,

@@ -916,3 +916,78 @@ fn coefficients_give_the_posterior_weight() {
         }
     }
 }
+
+/// What MIS needs for an emitter that a BSDF-sampled ray hits: the pmf with which the light
+/// sampler would have picked it. `light_pmf` (light_pmf.glsl) gives the light a sampler chose
+/// the very pmf the sampler reported, and any other light the CPU mirror's pmf — lightbvh,
+/// wang, donikian and bayes (adversarial statistics), inside clusters by power and by
+/// importance.
+#[test]
+fn light_pmf_equals_the_samplers_pmf() {
+    for (name, in_cluster_importance) in [
+        ("rooms.glb", true),
+        ("rooms.glb", false),
+        ("city.glb", true),
+    ] {
+        let s = scene(name);
+        let tree = LightTree::build(&s);
+        let settings = RegionSettings {
+            in_cluster_importance,
+            ..Default::default()
+        };
+        let (cuts, points) = cuts_and_points(&s, &tree, 500, settings);
+        let mut r = SplitMix64(7);
+        let lights: Vec<u32> = points
+            .iter()
+            .map(|_| (r.next_u64() % s.lights.len() as u64) as u32)
+            .collect();
+        let ctx = common::ctx();
+        let st = adversarial_stats(cuts.cuts.len(), 3);
+        let l = LearnSettings::default();
+        for sampler in [2u32, 3, 4, 5] {
+            let gpu = common::gpu_samples_and_pmfs(
+                &ctx,
+                &tree,
+                &cuts,
+                sampler,
+                &st,
+                l.gpu_params(),
+                &points,
+                &lights,
+            );
+            let (mut agree, mut chosen, mut positive) = (0, 0, 0);
+            for (i, ((&(p, n, _), g), &li)) in points.iter().zip(&gpu).zip(&lights).enumerate() {
+                if g.light != u32::MAX {
+                    chosen += 1;
+                    assert!(
+                        (g.pmf_again - g.pmf).abs() <= 1e-5 * g.pmf,
+                        "{name} sampler {sampler} query {i}: light_pmf {} vs the sampler's {}",
+                        g.pmf_again,
+                        g.pmf
+                    );
+                }
+                let o = cuts.offset_at(p, n);
+                let cut = &cuts.cuts[o + 1..o + 1 + cuts.cuts[o] as usize];
+                let inside = cuts.inside(p, n);
+                let cpu = match sampler {
+                    2 => tree.pmf(p, n, li),
+                    3 => pmf_in_cut(&tree, cut, &Cuts::importances(&tree, cut, p, n), li, inside),
+                    _ => {
+                        let w =
+                            learned_weights(&tree, &cuts.cuts, o, &st, p, n, sampler == 4, &l, 1.0);
+                        pmf_in_cut(&tree, cut, &w, li, inside)
+                    }
+                };
+                positive += (cpu > 0.0) as usize;
+                // Within rounding of the GPU's and CPU's importance (tests/importance.rs).
+                agree += ((g.pmf_query - cpu).abs() <= 2e-3 * cpu.max(g.pmf_query)) as usize;
+            }
+            assert!(
+                agree * 1000 >= points.len() * 990,
+                "{name} sampler {sampler}: light_pmf and the CPU agree on {agree} of {}",
+                points.len()
+            );
+            assert!(chosen * 2 > points.len() && positive * 10 > points.len(), "{name} sampler {sampler}: {chosen} lights chosen, {positive} queried pmfs > 0: too few to test");
+        }
+    }
+}

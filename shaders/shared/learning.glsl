@@ -41,27 +41,14 @@ float predicted_mean(SlotStats s, float mu0, float di, float brdf) {
     return max(c.x * mu0 + c.y * s.scale, 0.0) / (di * brdf);
 }
 
-// A cluster of the region's cut by the learned weights, then a light inside by power.
-// slot: the index of the chosen slot in `cuts` (and in the statistics), NO_SLOT where the
-// region has no cut of its own (the shared fallback cut does not learn: it samples as
-// `wang`). p_slot: P(C | x); d2: the regression distance² to C (1 without regression);
-// brdf: the observation's BRDF factor (1 unless --brdf-aware). With --control-variates
-// (bayes only) cv_total = Σ_C g_C(x) over the cut and cv_chosen = g of the chosen slot, the
-// predicted means of Î_C (predicted_mean; 0 for a slot of weight 0, which lights nothing
-// here); both 0 otherwise.
-uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint slot,
-                    out float p_slot, out float d2, out float cv_total, out float cv_chosen) {
-    uint o = region_index[region_of(p, n)];
+// Fills cut_w with the learned weights of the cut at offset o at (p, n) and returns their
+// sum (0: no cluster can light x); cv_total as in sample_learned.
+float learned_weights(uint o, vec3 p, vec3 n, float brdf, out float cv_total) {
     uint count = cuts[o];
     bool regression = (learn[0].flags & LEARN_REGRESSION) != 0u;
-    float total = 0.0;
-    pmf = 0.0;
-    slot = NO_SLOT;
-    p_slot = 0.0;
-    d2 = 1.0;
-    cv_total = 0.0;
-    cv_chosen = 0.0;
     const bool cv = SAMPLER == SAMPLER_BAYES && (learn[0].flags & LEARN_CONTROL_VARIATES) != 0u;
+    float total = 0.0;
+    cv_total = 0.0;
     if (SAMPLER == SAMPLER_DONIKIAN && o != 0u) {
         // Running mean of the observations (zeros included), mixed with the unoccluded
         // estimate: P = (1 − λ) mean / Σ mean + λ Ĩ / Σ Ĩ; Ĩ alone until the region has
@@ -76,7 +63,7 @@ uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint
             cut_w[i] = light_importance(light_nodes[cuts[o + 1u + i]], p, n);
             sum_imp += cut_w[i];
         }
-        if (sum_imp <= 0.0) return NO_LIGHT;
+        if (sum_imp <= 0.0) return 0.0;
         if (seen >= float(count) && sum_mean > 0.0) {
             float lambda = learn[0].lambda;
             for (uint i = 0u; i < count; ++i) {
@@ -85,31 +72,52 @@ uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint
                 // Ĩ = 0 proves the slot gives nothing here: never spend a sample on it.
                 cut_w[i] = cut_w[i] > 0.0 ? (1.0 - lambda) * mean / sum_mean + lambda * cut_w[i] / sum_imp : 0.0;
             }
-            total = 0.0;
             for (uint i = 0u; i < count; ++i) total += cut_w[i];
-        } else {
-            total = sum_imp;
+            return total;
         }
-    } else {
-        for (uint i = 0u; i < count; ++i) {
-            LightNode nd = light_nodes[cuts[o + 1u + i]];
-            float dn;
-            float imp = light_importance_d2(nd, p, n, dn);
-            float w = 0.0;
-            if (imp > 0.0) {
-                float di = regression ? dn : 1.0;
-                // The prior mean of y = Î · d²: Ĩ · d² (Ĩ without its distance) in the
-                // observation's units (prior_scale: 1/π maps a one-sided emitter's power
-                // Φ = π A L to A L). Before any data w ∝ Ĩ: bayes starts as wang.
-                float mu0 = imp * di * brdf * learn[0].prior_scale;
-                SlotStats st = slot_stats[o + 1u + i];
-                w = bayes_weight(st, mu0) / di;
-                if (cv && w > 0.0) cv_total += predicted_mean(st, mu0, di, brdf);
-            }
-            cut_w[i] = w;
-            total += w;
-        }
+        return sum_imp;
     }
+    for (uint i = 0u; i < count; ++i) {
+        LightNode nd = light_nodes[cuts[o + 1u + i]];
+        float dn;
+        float imp = light_importance_d2(nd, p, n, dn);
+        float w = 0.0;
+        if (imp > 0.0) {
+            float di = regression ? dn : 1.0;
+            // The prior mean of y = Î · d²: Ĩ · d² (Ĩ without its distance) in the
+            // observation's units (prior_scale: 1/π maps a one-sided emitter's power
+            // Φ = π A L to A L). Before any data w ∝ Ĩ: bayes starts as wang.
+            float mu0 = imp * di * brdf * learn[0].prior_scale;
+            SlotStats st = slot_stats[o + 1u + i];
+            w = bayes_weight(st, mu0) / di;
+            if (cv && w > 0.0) cv_total += predicted_mean(st, mu0, di, brdf);
+        }
+        cut_w[i] = w;
+        total += w;
+    }
+    return total;
+}
+
+// A cluster of the region's cut by the learned weights, then a light inside by power.
+// slot: the index of the chosen slot in `cuts` (and in the statistics), NO_SLOT where the
+// region has no cut of its own (the shared fallback cut does not learn: it samples as
+// `wang`). p_slot: P(C | x); d2: the regression distance² to C (1 without regression);
+// brdf: the observation's BRDF factor (1 unless --brdf-aware). With --control-variates
+// (bayes only) cv_total = Σ_C g_C(x) over the cut and cv_chosen = g of the chosen slot, the
+// predicted means of Î_C (predicted_mean; 0 for a slot of weight 0, which lights nothing
+// here); both 0 otherwise.
+uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint slot,
+                    out float p_slot, out float d2, out float cv_total, out float cv_chosen) {
+    uint o = region_index[region_of(p, n)];
+    uint count = cuts[o];
+    bool regression = (learn[0].flags & LEARN_REGRESSION) != 0u;
+    const bool cv = SAMPLER == SAMPLER_BAYES && (learn[0].flags & LEARN_CONTROL_VARIATES) != 0u;
+    pmf = 0.0;
+    slot = NO_SLOT;
+    p_slot = 0.0;
+    d2 = 1.0;
+    cv_chosen = 0.0;
+    float total = learned_weights(o, p, n, brdf, cv_total);
     if (total <= 0.0) return NO_LIGHT;
     uint k;
     uint li = pick_in_cut(o, count, total, u, p, n, pmf, k, p_slot);

@@ -64,6 +64,41 @@ float light_importance(LightNode nd, vec3 p, vec3 n) {
     return light_importance_d2(nd, p, n, d2);
 }
 
+// The probability that a descent from `node` ends at the leaf holding order position pos:
+// by importance at (p, n) (lightbvh, and --in-cluster importance) or by power. A node's left
+// child holds the positions before its right child's `begin`.
+// leaf: the node where the descent ends.
+float descent_pmf(uint node, uint pos, vec3 p, vec3 n, bool by_importance, out uint leaf) {
+    float pmf = 1.0;
+    leaf = node;
+    while (light_nodes[node].count > 1u && pmf > 0.0) {
+        uint l = node + 1u;
+        uint r = light_nodes[node].right;
+        float pl;
+        if (by_importance) {
+            float il = light_importance(light_nodes[l], p, n);
+            float ir = light_importance(light_nodes[r], p, n);
+            if (il + ir <= 0.0) return 0.0;
+            pl = il / (il + ir);
+        } else {
+            pl = light_nodes[l].phi / (light_nodes[l].phi + light_nodes[r].phi);
+        }
+        bool left = pos < light_nodes[r].begin;
+        pmf *= left ? pl : 1.0 - pl;
+        node = left ? l : r;
+        leaf = node;
+    }
+    return pmf;
+}
+
+// The pmf with which sample_light_tree picks the light at order position pos (0 where it
+// never does, including a leaf it would refuse).
+float light_tree_pmf(uint pos, vec3 p, vec3 n) {
+    uint leaf;
+    float pmf = descent_pmf(0u, pos, p, n, true, leaf);
+    return pmf > 0.0 && light_importance(light_nodes[leaf], p, n) > 0.0 ? pmf : 0.0;
+}
+
 // One descent by importance: the light index (or NO_LIGHT) and its pmf.
 uint sample_light_tree(vec3 p, vec3 n, float u, out float pmf) {
     uint node = 0u;

@@ -75,19 +75,48 @@ uint pick_in_cut(uint o, uint count, float total, float u, vec3 p, vec3 n, out f
     return light_order[light_nodes[node].begin];
 }
 
-uint sample_wang(vec3 p, vec3 n, float u, out float pmf) {
-    uint o = region_index[region_of(p, n)];
+// Fills cut_w with the `wang` weights (Ĩ_C(x)) of the cut at offset o; returns their sum.
+float wang_weights(uint o, vec3 p, vec3 n) {
     uint count = cuts[o];
     float total = 0.0;
     for (uint i = 0u; i < count; ++i) {
         cut_w[i] = light_importance(light_nodes[cuts[o + 1u + i]], p, n);
         total += cut_w[i];
     }
+    return total;
+}
+
+uint sample_wang(vec3 p, vec3 n, float u, out float pmf) {
+    uint o = region_index[region_of(p, n)];
+    uint count = cuts[o];
+    float total = wang_weights(o, p, n);
     pmf = 0.0;
     if (total <= 0.0) return NO_LIGHT;
     uint k;
     float p_slot;
     return pick_in_cut(o, count, total, u, p, n, pmf, k, p_slot);
+}
+
+// The probability that pick_in_cut (cut at offset o, weights cut_w summing to total) returns
+// the light at position pos of the tree order: the slot holding it, found by binary search
+// over the slots' range starts (a cut covers the order with disjoint ranges in order), times
+// the descent inside. Mirror of src/lights/regions.rs `pmf_in_cut`.
+float pmf_in_cut(uint o, float total, uint pos, vec3 p, vec3 n) {
+    if (!(total > 0.0)) return 0.0;
+    uint lo = 0u;
+    uint hi = cuts[o];
+    // The first slot whose range starts after pos; the one before it is the candidate.
+    while (lo < hi) {
+        uint mid = (lo + hi) / 2u;
+        if (light_nodes[cuts[o + 1u + mid]].begin <= pos) lo = mid + 1u;
+        else hi = mid;
+    }
+    if (lo == 0u) return 0.0;
+    uint k = lo - 1u;
+    uint node = cuts[o + 1u + k];
+    if (pos >= light_nodes[node].begin + light_nodes[node].count || !(cut_w[k] > 0.0)) return 0.0;
+    uint leaf;
+    return cut_w[k] / total * descent_pmf(node, pos, p, n, IN_CLUSTER == 1u, leaf);
 }
 
 #endif

@@ -56,7 +56,7 @@ struct LightNode {
 
 struct LightQuery {
     vec3 p; float u;
-    vec3 n; uint pad;
+    vec3 n; uint light;
 };
 
 struct LightChoice {
@@ -64,6 +64,8 @@ struct LightChoice {
     float pmf;
     float cv_total;
     float cv_chosen;
+    float pmf_again;
+    float pmf_query;
 };
 
 struct GridParams {

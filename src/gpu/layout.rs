@@ -97,14 +97,15 @@ pub struct LightNode {
     pub flags: u32,
 }
 
-/// One query of `light_sample.comp` (tests): a shading point, its normal and a random number.
+/// One query of `light_sample.comp` (tests): a shading point, its normal, a random number,
+/// and a light whose pmf to evaluate there (`u32::MAX`: none).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct LightQuery {
     pub p: [f32; 3],
     pub u: f32,
     pub n: [f32; 3],
-    pub pad: u32,
+    pub light: u32,
 }
 
 /// The answer: the light chosen (`u32::MAX`: none can contribute) and its pmf; for `bayes`
@@ -116,6 +117,9 @@ pub struct LightChoice {
     pub pmf: f32,
     pub cv_total: f32,
     pub cv_chosen: f32,
+    /// `light_pmf` of the chosen light (0 for none), and of the query's `light`.
+    pub pmf_again: f32,
+    pub pmf_query: f32,
 }
 
 /// The region grid (src/lights/regions.rs): cubic cells of size `cell` from `lo`,

@@ -53,20 +53,38 @@ pub fn gpu_learned_samples(
     params: lightlearn::gpu::layout::LearnParams,
     queries: &[(glam::Vec3, glam::Vec3, f32)],
 ) -> Vec<lightlearn::gpu::layout::LightChoice> {
+    gpu_samples_and_pmfs(ctx, tree, cuts, sampler, stats, params, queries, &[])
+}
+
+/// `light_sample.comp` as [`gpu_learned_samples`], also asking `light_pmf` for `lights[i]` at
+/// query i (missing: none; the answer is `pmf_query`).
+#[allow(clippy::too_many_arguments)]
+pub fn gpu_samples_and_pmfs(
+    ctx: &Arc<Context>,
+    tree: &lightlearn::lights::tree::LightTree,
+    cuts: &lightlearn::lights::regions::Cuts,
+    sampler: u32,
+    stats: &[lightlearn::gpu::layout::SlotStats],
+    params: lightlearn::gpu::layout::LearnParams,
+    queries: &[(glam::Vec3, glam::Vec3, f32)],
+    lights: &[u32],
+) -> Vec<lightlearn::gpu::layout::LightChoice> {
     use lightlearn::gpu::layout::LightQuery;
     use lightlearn::gpu::{Buffer, ComputePipeline};
     let q: Vec<LightQuery> = queries
         .iter()
-        .map(|(p, n, u)| LightQuery {
+        .enumerate()
+        .map(|(i, (p, n, u))| LightQuery {
             p: p.to_array(),
             u: *u,
             n: n.to_array(),
-            pad: 0,
+            light: lights.get(i).copied().unwrap_or(u32::MAX),
         })
         .collect();
     let b = |name: &str, data: &[u32]| Buffer::from_slice(ctx, name, data).unwrap();
     let nodes = Buffer::from_slice(ctx, "nodes", &tree.nodes).unwrap();
     let order = b("order", &tree.order);
+    let position = b("position", &tree.position);
     let qb = Buffer::from_slice(ctx, "queries", &q).unwrap();
     let cb = Buffer::zeroed(
         ctx,
@@ -97,13 +115,15 @@ pub fn gpu_learned_samples(
         ctx,
         "light_sample",
         lightlearn::gpu::kernels::LIGHT_SAMPLE,
-        10,
+        11,
         4,
         &[sampler, cuts.in_cluster_importance as u32],
     )
     .unwrap();
-    k.bind(&[&nodes, &order, &qb, &cb, &grid, &index, &cut, &sb, &db, &lb])
-        .unwrap();
+    k.bind(&[
+        &nodes, &order, &qb, &cb, &grid, &index, &cut, &sb, &db, &lb, &position,
+    ])
+    .unwrap();
     let count = q.len() as u32;
     ctx.submit(|cmd| k.dispatch(cmd, bytemuck::bytes_of(&count), [count.div_ceil(64), 1, 1]))
         .unwrap();
