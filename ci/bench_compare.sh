@@ -9,7 +9,7 @@ out="${2:-bench-out}"
 cargo build --release --quiet
 for s in default cornell rooms rooms16 hall city strings; do
   ./target/release/lightlearn compare "scenes/$s.glb" --samplers uniform,power,lightbvh,wang,donikian,bayes --time "$t" \
-    --reference-spp 2048 --width 256 --height 192 --out "$out/$s" -q
+    --reference-spp 2048 --width 256 --height 192 --max-depth 1 --out "$out/$s" -q
 done
 python3 - "$out" <<'PY'
 import json, sys, pathlib

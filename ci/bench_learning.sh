@@ -5,7 +5,9 @@
 # Usage: ci/bench_learning.sh [SECONDS_PER_SAMPLER] [SECONDS_PER_ABLATION] [OUT_DIR] [REFERENCE_SPP]
 #        (defaults: 60, 20, bench-learning, 65536; references are rendered once and cached:
 #        about 10 minutes each at 65536 spp on 2 cores)
-# Prints markdown rows from each report's metrics.json.
+# ONLY=REGEX runs just the runs whose name matches (e.g. ONLY='^(rooms16|city)(-defaults)?$').
+# Prints markdown rows from each report's metrics.json (and learning curves of the main runs).
+# DI only (--max-depth 1): this is issue #6's benchmark.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 t="${1:-60}"
@@ -16,8 +18,9 @@ cargo build --release --quiet
 run() { # name scene seconds samplers [switches...]
   local name=$1 scene=$2 secs=$3 samplers=$4
   shift 4
+  [[ -z "${ONLY:-}" || "$name" =~ $ONLY ]] || return 0
   ./target/release/lightlearn compare "scenes/$scene.glb" --samplers "$samplers" --time "$secs" \
-    --reference-spp "$ref" --width 128 --height 96 --out "$out/$name" -q "$@"
+    --reference-spp "$ref" --width 128 --height 96 --max-depth 1 --out "$out/$name" -q "$@"
 }
 for s in rooms16 city hall; do
   run "$s" "$s" "$t" wang,donikian,bayes
@@ -30,6 +33,8 @@ for s in rooms16 city; do
   run "$s-priors-off" "$s" "$ta" wang,bayes --priors off
   run "$s-brdf-aware" "$s" "$ta" wang,bayes --brdf-aware
   run "$s-control-variates" "$s" "$ta" wang,bayes --control-variates
+  run "$s-k-max-64" "$s" "$ta" wang,bayes --k-max 64
+  run "$s-tau-0.005" "$s" "$ta" wang,bayes --tau 0.005
   run "$s-normal-bins-off" "$s" "$ta" wang,bayes --normal-bins off
   for g in 16 64 128; do
     run "$s-grid-$g" "$s" "$ta" wang,bayes --grid "$g"
