@@ -47,9 +47,11 @@ Conventions (those of lightlearn's README, "Scene conventions"; they define "the
   45° vertical fov, looking at the bounds' centre from direction (0, 0.35, 1), distance
   radius / sin(22.5°).
 - Film: box pixel filter (lightlearn box-filters), independent sampler, black background.
-- Integrator: `direct`: emission seen by the camera plus light reflected once (Mitsuba
-  combines light and BSDF sampling with MIS, lightlearn samples lights only: same expected
-  value, different noise).
+- Integrator, from --max-depth D (lightlearn's count of surface vertices):
+  D = 1: `direct`: emission seen by the camera plus light reflected once (Mitsuba combines
+  light and BSDF sampling with MIS, lightlearn samples lights only: same expected value,
+  different noise). D ≥ 2: `path` with max_depth D + 1 (Mitsuba counts path segments: its
+  max_depth 2 is direct light), Russian roulette at its default depth.
 """
 
 import argparse
@@ -344,7 +346,7 @@ def any_perpendicular(d):
     return np.cross(d, a)
 
 
-def export_xml(scene, out_dir, width, height, spp, seed=0):
+def export_xml(scene, out_dir, width, height, spp, seed=0, max_depth=1):
     """Writes out_dir/scene.xml and out_dir/meshes/*.ply; returns the XML path."""
     mesh_dir = os.path.join(out_dir, "meshes")
     os.makedirs(mesh_dir, exist_ok=True)
@@ -360,7 +362,9 @@ def export_xml(scene, out_dir, width, height, spp, seed=0):
         f'    <default name="width" value="{width}"/>\n',
         f'    <default name="height" value="{height}"/>\n',
         f'    <default name="seed" value="{seed}"/>\n\n',
-        '    <integrator type="direct"/>\n\n',
+        ('    <integrator type="direct"/>\n\n' if max_depth == 1 else
+         f'    <integrator type="path">\n        <integer name="max_depth" value="{max_depth + 1}"/>\n'
+         '    </integrator>\n\n'),
         '    <sensor type="perspective">\n',
         '        <string name="fov_axis" value="y"/>\n',
         f'        <float name="fov" value="{math.degrees(cam["yfov"]):.9g}"/>\n',
@@ -470,27 +474,29 @@ def render(xml_path, out, width, height, spp, seed):
 
 def main():
     ap = argparse.ArgumentParser(
-        description="Convert a lightlearn glTF scene to Mitsuba 3 and render it (direct light only)."
+        description="Convert a lightlearn glTF scene to Mitsuba 3 and render it."
     )
     ap.add_argument("scene", help="SCENE.glb or SCENE.gltf")
     ap.add_argument("--width", type=int, default=640)
     ap.add_argument("--height", type=int, default=480)
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--max-depth", type=int, default=1,
+                    help="surface vertices of a path as lightlearn counts them (1: direct light)")
     ap.add_argument("--out", help="render to this file: .exr (float32 RGB) or .png (sRGB preview)")
     ap.add_argument("--export-xml", metavar="DIR", help="write DIR/scene.xml and DIR/meshes/*.ply")
     a = ap.parse_args()
     if not a.out and not a.export_xml:
         ap.error("give --out OUT.exr (render) and/or --export-xml DIR")
-    if min(a.width, a.height, a.spp) < 1:
-        ap.error("--width, --height and --spp must be at least 1")
+    if min(a.width, a.height, a.spp, a.max_depth) < 1:
+        ap.error("--width, --height, --spp and --max-depth must be at least 1")
     try:
         scene = load_scene(a.scene)
         if a.export_xml:
-            export_xml(scene, a.export_xml, a.width, a.height, a.spp, a.seed)
+            export_xml(scene, a.export_xml, a.width, a.height, a.spp, a.seed, a.max_depth)
         if a.out:
             with tempfile.TemporaryDirectory(prefix="mitsuba_scene_") as tmp:
-                xml = export_xml(scene, tmp, a.width, a.height, a.spp, a.seed)
+                xml = export_xml(scene, tmp, a.width, a.height, a.spp, a.seed, a.max_depth)
                 render(xml, a.out, a.width, a.height, a.spp, a.seed)
     except (OSError, ValueError, KeyError, IndexError, RuntimeError, struct.error) as e:
         sys.exit(f"mitsuba_scene.py: error: {a.scene}: {type(e).__name__}: {e}")

@@ -1,10 +1,16 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
-// One progressive pass of direct illumination: for every pixel one jittered camera ray, the
-// emission seen directly, and one next-event sample (light chosen by SAMPLER, point on it,
-// shadow ray, Lambertian BRDF). Sums of the sample and of its square go to `accum` (.xyz);
-// accum.sum.w counts the light samples that came out zero (occluded, facing away, a dead
-// end) and accum.sum_sq.w all light samples: the zero-sample rate learning is meant to cut.
+// One progressive pass: for every pixel one jittered camera ray and one path. At every surface
+// vertex one next-event sample (light chosen by SAMPLER, point on it, shadow ray, Lambertian
+// BRDF). --max-depth 1 is direct light by light sampling alone (the paper's DI estimator, no
+// BSDF ray). --max-depth D ≥ 2 is a path tracer with up to D surface vertices: the path goes
+// on by cosine-weighted BSDF sampling, and an emitter that a BSDF ray hits counts with the
+// power-heuristic MIS weight against the light sampler's exact pmf (light_pmf.glsl), after
+// the next-event sample of the vertex before it carried the complementary weight. Russian
+// roulette from the third vertex on (pbrt-v4's rule: q = 1 − max throughput).
+// Sums of the sample and of its square go to `accum` (.xyz); accum.sum.w counts the light
+// samples that came out zero (occluded, facing away, a dead end) and accum.sum_sq.w all
+// light samples: the zero-sample rate learning is meant to cut.
 #include "types.glsl"
 #include "rng.glsl"
 
@@ -34,6 +40,10 @@ layout(std430, set = 0, binding = 12) readonly buffer Cuts { uint cuts[]; };
 layout(std430, set = 0, binding = 13) readonly buffer Stats { SlotStats slot_stats[]; };
 layout(std430, set = 0, binding = 14) buffer Delta { SlotDelta slot_delta[]; };
 layout(std430, set = 0, binding = 15) readonly buffer Learn { LearnParams learn[]; };
+// A light's position in the tree order (the inverse of light_order), for light_pmf.
+layout(std430, set = 0, binding = 16) readonly buffer LightPosition { uint light_position[]; };
+// The light of an emissive triangle (by `prim`), NO_LIGHT for the others.
+layout(std430, set = 0, binding = 17) readonly buffer TriLight { uint tri_light[]; };
 
 layout(push_constant) uniform Push { RenderParams params; };
 
@@ -41,16 +51,40 @@ layout(push_constant) uniform Push { RenderParams params; };
 #include "lights.glsl"
 #include "light_tree.glsl"
 #include "regions.glsl"
-#include "learning.glsl"
+#define HAS_ALIAS_TABLE
+#include "light_pmf.glsl"
 
-// Random-number dimensions of one pixel sample.
+// Random-number dimensions of one pixel sample: the jitter, then DIMS_PER_VERTEX per vertex
+// (the first vertex keeps the dimensions the direct-light kernel always used).
 #define DIM_JITTER_X 0u
 #define DIM_JITTER_Y 1u
 #define DIM_LIGHT 2u
 #define DIM_LIGHT_U 3u
 #define DIM_LIGHT_V 4u
+#define DIM_BSDF_U 5u
+#define DIM_BSDF_V 6u
+#define DIM_RR 7u
+#define DIMS_PER_VERTEX 6u
 
 const float PI = 3.14159265358979;
+
+float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
+
+// The power heuristic (β = 2) weight of a strategy with pdf a against one with pdf b.
+float power_heuristic(float a, float b) {
+    float a2 = a * a;
+    float b2 = b * b;
+    return a2 + b2 > 0.0 ? a2 / (a2 + b2) : 0.0;
+}
+
+// A cosine-distributed direction about n (pdf cos θ / π).
+vec3 sample_cosine(vec3 n, vec2 u) {
+    float r = sqrt(u.x);
+    float phi = 2.0 * PI * u.y;
+    vec3 t = normalize(abs(n.x) > 0.5 ? cross(n, vec3(0.0, 1.0, 0.0)) : cross(n, vec3(1.0, 0.0, 0.0)));
+    vec3 b = cross(n, t);
+    return normalize(r * cos(phi) * t + r * sin(phi) * b + sqrt(max(1.0 - u.x, 0.0)) * n);
+}
 
 void main() {
     uvec2 px = gl_GlobalInvocationID.xy;
@@ -68,25 +102,50 @@ void main() {
     vec3 dir = normalize(params.cam_w.xyz + ndc.x * params.cam_u.xyz + ndc.y * params.cam_v.xyz);
     vec3 origin = params.cam_pos.xyz;
 
+    const bool learned = SAMPLER == SAMPLER_BAYES || SAMPLER == SAMPLER_DONIKIAN;
+    const bool mis = params.max_depth > 1u;
     vec3 L = vec3(0.0);
+    vec3 beta = vec3(1.0);  // the path throughput
     float zero_samples = 0.0;
     float light_samples = 0.0;
-    float t;
-    uint slot = trace_ray(origin, dir, 0.0, 3.0e38, false, t);
-    if (slot != NO_HIT) {
-        BvhTri tri = bvh_tris[slot];
+    // The previous vertex, for the MIS weight of an emitter the BSDF ray from it hits.
+    vec3 prev_x = vec3(0.0);
+    vec3 prev_n = vec3(0.0);
+    float prev_brdf = 1.0;
+    float prev_bsdf_pdf = 0.0;
+    // Vertices 0 … max_depth − 1 sample a light and the BSDF; the ray after the last one
+    // only looks for the emitter it hits (its MIS weight completes that vertex's light sample).
+    for (uint depth = 0u; depth <= params.max_depth; ++depth) {
+        float t;
+        uint hit = trace_ray(origin, dir, 0.0, 3.0e38, false, t);
+        if (hit == NO_HIT) break;
+        BvhTri tri = bvh_tris[hit];
         vec3 ng = normalize(cross(tri.e1, tri.e2));
         bool front = dot(ng, dir) < 0.0;
         GpuMaterial m = materials[tri_material[tri.prim]];
-        if (front || (m.flags & MATERIAL_TWO_SIDED) != 0u) L += m.emission;
+        if ((front || (m.flags & MATERIAL_TWO_SIDED) != 0u) && any(greaterThan(m.emission, vec3(0.0)))) {
+            float w = 1.0;
+            uint li = tri_light[tri.prim];
+            if (depth > 0u && li != NO_LIGHT) {
+                // The light sampler's pdf of this point, in solid angle at prev_x.
+                float p_sel = light_pmf(prev_x, prev_n, li, params.light_count, prev_brdf);
+                vec3 to = origin + t * dir - prev_x;
+                float cos_l = abs(dot(ng, dir));
+                float p_light = cos_l > 0.0 ? p_sel * dot(to, to) / (lights[li].area * cos_l) : 0.0;
+                w = power_heuristic(prev_bsdf_pdf, p_light);
+            }
+            L += beta * m.emission * w;
+        }
+        if (depth == params.max_depth) break;
 
-        // Reflection is two-sided: shade the side the camera sees.
+        // Reflection is two-sided: shade the side the ray came from.
         vec3 n = front ? ng : -ng;
         vec3 x = origin + t * dir;
+        uint dim0 = depth * DIMS_PER_VERTEX;
+        vec3 f = m.base_color * (1.0 / PI);  // Lambertian BRDF
         float pmf;
-        float u_light = sample_rand(seed, pixel, s, DIM_LIGHT);
+        float u_light = sample_rand(seed, pixel, s, dim0 + DIM_LIGHT);
         uint li;
-        const bool learned = SAMPLER == SAMPLER_BAYES || SAMPLER == SAMPLER_DONIKIAN;
         uint slot = NO_SLOT;
         float p_slot = 1.0;
         float d2_slot = 1.0;
@@ -94,19 +153,20 @@ void main() {
         float cv_chosen = 0.0;
         // --brdf-aware: the observation includes the (Lambertian) BRDF as luminance.
         float brdf = (SAMPLER == SAMPLER_BAYES && (learn[0].flags & LEARN_BRDF) != 0u)
-                         ? dot(m.base_color, vec3(0.2126, 0.7152, 0.0722)) / PI : 1.0;
+                         ? luminance(m.base_color) / PI : 1.0;
         if (SAMPLER == SAMPLER_LIGHTBVH) li = sample_light_tree(x, n, u_light, pmf);
         else if (SAMPLER == SAMPLER_WANG) li = sample_wang(x, n, u_light, pmf);
         else if (learned) li = sample_learned(x, n, u_light, brdf, pmf, slot, p_slot, d2_slot, cv_total, cv_chosen);
         else li = pick_light(u_light, params.light_count, pmf);
         if (learned && li != NO_LIGHT && slot == NO_SLOT) atomicAdd(counters[1], 1u);
         // The observation of the chosen cluster: Î_C = L_e G V / (P(l|C) p(y|l)) as
-        // luminance (not divided by P(C|x)); zero when occluded or facing away.
+        // luminance (not divided by P(C|x)); zero when occluded or facing away. Learning
+        // models the light-sampling estimator, so it takes no MIS weight (method.md §5).
         float observed = 0.0;
         vec3 Ic = vec3(0.0);  // Î_C in RGB, for the control variate
         vec3 wi;
         float dist;
-        vec2 u = vec2(sample_rand(seed, pixel, s, DIM_LIGHT_U), sample_rand(seed, pixel, s, DIM_LIGHT_V));
+        vec2 u = vec2(sample_rand(seed, pixel, s, dim0 + DIM_LIGHT_U), sample_rand(seed, pixel, s, dim0 + DIM_LIGHT_V));
         // NO_LIGHT: no light can reach the front of n here (zero contribution, exactly).
         GpuLight light = lights[li == NO_LIGHT ? 0u : li];
         vec3 Li = li == NO_LIGHT ? vec3(0.0) : sample_light_point(light, x, u, wi, dist);
@@ -120,26 +180,57 @@ void main() {
             vec3 so = x + n * eps;
             vec3 to_light = wi * dist - n * eps;
             float sdist = length(to_light);
+            bool area = (light.kind & 0xffu) == LIGHT_TRIANGLE;
             // Stop short of an area light's own surface; a point light has none.
-            float tmax = (light.kind & 0xffu) == LIGHT_TRIANGLE ? sdist - eps : sdist;
+            float tmax = area ? sdist - eps : sdist;
             float ts;
             if (trace_ray(so, to_light / sdist, 0.0, tmax, true, ts) == NO_HIT) {
-                L += m.base_color * (1.0 / PI) * Li * (cos_x / pmf);
+                float w = 1.0;
+                if (mis && area) {
+                    // The light sample's pdf in solid angle: pmf · d² / (cos_y A).
+                    float cos_y = abs(dot(normalize(cross(light.p1 - light.p0, light.p2 - light.p0)), wi));
+                    float p_light = pmf * dist * dist / (cos_y * light.area);
+                    w = power_heuristic(p_light, cos_x / PI);
+                }
+                L += beta * f * Li * (cos_x / pmf * w);
                 Ic = Li * (cos_x * p_slot / pmf);
-                observed = dot(Li, vec3(0.2126, 0.7152, 0.0722)) * cos_x * (p_slot / pmf) * brdf;
+                observed = luminance(Li) * cos_x * (p_slot / pmf) * brdf;
             }
         }
         if (learned && slot != NO_SLOT) record_observation(slot, observed * d2_slot);
-        light_samples = 1.0;
-        zero_samples = any(greaterThan(Ic, vec3(0.0))) ? 0.0 : 1.0;
+        light_samples += 1.0;
+        zero_samples += any(greaterThan(Ic, vec3(0.0))) ? 0.0 : 1.0;
         // --control-variates (method.md §6): Σ_C g_C + (Î_C − g_C) / P(C) instead of
         // Î_C / P(C), with g_C the model's predicted mean of Î_C (gray: the model learns
-        // luminance). Unbiased for any g fixed within the pass; also where the sample was
-        // occluded or a dead end (Î_C = 0), which is why it is added here, outside the
-        // shadow-ray branch. p_slot = 0 only where no cluster can light x (g's all 0).
+        // luminance). Unbiased for any g fixed within the pass (with MIS too: g need not
+        // predict the weighted term); also where the sample was occluded or a dead end
+        // (Î_C = 0), which is why it is added here, outside the shadow-ray branch.
+        // p_slot = 0 only where no cluster can light x (g's all 0).
         if (cv_total > 0.0 && p_slot > 0.0) {
-            L += m.base_color * (1.0 / PI) * (vec3(cv_total) - vec3(cv_chosen) / p_slot);
+            L += beta * f * (vec3(cv_total) - vec3(cv_chosen) / p_slot);
         }
+
+        if (!mis) break;
+        // The BSDF ray: also taken after the last vertex, to find the emitter it hits.
+        vec2 ub = vec2(sample_rand(seed, pixel, s, dim0 + DIM_BSDF_U), sample_rand(seed, pixel, s, dim0 + DIM_BSDF_V));
+        vec3 wo = sample_cosine(n, ub);
+        float cos_o = dot(n, wo);
+        if (cos_o <= 0.0) break;
+        // f cos / pdf for a Lambertian BRDF sampled by cos θ / π.
+        beta *= m.base_color;
+        // The light sample above was drawn at x itself: light_pmf must see the same point.
+        prev_x = x;
+        prev_n = n;
+        prev_brdf = brdf;
+        prev_bsdf_pdf = cos_o / PI;
+        origin = x + n * params.ray_eps;
+        dir = wo;
+        if (depth + 1u >= 3u) {
+            float q = max(0.0, 1.0 - max(beta.x, max(beta.y, beta.z)));
+            if (sample_rand(seed, pixel, s, dim0 + DIM_RR) < q) break;
+            beta /= 1.0 - q;
+        }
+        if (!any(greaterThan(beta, vec3(0.0)))) break;
     }
 
     if (any(isnan(L)) || any(isinf(L))) {

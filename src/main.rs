@@ -199,8 +199,10 @@ struct RenderArgs {
     /// Output EXR path; the PNG and JSON are written next to it with the same stem.
     #[arg(long, default_value = "render.exr", value_name = "FILE.exr")]
     out: PathBuf,
-    /// Path length; 1 = direct light only (the only value until the path tracer exists).
-    #[arg(long, default_value_t = 1)]
+    /// Surface vertices of a path: 1 = direct light by light sampling alone; D ≥ 2 = path
+    /// tracing with next-event estimation and MIS at every vertex, Russian roulette from the
+    /// third vertex.
+    #[arg(long, default_value_t = 8, value_name = "D")]
     max_depth: u32,
     /// No progress bar or summary (errors and warnings are still printed).
     #[arg(long, short)]
@@ -221,10 +223,11 @@ struct RenderArgs {
     device: DeviceArgs,
 }
 
-/// Path tracing depth; only 1 (direct light) until the path tracer exists.
+/// Path tracing depth: 1 (direct light) to MAX_DEPTH vertices.
 fn check_depth(d: u32) -> Result<()> {
-    if d != 1 {
-        bail!("--max-depth {d}: only 1 (direct illumination) is implemented so far");
+    const MAX_DEPTH: u32 = 100;
+    if !(1..=MAX_DEPTH).contains(&d) {
+        bail!("--max-depth {d} is out of range: use 1 (direct light) to {MAX_DEPTH} (Russian roulette ends most paths long before)");
     }
     Ok(())
 }
@@ -276,8 +279,10 @@ struct StudyArgs {
     /// from it.
     #[arg(long, default_value_t = 0)]
     seed: u32,
-    /// Path length; 1 = direct light only (the only value until the path tracer exists).
-    #[arg(long, default_value_t = 1)]
+    /// Surface vertices of a path: 1 = direct light by light sampling alone; D ≥ 2 = path
+    /// tracing with next-event estimation and MIS at every vertex, Russian roulette from the
+    /// third vertex.
+    #[arg(long, default_value_t = 8, value_name = "D")]
     max_depth: u32,
     /// No progress bar or summary (errors and warnings are still printed).
     #[arg(long, short)]
@@ -470,6 +475,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         learn,
         resume: None,
         stratified: true,
+        max_depth: a.max_depth,
     };
     let mut settings = settings;
     if let (Some(saved), Some(p)) = (loaded, &a.load_stats) {
@@ -577,7 +583,13 @@ fn bar_progress<'a>(bar: &'a ProgressBar, label: &'a str) -> impl FnMut(u32, f64
 
 fn cmd_reference(a: ReferenceArgs) -> Result<()> {
     check_depth(a.image.max_depth)?;
-    let settings = reference::settings(a.image.width, a.image.height, a.spp, a.image.seed)?;
+    let settings = reference::settings(
+        a.image.width,
+        a.image.height,
+        a.spp,
+        a.image.seed,
+        a.image.max_depth,
+    )?;
     let paths = OutputPaths::new(&a.out)?;
     let (scene, ctx, gpu) = prepare(a.scene.as_deref(), &a.device)?;
     let bar = progress_bar(a.image.quiet);
@@ -631,8 +643,13 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
     if budgets.is_empty() {
         bail!("give --time SECONDS (equal time) and/or --spp N (equal samples)");
     }
-    let ref_settings =
-        reference::settings(a.image.width, a.image.height, a.reference_spp, a.image.seed)?;
+    let ref_settings = reference::settings(
+        a.image.width,
+        a.image.height,
+        a.reference_spp,
+        a.image.seed,
+        a.image.max_depth,
+    )?;
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create the output folder '{}'", a.out.display()))?;
     lightlearn::io::write_atomic(&a.out.join(".write-test"), b"")
@@ -708,6 +725,7 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
             a.image.width,
             a.image.height,
             a.image.seed,
+            a.image.max_depth,
             &reference_image,
             reference_noise,
             &mut |sampler, spp, f| bar_progress(&bar, sampler.name())(spp, f),

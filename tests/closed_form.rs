@@ -43,6 +43,7 @@ fn render_mean(g: &GltfBuilder, sampler: LightSampler) -> (f64, f64) {
         learn: Default::default(),
         resume: None,
         stratified: true,
+        max_depth: 1,
     };
     let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
     let n = r.mean().len() as f64;
@@ -155,6 +156,7 @@ fn zero_light_samples_are_counted() {
             learn: Default::default(),
             resume: None,
             stratified: true,
+            max_depth: 1,
         };
         let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
         assert!(r
@@ -165,4 +167,67 @@ fn zero_light_samples_are_counted() {
     };
     assert_eq!(fraction(false), 0.0);
     assert_eq!(fraction(true), 1.0);
+}
+
+/// The white furnace of a path tracer: inside a closed box whose walls all emit L_e and
+/// reflect ρ (Lambertian), the radiance after D surface vertices is L_e (1 + ρ + … + ρ^D)
+/// everywhere. Checks next-event estimation, BSDF sampling, the MIS weights (a light pmf that
+/// disagreed with the light sampler would make the two weights not sum to 1: biased) and
+/// Russian roulette, for a sampler of each kind.
+#[test]
+fn closed_emissive_box_has_the_geometric_series_radiance() {
+    let (le, rho) = (0.5f32, 0.6f32);
+    let mut g = GltfBuilder::new();
+    let wall = g.material("wall", Vec3::splat(rho), Vec3::splat(le), true);
+    g.cuboid("box", Vec3::splat(-1.0), Vec3::splat(1.0), wall);
+    g.camera(
+        Vec3::new(0.2, -0.1, 0.3),
+        Vec3::new(1.0, 0.5, -1.0),
+        60f32.to_radians(),
+    );
+    let scene = common::load(&g, "furnace");
+    let ctx = common::ctx();
+    let gpu = GpuScene::upload(&ctx, &scene, &Bvh::build(&scene.triangles)).unwrap();
+    for (sampler, depth) in [
+        (LightSampler::Uniform, 1),
+        (LightSampler::Uniform, 8),
+        (LightSampler::Power, 3),
+        (LightSampler::Lightbvh, 8),
+        (LightSampler::Wang, 2),
+        (LightSampler::Bayes, 8),
+        (LightSampler::Donikian, 4),
+    ] {
+        let settings = RenderSettings {
+            width: 8,
+            height: 8,
+            budget: Budget::Samples(1024),
+            seed: 5,
+            sampler,
+            regions: Default::default(),
+            learn: Default::default(),
+            resume: None,
+            stratified: true,
+            max_depth: depth,
+        };
+        let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
+        let n = r.mean().len() as f64;
+        let mean = r.mean().iter().map(|p| p[1] as f64).sum::<f64>() / n;
+        let se = (r
+            .variance_of_mean()
+            .iter()
+            .map(|v| v[1] as f64)
+            .sum::<f64>()
+            / (n * n))
+            .sqrt();
+        let want = le as f64
+            * (0..=depth)
+                .map(|k| (rho as f64).powi(k as i32))
+                .sum::<f64>();
+        assert_eq!(r.invalid_samples, 0);
+        assert!(
+            (mean - want).abs() < 4.0 * se + 1e-4 * want,
+            "{sampler:?}, max depth {depth}: mean radiance {mean:.5} ± {se:.5}, closed form {want:.5}"
+        );
+        eprintln!("{sampler:?} depth {depth}: {mean:.5} ± {se:.5} (want {want:.5})");
+    }
 }

@@ -214,8 +214,8 @@ fn bad_requests_fail_before_rendering() {
         ),
         (vec!["--out", &out], "--time SECONDS"),
         (
-            vec!["--spp", "4", "--max-depth", "3", "--out", &out],
-            "--max-depth 3",
+            vec!["--spp", "4", "--max-depth", "0", "--out", &out],
+            "--max-depth 0 is out of range",
         ),
     ];
     for (args, want) in cases {

@@ -161,7 +161,7 @@ fn host_and_shader_structs_match() {
             light_count,
             ray_eps,
             stratified,
-            pad1
+            max_depth
         }),
         rust_layout!(GpuRay {
             origin,

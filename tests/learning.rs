@@ -495,6 +495,7 @@ fn render_scene(
         resume: resume.map(std::sync::Arc::new),
         // Independent jitter: the reference's per-pixel variance is then its true error.
         stratified: false,
+        max_depth: 1,
     };
     render::render(&ctx, s, &gpu, &settings, &mut |_, _| {}).unwrap()
 }

@@ -1,6 +1,8 @@
 //! Cross-check against Mitsuba 3: a Cornell box (`lightlearn scene cornell`: emissive ceiling
 //! panel + point bulbs) rendered by lightlearn and by Mitsuba 3 (`scripts/mitsuba_scene.py`,
-//! variant scalar_rgb, `direct` integrator, box filter) must agree to within the noise.
+//! variant scalar_rgb, box filter) must agree to within the noise: direct light (our
+//! --max-depth 1 against Mitsuba's `direct`) and full path tracing (--max-depth 8 against
+//! Mitsuba's `path` with max_depth 9, which counts segments).
 //!
 //! Skipped (passes with a message) when `python3 -c "import mitsuba, numpy"` fails.
 //!
@@ -55,7 +57,7 @@ fn run(cmd: &mut Command) {
     );
 }
 
-fn size_args() -> Vec<String> {
+fn size_args(depth: u32) -> Vec<String> {
     [
         "--width",
         &W.to_string(),
@@ -63,26 +65,28 @@ fn size_args() -> Vec<String> {
         &H.to_string(),
         "--spp",
         &SPP.to_string(),
+        "--max-depth",
+        &depth.to_string(),
     ]
     .map(String::from)
     .to_vec()
 }
 
-fn render_ours(scene: &Path, seed: u32, out: &Path) -> Vec<[f64; 3]> {
+fn render_ours(scene: &Path, seed: u32, out: &Path, depth: u32) -> Vec<[f64; 3]> {
     run(Command::new(env!("CARGO_BIN_EXE_lightlearn"))
         .arg("render")
         .arg(scene)
-        .args(size_args())
+        .args(size_args(depth))
         .args(["--seed", &seed.to_string(), "-q", "--out"])
         .arg(out));
     read(out)
 }
 
-fn render_mitsuba(scene: &Path, seed: u32, out: &Path) -> Vec<[f64; 3]> {
+fn render_mitsuba(scene: &Path, seed: u32, out: &Path, depth: u32) -> Vec<[f64; 3]> {
     run(Command::new("python3")
         .arg(script())
         .arg(scene)
-        .args(size_args())
+        .args(size_args(depth))
         .args(["--seed", &seed.to_string(), "--out"])
         .arg(out));
     read(out)
@@ -283,6 +287,16 @@ fn scale_light(glb: &[u8], light: usize, factor: f64) -> Vec<u8> {
 
 #[test]
 fn cornell_matches_mitsuba() {
+    check_cornell(1);
+}
+
+#[test]
+fn cornell_path_traced_matches_mitsuba() {
+    check_cornell(8);
+}
+
+/// Both renderers at `depth` surface vertices per path; see the module comment.
+fn check_cornell(depth: u32) {
     if !mitsuba_available() {
         println!("skipping: mitsuba Python package not installed (pip install mitsuba)");
         return;
@@ -295,16 +309,16 @@ fn cornell_matches_mitsuba() {
         .args(["scene", "cornell", "--lights", "6", "--seed", "1", "--out"])
         .arg(&scene));
 
-    let o1 = render_ours(&scene, 1, &d.join("ours1.exr"));
-    let o2 = render_ours(&scene, 2, &d.join("ours2.exr"));
+    let o1 = render_ours(&scene, 1, &d.join("ours1.exr"), depth);
+    let o2 = render_ours(&scene, 2, &d.join("ours2.exr"), depth);
     // Far-apart seeds, so Mitsuba's per-block sample streams cannot overlap.
-    let m1 = render_mitsuba(&scene, 1, &d.join("mitsuba1.exr"));
-    let m2 = render_mitsuba(&scene, 100_000, &d.join("mitsuba2.exr"));
+    let m1 = render_mitsuba(&scene, 1, &d.join("mitsuba1.exr"), depth);
+    let m2 = render_mitsuba(&scene, 100_000, &d.join("mitsuba2.exr"), depth);
     let ours = pair(&o1, &o2);
     let mitsuba = pair(&m1, &m2);
 
     println!(
-        "Cornell box {W}×{H}, {SPP} spp per render, two seeds per renderer; our noise floor: \
+        "Cornell box {W}×{H}, max depth {depth}, {SPP} spp per render, two seeds per renderer; our noise floor: \
          relMSE(seed 1, seed 2) = {:.3e}; Mitsuba's: {:.3e}",
         rel_mse(&o1, &o2),
         rel_mse(&m1, &m2)
@@ -322,7 +336,7 @@ fn cornell_matches_mitsuba() {
         scale_light(&std::fs::read(&scene).unwrap(), 0, 1.1),
     )
     .unwrap();
-    let w = render_mitsuba(&wrong_scene, 200_000, &d.join("wrong.exr"));
+    let w = render_mitsuba(&wrong_scene, 200_000, &d.join("wrong.exr"), depth);
     // One render: its variance is twice that of the two-render average.
     let wrong = Estimate {
         mean: w,
@@ -343,7 +357,7 @@ fn cornell_matches_mitsuba() {
     let f = c.failures();
     assert!(
         f.is_empty(),
-        "lightlearn and Mitsuba 3 disagree on the Cornell box:\n  {}\n(images kept in {})",
+        "lightlearn and Mitsuba 3 disagree on the Cornell box at max depth {depth}:\n  {}\n(images kept in {})",
         f.join("\n  "),
         dir.keep().display()
     );

@@ -133,6 +133,7 @@ fn gpu_render(scene: &Scene, sampler: LightSampler) -> RenderResult {
         learn: Default::default(),
         resume: None,
         stratified: false,
+        max_depth: 1,
     };
     render::render(&ctx, scene, &gpu, &settings, &mut |_, _| {}).unwrap()
 }

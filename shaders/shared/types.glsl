@@ -122,7 +122,7 @@ struct RenderParams {
     uint light_count;
     float ray_eps;
     uint stratified;
-    uint pad1;
+    uint max_depth;
 };
 
 struct GpuRay {

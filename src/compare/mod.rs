@@ -136,6 +136,7 @@ pub fn compare(
     width: u32,
     height: u32,
     seed: u32,
+    max_depth: u32,
     reference: &[[f32; 3]],
     reference_noise: Option<Metrics>,
     progress: &mut dyn FnMut(LightSampler, u32, f64),
@@ -152,6 +153,7 @@ pub fn compare(
             learn: *learn,
             resume: None,
             stratified: true,
+            max_depth,
         };
         let mut convergence = Vec::new();
         let result = render::render_with_checkpoints(

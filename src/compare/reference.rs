@@ -62,7 +62,7 @@ impl Fnv {
 }
 
 /// Cache key of the reference for this scene content and these settings.
-pub fn key(scene: &Scene, width: u32, height: u32, spp: u32, seed: u32) -> String {
+pub fn key(scene: &Scene, width: u32, height: u32, spp: u32, seed: u32, max_depth: u32) -> String {
     let mut h = Fnv(0xcbf2_9ce4_8422_2325);
     h.bytes(INTEGRATOR_VERSION.as_bytes());
     for t in &scene.triangles {
@@ -79,11 +79,21 @@ pub fn key(scene: &Scene, width: u32, height: u32, spp: u32, seed: u32) -> Strin
     h.bytes(bytemuck::cast_slice(&lights::gpu_lights(scene)));
     h.bytes(bytemuck::bytes_of(&camera_params(scene, width, height)));
     h.bytes(format!("{spp}/{seed}/{:?}", REFERENCE_SAMPLER).as_bytes());
+    // Direct light (depth 1) keeps the key it had before the path tracer existed.
+    if max_depth != 1 {
+        h.bytes(format!("max depth {max_depth}").as_bytes());
+    }
     format!("{:016x}-{width}x{height}-{spp}spp", h.0)
 }
 
 /// Settings of a reference for renders with `seed` (own random stream, reference sampler).
-pub fn settings(width: u32, height: u32, spp: u32, seed: u32) -> Result<RenderSettings> {
+pub fn settings(
+    width: u32,
+    height: u32,
+    spp: u32,
+    seed: u32,
+    max_depth: u32,
+) -> Result<RenderSettings> {
     if spp == 0 {
         bail!("the reference needs at least 1 sample per pixel");
     }
@@ -100,6 +110,7 @@ pub fn settings(width: u32, height: u32, spp: u32, seed: u32) -> Result<RenderSe
         learn: Default::default(),
         resume: None,
         stratified: false,
+        max_depth,
     })
 }
 
@@ -123,7 +134,14 @@ fn cache_paths(scene: &Scene, settings: &RenderSettings) -> (String, OutputPaths
     let Budget::Samples(spp) = settings.budget else {
         unreachable!("references have a sample budget")
     };
-    let key = key(scene, settings.width, settings.height, spp, settings.seed);
+    let key = key(
+        scene,
+        settings.width,
+        settings.height,
+        spp,
+        settings.seed,
+        settings.max_depth,
+    );
     let dir = cache_dir();
     let paths = OutputPaths {
         exr: dir.join(format!("{key}.exr")),

@@ -218,7 +218,8 @@ pub struct RenderParams {
     pub ray_eps: f32,
     /// 1: pixel jitter stratified over passes (R2); 0: independent per sample.
     pub stratified: u32,
-    pub pad1: u32,
+    /// Surface vertices of a path (1: direct light by light sampling alone).
+    pub max_depth: u32,
 }
 
 /// A ray for `trace.comp`.

@@ -120,6 +120,9 @@ pub struct RenderSettings {
     /// independent per sample. Both are unbiased; references use independent jitter so that
     /// their per-pixel variance estimate is the true error of their mean.
     pub stratified: bool,
+    /// Surface vertices of a path: 1 = direct light by light sampling alone; D ≥ 2 = path
+    /// tracing with next-event estimation and MIS at every vertex (render.comp).
+    pub max_depth: u32,
     /// Statistics to start from (`--load-stats`): their cuts replace the built ones and the
     /// sample indices continue after theirs.
     pub resume: Option<Arc<SavedStats>>,
@@ -235,6 +238,8 @@ pub struct GpuScene {
     alias: Buffer,
     light_nodes: Buffer,
     light_order: Buffer,
+    light_position: Buffer,
+    tri_light: Buffer,
     /// Kept for building cuts: the tree, and the BVH to find which regions the camera sees.
     pub tree: lights::tree::LightTree,
     pub bvh: Bvh,
@@ -282,6 +287,8 @@ impl GpuScene {
             alias: Buffer::from_slice(ctx, "light alias table", &alias)?,
             light_nodes: Buffer::from_slice(ctx, "light tree", &tree.nodes)?,
             light_order: Buffer::from_slice(ctx, "light tree order", &tree.order)?,
+            light_position: Buffer::from_slice(ctx, "light tree positions", &tree.position)?,
+            tri_light: Buffer::from_slice(ctx, "triangle lights", &lights::triangle_lights(scene))?,
             tree,
             bvh: bvh.clone(),
             light_count: gpu_lights.len() as u32,
@@ -415,7 +422,7 @@ pub fn render_with_checkpoints(
         ctx,
         "render",
         kernels::RENDER,
-        16,
+        18,
         std::mem::size_of::<RenderParams>() as u32,
         &[
             settings.sampler.shader_id(),
@@ -439,6 +446,8 @@ pub fn render_with_checkpoints(
         &stats,
         &delta,
         &learn_params,
+        &gpu.light_position,
+        &gpu.tri_light,
     ])?;
     let fold = ComputePipeline::new(ctx, "fold", kernels::FOLD, 3, 8, &[])?;
     fold.bind(&[&stats, &delta, &learn_params])?;
@@ -458,6 +467,7 @@ pub fn render_with_checkpoints(
     params.light_count = gpu.light_count;
     params.ray_eps = gpu.ray_eps;
     params.stratified = settings.stratified as u32;
+    params.max_depth = settings.max_depth;
     let groups = [w.div_ceil(8), h.div_ceil(8), 1];
     let read_mean = |spp: u32| -> Result<Vec<[f32; 3]>> {
         let data: Vec<PixelAccum> = accum.read()?;
@@ -686,7 +696,12 @@ pub fn report_json(
         "estimated_mse_of_mean": mse,
         "estimated_rel_mse_of_mean": rel,
         "zero_light_sample_fraction": result.zero_sample_fraction(),
-        "integrator": "direct illumination, Lambertian, one light sample per pixel sample",
+        "integrator": if settings.max_depth == 1 {
+            "direct illumination by light sampling, Lambertian, one light sample per pixel sample".to_string()
+        } else {
+            format!("path tracing, up to {} surface vertices, Lambertian, next-event estimation + BSDF sampling with MIS (power heuristic), Russian roulette", settings.max_depth)
+        },
+        "max_depth": settings.max_depth,
     })
 }
 
