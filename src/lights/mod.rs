@@ -108,6 +108,18 @@ pub fn alias_pmf(table: &[AliasEntry]) -> Vec<f64> {
     p
 }
 
+/// For every scene triangle the index of its light (emissive triangles), `u32::MAX` for the
+/// others: what a BSDF-sampled ray that hits an emitter needs to ask for its light pmf.
+pub fn triangle_lights(scene: &Scene) -> Vec<u32> {
+    let mut out = vec![u32::MAX; scene.triangles.len()];
+    for (i, l) in scene.lights.iter().enumerate() {
+        if let Light::Triangle { triangle } = l {
+            out[*triangle as usize] = i as u32;
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -127,16 +139,4 @@ mod tests {
             assert!((t[i].pmf as f64 - want).abs() <= 1e-6 * want);
         }
     }
-}
-
-/// For every scene triangle the index of its light (emissive triangles), `u32::MAX` for the
-/// others: what a BSDF-sampled ray that hits an emitter needs to ask for its light pmf.
-pub fn triangle_lights(scene: &Scene) -> Vec<u32> {
-    let mut out = vec![u32::MAX; scene.triangles.len()];
-    for (i, l) in scene.lights.iter().enumerate() {
-        if let Light::Triangle { triangle } = l {
-            out[*triangle as usize] = i as u32;
-        }
-    }
-    out
 }
