@@ -188,14 +188,17 @@ fn closed_emissive_box_has_the_geometric_series_radiance() {
     let scene = common::load(&g, "furnace");
     let ctx = common::ctx();
     let gpu = GpuScene::upload(&ctx, &scene, &Bvh::build(&scene.triangles)).unwrap();
-    for (sampler, depth) in [
-        (LightSampler::Uniform, 1),
-        (LightSampler::Uniform, 8),
-        (LightSampler::Power, 3),
-        (LightSampler::Lightbvh, 8),
-        (LightSampler::Wang, 2),
-        (LightSampler::Bayes, 8),
-        (LightSampler::Donikian, 4),
+    // bayes also with control variates: unbiased under MIS too (g need not predict the
+    // weighted term).
+    for (sampler, depth, control_variates) in [
+        (LightSampler::Uniform, 1, false),
+        (LightSampler::Uniform, 8, false),
+        (LightSampler::Power, 3, false),
+        (LightSampler::Lightbvh, 8, false),
+        (LightSampler::Wang, 2, false),
+        (LightSampler::Bayes, 8, false),
+        (LightSampler::Bayes, 8, true),
+        (LightSampler::Donikian, 4, false),
     ] {
         let settings = RenderSettings {
             width: 8,
@@ -204,7 +207,10 @@ fn closed_emissive_box_has_the_geometric_series_radiance() {
             seed: 5,
             sampler,
             regions: Default::default(),
-            learn: Default::default(),
+            learn: lightlearn::learning::LearnSettings {
+                control_variates,
+                ..Default::default()
+            },
             resume: None,
             stratified: true,
             max_depth: depth,
@@ -226,8 +232,8 @@ fn closed_emissive_box_has_the_geometric_series_radiance() {
         assert_eq!(r.invalid_samples, 0);
         assert!(
             (mean - want).abs() < 4.0 * se + 1e-4 * want,
-            "{sampler:?}, max depth {depth}: mean radiance {mean:.5} ± {se:.5}, closed form {want:.5}"
+            "{sampler:?} (cv {control_variates}), max depth {depth}: mean radiance {mean:.5} ± {se:.5}, closed form {want:.5}"
         );
-        eprintln!("{sampler:?} depth {depth}: {mean:.5} ± {se:.5} (want {want:.5})");
+        eprintln!("{sampler:?} (cv {control_variates}) depth {depth}: {mean:.5} ± {se:.5} (want {want:.5})");
     }
 }
