@@ -25,7 +25,8 @@ Conventions (those of lightlearn's README, "Scene conventions"; they define "the
   stays the front face. Strips and fans are triangulated like lightlearn does; point and
   line primitives and degenerate (zero-area) triangles are dropped.
 - Materials: Lambertian, albedo = baseColorFactor.rgb clamped to [0, 1], reflecting on both
-  sides (`twosided` around `diffuse`). Textures are ignored (as in lightlearn).
+  sides (`twosided` around `diffuse`). Textures are ignored here (lightlearn samples
+  base-colour PNG textures): compare only untextured scenes.
 - Emission: radiance = emissiveFactor × KHR_materials_emissive_strength.emissiveStrength on
   an `area` emitter. Mitsuba's area emitters emit on the side of the geometric normal
   cross(p1 - p0, p2 - p0), i.e. from the counter-clockwise front face, as lightlearn does.

@@ -44,6 +44,10 @@ layout(std430, set = 0, binding = 15) readonly buffer Learn { LearnParams learn[
 layout(std430, set = 0, binding = 16) readonly buffer LightPosition { uint light_position[]; };
 // The light of an emissive triangle (by `prim`), NO_LIGHT for the others.
 layout(std430, set = 0, binding = 17) readonly buffer TriLight { uint tri_light[]; };
+// Base-colour textures (texture.glsl).
+layout(std430, set = 0, binding = 18) readonly buffer Textures { GpuTexture textures[]; };
+layout(std430, set = 0, binding = 19) readonly buffer Texels { uint texels[]; };
+layout(std430, set = 0, binding = 20) readonly buffer TriUv { float tri_uv[]; };
 
 layout(push_constant) uniform Push { RenderParams params; };
 
@@ -53,6 +57,7 @@ layout(push_constant) uniform Push { RenderParams params; };
 #include "regions.glsl"
 #define HAS_ALIAS_TABLE
 #include "light_pmf.glsl"
+#include "texture.glsl"
 
 // Random-number dimensions of one pixel sample: the jitter, then DIMS_PER_VERTEX per vertex
 // (the first vertex keeps the dimensions the direct-light kernel always used).
@@ -142,6 +147,10 @@ void main() {
         vec3 n = front ? ng : -ng;
         vec3 x = origin + t * dir;
         uint dim0 = depth * DIMS_PER_VERTEX;
+        // glTF: base colour = factor × texture.
+        if (m.texture != NO_TEXTURE) {
+            m.base_color *= sample_texture(m.texture, triangle_uv(tri.prim, x, tri.v0, tri.e1, tri.e2));
+        }
         vec3 f = m.base_color * (1.0 / PI);  // Lambertian BRDF
         float pmf;
         float u_light = sample_rand(seed, pixel, s, dim0 + DIM_LIGHT);

@@ -237,3 +237,118 @@ fn closed_emissive_box_has_the_geometric_series_radiance() {
         eprintln!("{sampler:?} (cv {control_variates}) depth {depth}: {mean:.5} ± {se:.5} (want {want:.5})");
     }
 }
+
+/// A PNG of `w`×`h` RGB8 texels (row 0 first).
+fn png_rgb(w: u32, h: u32, rgb: &[[u8; 3]]) -> Vec<u8> {
+    let mut out = Vec::new();
+    let mut e = png::Encoder::new(&mut out, w, h);
+    e.set_color(png::ColorType::Rgb);
+    e.set_depth(png::BitDepth::Eight);
+    let mut wr = e.write_header().unwrap();
+    wr.write_image_data(&rgb.iter().flatten().copied().collect::<Vec<u8>>())
+        .unwrap();
+    wr.finish().unwrap();
+    out
+}
+
+/// A base-colour texture multiplies the albedo texel by texel: at depth 1 (and with the
+/// uniform sampler, so both renders draw the same samples) a textured floor's render is the
+/// white floor's render times the texel's linear colour, exactly where the bilinear lookup
+/// stays inside one colour. The texture has four quadrants: red, green, sRGB grey 128
+/// (linear 0.2159: checks the sRGB decoding) and white; clamp-to-edge in s and mirrored
+/// repeat in t keep the quadrants pure up to the edges.
+#[test]
+fn base_color_texture_multiplies_the_albedo() {
+    let colours: [[u8; 3]; 4] = [[255, 0, 0], [0, 255, 0], [128, 128, 128], [255, 255, 255]];
+    let linear = [
+        [1.0f32, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.215_860_5; 3],
+        [1.0, 1.0, 1.0],
+    ];
+    let texels: Vec<[u8; 3]> = (0..16)
+        .map(|i| colours[(i / 8) * 2 + (i % 4) / 2])
+        .collect();
+    let render_floor = |textured: bool| {
+        let mut g = GltfBuilder::new();
+        let m = g.material("floor", Vec3::ONE, Vec3::ZERO, false);
+        if textured {
+            let t = g.texture_png(&png_rgb(4, 4, &texels), [33071, 33648]);
+            g.set_base_color_texture(m, t);
+        }
+        let c = [
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(-1.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, -1.0),
+        ];
+        let uv = [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]];
+        g.mesh_uv("floor", &c, Some(&uv), &[0, 1, 2, 0, 2, 3], m);
+        g.point_light("bulb", Vec3::new(0.3, 3.0, -0.2), Vec3::ONE, 5.0);
+        // Looking straight down from far away: the quad fills the view.
+        g.camera(
+            Vec3::new(0.0, 40.0, 1e-3),
+            Vec3::ZERO,
+            2.0 * (1.0f32 / 40.0).atan(),
+        );
+        let scene = common::load(&g, "texture");
+        assert_eq!(scene.textures.len(), textured as usize);
+        let ctx = common::ctx();
+        let gpu = GpuScene::upload(&ctx, &scene, &Bvh::build(&scene.triangles)).unwrap();
+        let settings = RenderSettings {
+            width: 16,
+            height: 16,
+            budget: Budget::Samples(4),
+            seed: 9,
+            sampler: LightSampler::Uniform,
+            regions: Default::default(),
+            learn: Default::default(),
+            resume: None,
+            stratified: true,
+            max_depth: 1,
+        };
+        let image = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {})
+            .unwrap()
+            .mean();
+        (image, render::camera_params(&scene, 16, 16))
+    };
+    let ((white, cam), (tex, _)) = (render_floor(false), render_floor(true));
+    // The quadrant under each pixel centre (glTF: uv (0, 0) is the image's first texel).
+    let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+    let quadrant = |i: usize| {
+        let x = ((i % 16) as f32 + 0.5) / 16.0 * 2.0 - 1.0;
+        let y = 1.0 - ((i / 16) as f32 + 0.5) / 16.0 * 2.0;
+        let d = v(cam.cam_w) + x * v(cam.cam_u) + y * v(cam.cam_v);
+        let o = v(cam.cam_pos);
+        let p = o - d * (o.y / d.y);
+        let (u, t) = ((p.x + 1.0) / 2.0, (p.z + 1.0) / 2.0);
+        (t >= 0.5) as usize * 2 + (u >= 0.5) as usize
+    };
+    let mut found = [0usize; 4];
+    for (i, (w, t)) in white.iter().zip(&tex).enumerate() {
+        assert!(
+            w.iter().all(|&c| c > 0.0),
+            "the white floor is lit everywhere"
+        );
+        let ratio: Vec<f32> = (0..3).map(|k| t[k] / w[k]).collect();
+        assert!(
+            ratio.iter().all(|&r| (-1e-4..=1.0 + 1e-4).contains(&r)),
+            "ratio {ratio:?} outside the texture's range"
+        );
+        for (q, want) in linear.iter().enumerate() {
+            if (0..3).all(|k| (ratio[k] - want[k]).abs() < 1e-3) {
+                assert_eq!(
+                    q,
+                    quadrant(i),
+                    "pixel {i} shows quadrant {q}'s colour: the texture is flipped or turned"
+                );
+                found[q] += 1;
+            }
+        }
+    }
+    // Each quadrant covers 8×8 pixels; all of them are pure but the blends at the inner seams.
+    assert!(
+        found.iter().all(|&n| n >= 36),
+        "pixels showing each quadrant's exact colour: {found:?}"
+    );
+}

@@ -147,7 +147,13 @@ fn host_and_shader_structs_match() {
             base_color,
             flags,
             emission,
-            pad
+            texture
+        }),
+        rust_layout!(GpuTexture {
+            offset,
+            width,
+            height,
+            wrap
         }),
         rust_layout!(RenderParams {
             cam_pos,

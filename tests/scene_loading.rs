@@ -216,3 +216,62 @@ fn line_primitives_are_skipped_with_a_warning() {
         .to_string();
     assert!(e.contains("no triangles") && e.contains("skipped"), "{e}");
 }
+
+/// A texture that is not a PNG is named in a warning and the material keeps its factor;
+/// a texture coordinate that is NaN is an error naming the primitive.
+#[test]
+fn unusable_textures_warn_and_bad_texture_coordinates_fail() {
+    let build = |image: &[u8], uv: f32| {
+        let mut g = GltfBuilder::new();
+        let m = g.material("floor", Vec3::splat(0.5), Vec3::ZERO, false);
+        let t = g.texture_png(image, [10497, 10497]);
+        g.set_base_color_texture(m, t);
+        let c = [Vec3::ZERO, Vec3::Z, Vec3::new(1.0, 0.0, 1.0)];
+        g.mesh_uv(
+            "tri",
+            &c,
+            Some(&[[0.0, 0.0], [0.0, uv], [1.0, 1.0]]),
+            &[0, 1, 2],
+            m,
+        );
+        g.point_light("bulb", Vec3::ONE, Vec3::ONE, 1.0);
+        g.to_glb()
+    };
+    let mut warnings = Vec::new();
+    let s = gltf_load::load_bytes(
+        &build(b"\xff\xd8\xff\xe0 a JPEG", 1.0),
+        "jpeg.glb",
+        Path::new("."),
+        &mut |w| warnings.push(w),
+    )
+    .unwrap();
+    assert!(s.textures.is_empty() && s.triangle_uv.is_empty());
+    assert_eq!(s.materials[0].base_color_texture, None);
+    assert!(
+        warnings.iter().any(|w| w.contains("jpeg.glb")
+            && w.contains("not a PNG")
+            && w.contains("baseColorFactor")),
+        "{warnings:?}"
+    );
+    // A valid 1×1 PNG, so the coordinates are read.
+    let mut png1 = Vec::new();
+    let mut enc = png::Encoder::new(&mut png1, 1, 1);
+    enc.set_color(png::ColorType::Rgb);
+    let mut w = enc.write_header().unwrap();
+    w.write_image_data(&[200, 100, 50]).unwrap();
+    w.finish().unwrap();
+    let e = gltf_load::load_bytes(
+        &build(&png1, f32::NAN),
+        "nan-uv.glb",
+        Path::new("."),
+        &mut |_| {},
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("nan-uv.glb")
+            && e.contains("mesh 0")
+            && e.contains("non-finite texture coordinate"),
+        "{e}"
+    );
+}

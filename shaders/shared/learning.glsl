@@ -98,7 +98,7 @@ float learned_weights(uint o, vec3 p, vec3 n, float brdf, out float cv_total) {
     return total;
 }
 
-// A cluster of the region's cut by the learned weights, then a light inside by power.
+// A cluster of the region's cut by the learned weights, then a light inside (pick_in_cut).
 // slot: the index of the chosen slot in `cuts` (and in the statistics), NO_SLOT where the
 // region has no cut of its own (the shared fallback cut does not learn: it samples as
 // `wang`). p_slot: P(C | x); d2: the regression distance² to C (1 without regression);

@@ -105,9 +105,15 @@ struct LearnParams {
 
 #define MATERIAL_TWO_SIDED 1u
 
+#define NO_TEXTURE 0xffffffffu
+
 struct GpuMaterial {
     vec3 base_color; uint flags;
-    vec3 emission; uint pad;
+    vec3 emission; uint texture;
+};
+
+struct GpuTexture {
+    uint offset; uint width; uint height; uint wrap;
 };
 
 struct RenderParams {

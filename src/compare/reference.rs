@@ -77,6 +77,18 @@ pub fn key(scene: &Scene, width: u32, height: u32, spp: u32, seed: u32, max_dept
         h.bytes(&[m.double_sided as u8]);
     }
     h.bytes(bytemuck::cast_slice(&lights::gpu_lights(scene)));
+    // Textures (only when there are any, so untextured scenes keep their keys).
+    for t in &scene.textures {
+        h.bytes(&[t.width.to_le_bytes(), t.height.to_le_bytes()].concat());
+        h.bytes(&[t.wrap[0] as u8, t.wrap[1] as u8]);
+        h.bytes(bytemuck::cast_slice(&t.texels));
+    }
+    if !scene.textures.is_empty() {
+        for m in &scene.materials {
+            h.bytes(&m.base_color_texture.unwrap_or(u32::MAX).to_le_bytes());
+        }
+        h.bytes(bytemuck::cast_slice(&scene.triangle_uv));
+    }
     h.bytes(bytemuck::bytes_of(&camera_params(scene, width, height)));
     h.bytes(format!("{spp}/{seed}/{:?}", REFERENCE_SAMPLER).as_bytes());
     // Direct light (depth 1) keeps the key it had before the path tracer existed.

@@ -195,7 +195,19 @@ pub struct GpuMaterial {
     /// `MATERIAL_TWO_SIDED` when emission leaves both faces.
     pub flags: u32,
     pub emission: [f32; 3],
-    pub pad: u32,
+    /// Index of the base-colour texture in the texture table, `u32::MAX` for none.
+    pub texture: u32,
+}
+
+/// One texture of the texture table: where its texels start in the texel buffer (packed
+/// sRGB RGBA8), its size, and its wrap modes (wrapS | wrapT << 8, `scene::Wrap` codes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTexture {
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub wrap: u32,
 }
 
 /// Push constants of `render.comp` (96 of the 128 bytes every device guarantees).

@@ -8,7 +8,7 @@ use anyhow::{bail, Result};
 use glam::Vec3;
 
 use crate::accel::Bvh;
-use crate::gpu::layout::{GpuMaterial, PixelAccum, RenderParams, MATERIAL_TWO_SIDED};
+use crate::gpu::layout::{GpuMaterial, GpuTexture, PixelAccum, RenderParams, MATERIAL_TWO_SIDED};
 use crate::gpu::layout::{SlotDelta, SlotStats};
 use crate::gpu::{kernels, Buffer, ComputePipeline, Context};
 use crate::learning::stats_file::{self, SavedStats, StatsHeader};
@@ -240,6 +240,9 @@ pub struct GpuScene {
     light_order: Buffer,
     light_position: Buffer,
     tri_light: Buffer,
+    textures: Buffer,
+    texels: Buffer,
+    tri_uv: Buffer,
     /// Kept for building cuts: the tree, and the BVH to find which regions the camera sees.
     pub tree: lights::tree::LightTree,
     pub bvh: Bvh,
@@ -270,9 +273,35 @@ impl GpuScene {
                     0
                 },
                 emission: m.emission.to_array(),
-                pad: 0,
+                texture: m.base_color_texture.unwrap_or(u32::MAX),
             })
             .collect();
+        // Texture table and texels; one dummy entry each when there are none (a buffer is
+        // never empty).
+        let mut table = Vec::new();
+        let mut texels: Vec<u32> = Vec::new();
+        for t in &scene.textures {
+            table.push(GpuTexture {
+                offset: texels.len() as u32,
+                width: t.width,
+                height: t.height,
+                wrap: t.wrap[0] as u32 | (t.wrap[1] as u32) << 8,
+            });
+            texels.extend(t.texels.iter().map(|&c| u32::from_le_bytes(c)));
+        }
+        if table.is_empty() {
+            table.push(GpuTexture::default());
+            texels.push(0);
+        }
+        let uvs: Vec<[f32; 6]> = if scene.triangle_uv.is_empty() {
+            vec![[0.0; 6]]
+        } else {
+            scene
+                .triangle_uv
+                .iter()
+                .map(|t| [t[0][0], t[0][1], t[1][0], t[1][1], t[2][0], t[2][1]])
+                .collect()
+        };
         let gpu_lights = lights::gpu_lights(scene);
         let alias = lights::alias_table(&lights::power_weights(scene));
         let t0 = Instant::now();
@@ -289,6 +318,9 @@ impl GpuScene {
             light_order: Buffer::from_slice(ctx, "light tree order", &tree.order)?,
             light_position: Buffer::from_slice(ctx, "light tree positions", &tree.position)?,
             tri_light: Buffer::from_slice(ctx, "triangle lights", &lights::triangle_lights(scene))?,
+            textures: Buffer::from_slice(ctx, "texture table", &table)?,
+            texels: Buffer::from_slice(ctx, "texels", &texels)?,
+            tri_uv: Buffer::from_slice(ctx, "triangle texture coordinates", &uvs)?,
             tree,
             bvh: bvh.clone(),
             light_count: gpu_lights.len() as u32,
@@ -422,7 +454,7 @@ pub fn render_with_checkpoints(
         ctx,
         "render",
         kernels::RENDER,
-        18,
+        21,
         std::mem::size_of::<RenderParams>() as u32,
         &[
             settings.sampler.shader_id(),
@@ -448,6 +480,9 @@ pub fn render_with_checkpoints(
         &learn_params,
         &gpu.light_position,
         &gpu.tri_light,
+        &gpu.textures,
+        &gpu.texels,
+        &gpu.tri_uv,
     ])?;
     let fold = ComputePipeline::new(ctx, "fold", kernels::FOLD, 3, 8, &[])?;
     fold.bind(&[&stats, &delta, &learn_params])?;

@@ -18,7 +18,7 @@ use base64::Engine;
 use glam::{Mat4, Vec3, Vec4Swizzles};
 use gltf::mesh::Mode;
 
-use super::{Camera, Light, Material, Scene};
+use super::{Camera, Light, Material, Scene, Texture, Wrap};
 
 /// Largest scene we accept, so a corrupt index count cannot exhaust memory. The GPU BVH and
 /// light buffers must fit lavapipe's 128 MiB storage-buffer limit: 48 B per triangle.
@@ -77,7 +77,16 @@ pub fn load_bytes(
         materials: Vec::new(),
         lights: Vec::new(),
         camera: Camera::framing(Vec3::ZERO, Vec3::ONE),
+        textures: Vec::new(),
+        triangle_uv: Vec::new(),
         source: name.to_string(),
+    };
+    // glTF texture index → our texture (None: could not be used, already warned about).
+    let mut texture_index: HashMap<usize, Option<u32>> = HashMap::new();
+    let images = Images {
+        buffers: &buffers,
+        base,
+        file: name,
     };
     let mut camera: Option<Camera> = None;
     let mut skipped_primitives = 0usize;
@@ -151,8 +160,40 @@ pub fn load_bytes(
                     name,
                     &mut materials,
                     &mut material_index,
+                    &mut scene.textures,
+                    &mut texture_index,
+                    &images,
                     warn,
                 )?;
+                // Texture coordinates of the set the material's base-colour texture uses.
+                let uvs: Vec<[f32; 2]> = match (
+                    materials[mat as usize].base_color_texture,
+                    prim.material()
+                        .pbr_metallic_roughness()
+                        .base_color_texture(),
+                ) {
+                    (Some(_), Some(info)) => match reader.read_tex_coords(info.tex_coord()) {
+                        Some(t) => {
+                            let uvs: Vec<[f32; 2]> = t.into_f32().collect();
+                            if let Some(bad) = uvs
+                                .iter()
+                                .position(|t| !(t[0].is_finite() && t[1].is_finite()))
+                            {
+                                bail!("'{name}': {mesh_label} vertex {bad} has a non-finite texture coordinate (NaN or Inf); fix the mesh data");
+                            }
+                            uvs
+                        }
+                        None => {
+                            warn(format!(
+                                "'{name}': {mesh_label} has a base-colour texture but no TEXCOORD_{}; it samples the texture at (0, 0)",
+                                info.tex_coord()
+                            ));
+                            Vec::new()
+                        }
+                    },
+                    _ => Vec::new(),
+                };
+                let uv = |i: u32| uvs.get(i as usize).copied().unwrap_or([0.0, 0.0]);
                 for [a, b, c] in tris {
                     let get = |i: u32| {
                         world_pos.get(i as usize).copied().ok_or_else(|| {
@@ -169,6 +210,11 @@ pub fn load_bytes(
                         continue;
                     }
                     scene.triangles.push(tri);
+                    scene.triangle_uv.push(if flip {
+                        [uv(a), uv(c), uv(b)]
+                    } else {
+                        [uv(a), uv(b), uv(c)]
+                    });
                     scene.triangle_material.push(mat);
                     if scene.triangles.len() > MAX_TRIANGLES {
                         bail!(
@@ -274,6 +320,9 @@ pub fn load_bytes(
         }
     }
     scene.materials = materials;
+    if scene.textures.is_empty() {
+        scene.triangle_uv = Vec::new();
+    }
     if scene.lights.is_empty() {
         bail!(
             "'{name}' has no lights: add KHR_lights_punctual point/spot lights or give a material a non-zero emissiveFactor"
@@ -289,11 +338,15 @@ fn node_label(node: &gltf::Node) -> String {
 }
 
 /// Index of our material for a glTF material (the default material gets its own slot).
+#[allow(clippy::too_many_arguments)]
 fn material_slot(
     m: &gltf::Material,
     file: &str,
     materials: &mut Vec<Material>,
     index: &mut HashMap<Option<usize>, u32>,
+    textures: &mut Vec<Texture>,
+    texture_index: &mut HashMap<usize, Option<u32>>,
+    images: &Images,
     warn: &mut dyn FnMut(String),
 ) -> Result<u32> {
     if let Some(&i) = index.get(&m.index()) {
@@ -315,21 +368,141 @@ fn material_slot(
             "'{file}': {label} has a non-finite or negative baseColorFactor; use values in [0, 1]"
         );
     }
-    if m.pbr_metallic_roughness().base_color_texture().is_some() || m.emissive_texture().is_some() {
-        // Textures are not sampled yet; say so instead of silently rendering a flat colour.
+    if m.emissive_texture().is_some() {
+        // Not sampled: say so instead of silently rendering a flat colour.
         warn(format!(
-            "'{file}': {label} has textures; lightlearn uses baseColorFactor and emissiveFactor only"
+            "'{file}': {label} has an emissive texture; lightlearn uses emissiveFactor only"
         ));
     }
+    let base_color_texture = match m.pbr_metallic_roughness().base_color_texture() {
+        None => None,
+        Some(info) => {
+            let t = info.texture();
+            if let Some(&known) = texture_index.get(&t.index()) {
+                known
+            } else {
+                let loaded = match images.decode(&t) {
+                    Ok(tex) => {
+                        textures.push(tex);
+                        Some(textures.len() as u32 - 1)
+                    }
+                    Err(e) => {
+                        warn(format!("'{file}': {label}: base-colour texture {}: {e}; using baseColorFactor alone", t.index()));
+                        None
+                    }
+                };
+                texture_index.insert(t.index(), loaded);
+                loaded
+            }
+        }
+    };
     let slot = materials.len() as u32;
     materials.push(Material {
         name: m.name().unwrap_or("").to_string(),
         base_color: base_color.clamp(Vec3::ZERO, Vec3::ONE),
         emission,
         double_sided: m.double_sided(),
+        base_color_texture,
     });
     index.insert(m.index(), slot);
     Ok(slot)
+}
+
+/// Where a glTF file's images come from: its buffers and folder.
+struct Images<'a> {
+    buffers: &'a [Vec<u8>],
+    base: &'a Path,
+    file: &'a str,
+}
+
+impl Images<'_> {
+    /// The texture's image decoded (PNG only; the error says why it cannot be used).
+    fn decode(&self, t: &gltf::Texture) -> Result<Texture> {
+        let image = t.source();
+        let bytes: Vec<u8> = match image.source() {
+            gltf::image::Source::View { view, .. } => {
+                let data = self
+                    .buffers
+                    .get(view.buffer().index())
+                    .ok_or_else(|| anyhow!("image {} lies in a missing buffer", image.index()))?;
+                data.get(view.offset()..view.offset() + view.length())
+                    .ok_or_else(|| {
+                        anyhow!(
+                            "image {}'s buffer view lies outside its buffer",
+                            image.index()
+                        )
+                    })?
+                    .to_vec()
+            }
+            gltf::image::Source::Uri { uri, .. } => {
+                if let Some(rest) = uri.strip_prefix("data:") {
+                    let (_, payload) = rest.split_once(";base64,").ok_or_else(|| {
+                        anyhow!("image {} has a data: URI that is not base64", image.index())
+                    })?;
+                    base64::engine::general_purpose::STANDARD
+                        .decode(payload)
+                        .map_err(|e| anyhow!("image {}: bad base64 data ({e})", image.index()))?
+                } else {
+                    let path = self.base.join(percent_decode(uri));
+                    std::fs::read(&path).map_err(|e| {
+                        anyhow!(
+                            "cannot read image '{}' ({e}); keep it next to '{}'",
+                            path.display(),
+                            self.file
+                        )
+                    })?
+                }
+            }
+        };
+        if !bytes.starts_with(b"\x89PNG") {
+            bail!(
+                "image {} is not a PNG (only PNG textures are supported so far)",
+                image.index()
+            );
+        }
+        let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+        decoder.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
+        let mut reader = decoder
+            .read_info()
+            .map_err(|e| anyhow!("image {}: {e}", image.index()))?;
+        let mut buf = vec![0u8; reader.output_buffer_size()];
+        let frame = reader
+            .next_frame(&mut buf)
+            .map_err(|e| anyhow!("image {}: {e}", image.index()))?;
+        let (w, h) = (frame.width, frame.height);
+        let data = &buf[..frame.buffer_size()];
+        let texels: Vec<[u8; 4]> = match frame.color_type {
+            png::ColorType::Rgba => data
+                .chunks_exact(4)
+                .map(|c| [c[0], c[1], c[2], c[3]])
+                .collect(),
+            png::ColorType::Rgb => data
+                .chunks_exact(3)
+                .map(|c| [c[0], c[1], c[2], 255])
+                .collect(),
+            png::ColorType::GrayscaleAlpha => data
+                .chunks_exact(2)
+                .map(|c| [c[0], c[0], c[0], c[1]])
+                .collect(),
+            png::ColorType::Grayscale => data.iter().map(|&g| [g, g, g, 255]).collect(),
+            png::ColorType::Indexed => bail!("image {}: palette not expanded", image.index()),
+        };
+        if w == 0 || h == 0 || texels.len() != (w * h) as usize {
+            bail!("image {} has a bad size {w}×{h}", image.index());
+        }
+        let wrap = |m: gltf::texture::WrappingMode| match m {
+            gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+            gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+            gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+        };
+        let s = t.sampler();
+        Ok(Texture {
+            width: w,
+            height: h,
+            texels,
+            wrap: [wrap(s.wrap_s()), wrap(s.wrap_t())],
+        })
+    }
 }
 
 /// Triangles of a primitive as index triples.

@@ -17,6 +17,9 @@ pub struct GltfBuilder {
     nodes: Vec<Value>,
     lights: Vec<Value>,
     cameras: Vec<Value>,
+    images: Vec<Value>,
+    samplers: Vec<Value>,
+    textures: Vec<Value>,
 }
 
 impl GltfBuilder {
@@ -53,20 +56,54 @@ impl GltfBuilder {
         self.materials.len() - 1
     }
 
-    fn push_view(&mut self, bytes: &[u8], target: u32) -> usize {
+    /// Adds a PNG image as a texture with wrap modes (glTF codes: 10497 repeat, 33071 clamp
+    /// to edge, 33648 mirrored repeat) for wrapS and wrapT; returns the texture index.
+    pub fn texture_png(&mut self, png: &[u8], wrap: [u32; 2]) -> usize {
+        let view = self.push_view(png, None);
+        self.images
+            .push(json!({"bufferView": view, "mimeType": "image/png"}));
+        self.samplers
+            .push(json!({"wrapS": wrap[0], "wrapT": wrap[1]}));
+        self.textures.push(json!({
+            "source": self.images.len() - 1, "sampler": self.samplers.len() - 1
+        }));
+        self.textures.len() - 1
+    }
+
+    /// Gives a material a base-colour texture (it multiplies baseColorFactor).
+    pub fn set_base_color_texture(&mut self, material: usize, texture: usize) {
+        self.materials[material]["pbrMetallicRoughness"]["baseColorTexture"] =
+            json!({"index": texture});
+    }
+
+    fn push_view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
         while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         let offset = self.bin.len();
         self.bin.extend_from_slice(bytes);
-        self.buffer_views.push(json!({
-            "buffer": 0, "byteOffset": offset, "byteLength": bytes.len(), "target": target
-        }));
+        let mut view = json!({"buffer": 0, "byteOffset": offset, "byteLength": bytes.len()});
+        if let Some(t) = target {
+            view["target"] = json!(t);
+        }
+        self.buffer_views.push(view);
         self.buffer_views.len() - 1
     }
 
     /// Adds a triangle mesh in world space (on a node with the identity transform).
     pub fn mesh(&mut self, name: &str, positions: &[Vec3], indices: &[u32], material: usize) {
+        self.mesh_uv(name, positions, None, indices, material);
+    }
+
+    /// [`Self::mesh`] with texture coordinates (TEXCOORD_0) per vertex.
+    pub fn mesh_uv(
+        &mut self,
+        name: &str,
+        positions: &[Vec3],
+        uvs: Option<&[[f32; 2]]>,
+        indices: &[u32],
+        material: usize,
+    ) {
         let mut lo = [f32::INFINITY; 3];
         let mut hi = [f32::NEG_INFINITY; 3];
         for p in positions {
@@ -83,8 +120,8 @@ impl GltfBuilder {
             .flat_map(f32::to_le_bytes)
             .collect();
         let idx_bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
-        let pv = self.push_view(&pos_bytes, 34962);
-        let iv = self.push_view(&idx_bytes, 34963);
+        let pv = self.push_view(&pos_bytes, Some(34962));
+        let iv = self.push_view(&idx_bytes, Some(34963));
         self.accessors.push(json!({
             "bufferView": pv, "componentType": 5126, "count": positions.len(),
             "type": "VEC3", "min": lo, "max": hi
@@ -93,9 +130,18 @@ impl GltfBuilder {
             "bufferView": iv, "componentType": 5125, "count": indices.len(), "type": "SCALAR"
         }));
         let pa = self.accessors.len() - 2;
+        let mut attributes = json!({"POSITION": pa});
+        if let Some(uvs) = uvs {
+            let bytes: Vec<u8> = uvs.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+            let v = self.push_view(&bytes, Some(34962));
+            self.accessors.push(json!({
+                "bufferView": v, "componentType": 5126, "count": uvs.len(), "type": "VEC2"
+            }));
+            attributes["TEXCOORD_0"] = json!(self.accessors.len() - 1);
+        }
         self.meshes.push(json!({
             "name": name,
-            "primitives": [{"attributes": {"POSITION": pa}, "indices": pa + 1, "material": material, "mode": 4}]
+            "primitives": [{"attributes": attributes, "indices": pa + 1, "material": material, "mode": 4}]
         }));
         self.nodes
             .push(json!({"name": name, "mesh": self.meshes.len() - 1}));
@@ -179,6 +225,11 @@ impl GltfBuilder {
         let mut used = Vec::new();
         if !self.cameras.is_empty() {
             doc["cameras"] = json!(self.cameras);
+        }
+        if !self.textures.is_empty() {
+            doc["images"] = json!(self.images);
+            doc["samplers"] = json!(self.samplers);
+            doc["textures"] = json!(self.textures);
         }
         if !self.lights.is_empty() {
             doc["extensions"] = json!({"KHR_lights_punctual": {"lights": self.lights}});

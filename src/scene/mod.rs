@@ -24,6 +24,27 @@ pub struct Material {
     pub emission: Vec3,
     /// Emits from both faces (glTF `doubleSided`); otherwise only from the CCW front face.
     pub double_sided: bool,
+    /// Index into `Scene::textures` of the base-colour texture (multiplies `base_color`).
+    pub base_color_texture: Option<u32>,
+}
+
+/// How texture coordinates outside [0, 1] wrap (glTF sampler wrapS / wrapT).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wrap {
+    Repeat = 0,
+    ClampToEdge = 1,
+    MirroredRepeat = 2,
+}
+
+/// A decoded base-colour texture: sRGB-encoded RGBA8 texels, row by row from the top (the
+/// row of texture coordinate v = 0), sampled bilinearly and decoded to linear in the kernel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<[u8; 4]>,
+    /// wrapS, wrapT.
+    pub wrap: [Wrap; 2],
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -86,6 +107,10 @@ pub struct Scene {
     pub materials: Vec<Material>,
     pub lights: Vec<Light>,
     pub camera: Camera,
+    pub textures: Vec<Texture>,
+    /// Texture coordinates of each triangle's three corners (same order as `triangles`);
+    /// empty when no material has a texture.
+    pub triangle_uv: Vec<[[f32; 2]; 3]>,
     /// Where the scene came from (file path or generator), for reports.
     pub source: String,
 }

@@ -1,0 +1,74 @@
+// Base-colour textures: bilinear lookup with the glTF wrap modes, sRGB decoded to linear
+// (glTF stores base colour in sRGB). Mirror of src/scene (Texture, Wrap). The including
+// kernel declares `textures` (GpuTexture[]), `texels` (uint[]: packed RGBA8) and `tri_uv`
+// (float[6] per triangle).
+#ifndef TEXTURE_GLSL
+#define TEXTURE_GLSL
+
+#include "types.glsl"
+
+float srgb_to_linear(float c) {
+    return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4);
+}
+
+// Texel index along one axis of size n for integer coordinate i, by wrap mode w
+// (0 repeat, 1 clamp to edge, 2 mirrored repeat).
+// (GLSL leaves % of negative operands undefined: the modulo is taken with floor.)
+int floor_mod(int i, int m) {
+    return i - m * int(floor(float(i) / float(m)));
+}
+
+uint wrap_index(int i, uint n, uint w) {
+    int m = int(n);
+    if (w == 1u) return uint(clamp(i, 0, m - 1));
+    if (w == 2u) {
+        int p = floor_mod(i, 2 * m);
+        return uint(p < m ? p : 2 * m - 1 - p);
+    }
+    return uint(clamp(floor_mod(i, m), 0, m - 1));
+}
+
+vec3 texel(GpuTexture t, int x, int y) {
+    uint ix = wrap_index(x, t.width, t.wrap & 0xffu);
+    uint iy = wrap_index(y, t.height, t.wrap >> 8);
+    vec4 c = unpackUnorm4x8(texels[t.offset + iy * t.width + ix]);
+    return vec3(srgb_to_linear(c.r), srgb_to_linear(c.g), srgb_to_linear(c.b));
+}
+
+// Bilinear between the four nearest texel centres (decoded to linear first).
+vec3 sample_texture(uint index, vec2 uv) {
+    GpuTexture t = textures[index];
+    // Coordinates far outside [0, 1] are reduced first so that the integer texel
+    // coordinates stay exact (repeat and mirror have periods 1 and 2).
+    if ((t.wrap & 0xffu) != 1u) uv.x -= 2.0 * floor(0.5 * uv.x);
+    if ((t.wrap >> 8) != 1u) uv.y -= 2.0 * floor(0.5 * uv.y);
+    uv = clamp(uv, vec2(-1.0), vec2(3.0));
+    vec2 p = uv * vec2(t.width, t.height) - 0.5;
+    vec2 f = floor(p);
+    vec2 w = p - f;
+    int x = int(f.x);
+    int y = int(f.y);
+    return mix(mix(texel(t, x, y), texel(t, x + 1, y), w.x),
+               mix(texel(t, x, y + 1), texel(t, x + 1, y + 1), w.x), w.y);
+}
+
+// The texture coordinate at point x of triangle `prim` (v0, edges e1, e2): barycentrics
+// from the point, then the corners' coordinates interpolated.
+vec2 triangle_uv(uint prim, vec3 x, vec3 v0, vec3 e1, vec3 e2) {
+    vec3 v = x - v0;
+    float d00 = dot(e1, e1);
+    float d01 = dot(e1, e2);
+    float d11 = dot(e2, e2);
+    float d20 = dot(v, e1);
+    float d21 = dot(v, e2);
+    float den = d00 * d11 - d01 * d01;
+    float b1 = den > 0.0 ? (d11 * d20 - d01 * d21) / den : 0.0;
+    float b2 = den > 0.0 ? (d00 * d21 - d01 * d20) / den : 0.0;
+    uint o = 6u * prim;
+    vec2 t0 = vec2(tri_uv[o], tri_uv[o + 1u]);
+    vec2 t1 = vec2(tri_uv[o + 2u], tri_uv[o + 3u]);
+    vec2 t2 = vec2(tri_uv[o + 4u], tri_uv[o + 5u]);
+    return t0 + b1 * (t1 - t0) + b2 * (t2 - t0);
+}
+
+#endif
