@@ -455,19 +455,37 @@ pub fn learned_weights(
         }
         return imp;
     }
+    per_bayes_slot(tree, cut, slots, &imp, p, l, |s, i, d2| {
+        let c = [s.coef_a, s.coef_b, s.coef_c];
+        coefficient_weight(s, c, prior_mean(i, d2, brdf, l), l) / d2
+    })
+}
+
+/// `f(slot as fold.comp leaves it, Ĩ, regression d²)` for every slot of a cut whose Ĩ > 0,
+/// 0 for the others: the loop the bayes weights and the control variates share.
+fn per_bayes_slot(
+    tree: &crate::lights::tree::LightTree,
+    cut: &[u32],
+    slots: &[SlotStats],
+    imp: &[f32],
+    p: glam::Vec3,
+    l: &LearnSettings,
+    f: impl Fn(&SlotStats, f32, f32) -> f32,
+) -> Vec<f32> {
     cut.iter()
-        .zip(&imp)
+        .zip(imp)
         .zip(slots)
         .map(|((&node, &i), s)| {
             if i <= 0.0 {
                 return 0.0;
             }
-            let nd = &tree.nodes[node as usize];
-            let d2 = if l.regression { node_d2(nd, p) } else { 1.0 };
+            let d2 = if l.regression {
+                node_d2(&tree.nodes[node as usize], p)
+            } else {
+                1.0
+            };
             // What fold.comp leaves in the slot: its coefficients (and a scale of 1 if unset).
-            let s = fold(s, &SlotDelta::default(), l);
-            let c = [s.coef_a, s.coef_b, s.coef_c];
-            coefficient_weight(&s, c, prior_mean(i, d2, brdf, l), l) / d2
+            f(&fold(s, &SlotDelta::default(), l), i, d2)
         })
         .collect()
 }
@@ -489,22 +507,9 @@ pub fn predicted_means(
     let cut = &cuts[o + 1..o + 1 + cuts[o] as usize];
     let slots = &stats[o + 1..o + 1 + cut.len()];
     let imp = crate::lights::regions::Cuts::importances(tree, cut, p, n);
-    cut.iter()
-        .zip(&imp)
-        .zip(slots)
-        .map(|((&node, &i), s)| {
-            if i <= 0.0 {
-                return 0.0;
-            }
-            let d2 = if l.regression {
-                node_d2(&tree.nodes[node as usize], p)
-            } else {
-                1.0
-            };
-            let s = fold(s, &SlotDelta::default(), l);
-            predicted_mean(&s, prior_mean(i, d2, brdf, l), d2, brdf, l)
-        })
-        .collect()
+    per_bayes_slot(tree, cut, slots, &imp, p, l, |s, i, d2| {
+        predicted_mean(s, prior_mean(i, d2, brdf, l), d2, brdf, l)
+    })
 }
 
 /// The regression distance² of a node (the same clamp as the importance's).
