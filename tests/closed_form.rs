@@ -272,6 +272,19 @@ fn base_color_texture_multiplies_the_albedo() {
     let render_floor = |textured: bool| {
         let mut g = GltfBuilder::new();
         let m = g.material("floor", Vec3::ONE, Vec3::ZERO, false);
+        // An untextured triangle first (hidden below the floor): the floor's coordinates must
+        // still line up with its triangles.
+        let grey = g.material("grey", Vec3::splat(0.5), Vec3::ZERO, false);
+        g.mesh(
+            "speck",
+            &[
+                Vec3::new(0.0, -5.0, 0.0),
+                Vec3::new(0.1, -5.0, 0.0),
+                Vec3::new(0.0, -5.0, 0.1),
+            ],
+            &[0, 1, 2],
+            grey,
+        );
         if textured {
             let t = g.texture_png(&png_rgb(4, 4, &texels), [33071, 33648]);
             g.set_base_color_texture(m, t);

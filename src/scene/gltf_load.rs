@@ -210,11 +210,18 @@ pub fn load_bytes(
                         continue;
                     }
                     scene.triangles.push(tri);
-                    scene.triangle_uv.push(if flip {
-                        [uv(a), uv(c), uv(b)]
-                    } else {
-                        [uv(a), uv(b), uv(c)]
-                    });
+                    // Coordinates are kept from the first textured triangle on (earlier ones
+                    // get zeros), so untextured scenes never hold them.
+                    if !uvs.is_empty() || !scene.triangle_uv.is_empty() {
+                        scene
+                            .triangle_uv
+                            .resize(scene.triangles.len() - 1, [[0.0; 2]; 3]);
+                        scene.triangle_uv.push(if flip {
+                            [uv(a), uv(c), uv(b)]
+                        } else {
+                            [uv(a), uv(b), uv(c)]
+                        });
+                    }
                     scene.triangle_material.push(mat);
                     if scene.triangles.len() > MAX_TRIANGLES {
                         bail!(
@@ -322,6 +329,10 @@ pub fn load_bytes(
     scene.materials = materials;
     if scene.textures.is_empty() {
         scene.triangle_uv = Vec::new();
+    } else {
+        scene
+            .triangle_uv
+            .resize(scene.triangles.len(), [[0.0; 2]; 3]);
     }
     if scene.lights.is_empty() {
         bail!(
