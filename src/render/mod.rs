@@ -769,7 +769,7 @@ pub fn build_cuts(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) -> C
         let (w, h) = (settings.width, settings.height);
         let bounces = settings.max_depth.saturating_sub(1).min(2);
         let eps = gpu.ray_eps;
-        // The first hit of a ray: point, normal facing the ray, region.
+        // The first hit of a ray: the point and the normal facing the ray.
         let hit = |o: Vec3, d: Vec3| -> Option<(Vec3, Vec3)> {
             let (t, prim) = gpu.bvh.intersect(o, d, 0.0, f32::INFINITY)?;
             let [a, b, c] = scene.triangles[prim as usize];
