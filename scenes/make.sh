@@ -12,3 +12,6 @@ lightlearn scene rooms --lights 400 --seed 1 --rooms 4x4 --out rooms16.glb
 lightlearn scene hall --lights 64 --seed 1 --out hall.glb
 lightlearn scene city --lights 2000 --seed 1 --out city.glb
 lightlearn scene strings --lights 1000 --seed 1 --resolution 24 --out strings.glb
+# Glossy variants (#7): cornell's tall box a white GGX metal, rooms16's floors rough metal.
+lightlearn scene cornell --lights 6 --seed 1 --glossy 0.3 --out cornell-glossy.glb
+lightlearn scene rooms --lights 400 --seed 1 --rooms 4x4 --glossy 0.3 --out rooms16-glossy.glb

@@ -24,9 +24,19 @@ Conventions (those of lightlearn's README, "Scene conventions"; they define "the
   A mirroring transform (negative determinant) flips the winding back, so counter-clockwise
   stays the front face. Strips and fans are triangulated like lightlearn does; point and
   line primitives and degenerate (zero-area) triangles are dropped.
-- Materials: Lambertian, albedo = baseColorFactor.rgb clamped to [0, 1], reflecting on both
-  sides (`twosided` around `diffuse`). Textures are ignored here (lightlearn samples
+- Materials reflect on both sides (`twosided`). Textures are ignored here (lightlearn samples
   base-colour PNG textures): compare only untextured scenes.
+  - metallicFactor 0 with KHR_materials_specular specularFactor 0 (what lightlearn's scene
+    writer emits for plain materials): `diffuse`, reflectance = baseColorFactor.rgb clamped
+    to [0, 1]. Exact.
+  - metallicFactor 1: `roughconductor`, GGX, alpha = roughnessFactor², material "none"
+    (Fresnel 1) × specular_reflectance = baseColorFactor.rgb. Exact for a white (1, 1, 1)
+    base colour, where glTF's Schlick Fresnel is 1 too; a coloured metal reflects the base
+    colour at all angles here but tends to white at grazing angles in glTF (warned).
+    Mitsuba's shadowing is the separable Smith G1·G1, lightlearn's the height-correlated
+    form: rough metals differ by up to a few percent at grazing angles.
+  - Anything else (a dielectric with glTF's 4 % specular layer, partly metallic): has no
+    Mitsuba equivalent; rendered as `diffuse` with a warning. Compare only exact scenes.
 - Emission: radiance = emissiveFactor × KHR_materials_emissive_strength.emissiveStrength on
   an `area` emitter. Mitsuba's area emitters emit on the side of the geometric normal
   cross(p1 - p0, p2 - p0), i.e. from the counter-clockwise front face, as lightlearn does.
@@ -203,10 +213,28 @@ def load_scene(path):
             emission = np.array(m.get("emissiveFactor", [0, 0, 0]), float) * strength
             if "baseColorTexture" in pbr or "emissiveTexture" in m:
                 warn(f"material {i} has textures; only the factors are used")
+            metallic = float(pbr.get("metallicFactor", 1.0))
+            roughness = float(pbr.get("roughnessFactor", 1.0))
+            specular = (
+                m.get("extensions", {})
+                .get("KHR_materials_specular", {})
+                .get("specularFactor", 1.0)
+            )
+            if metallic == 1.0:
+                kind = "metal"
+                if not np.all(base == 1.0):
+                    warn(f"material {i} is a coloured metal: Mitsuba's conductor has no Schlick Fresnel, grazing angles differ")
+            elif metallic == 0.0 and specular == 0.0:
+                kind = "diffuse"
+            else:
+                kind = "diffuse"
+                warn(f"material {i} (metallic {metallic}, specular {specular}) has a glTF dielectric specular layer with no Mitsuba equivalent; rendered as diffuse")
             materials[i] = {
                 "id": f"mat{len(materials)}",
                 "name": m.get("name", ""),
                 "albedo": base,
+                "kind": kind,
+                "alpha": max(roughness * roughness, 1e-3),
                 "emission": emission,
                 "double_sided": bool(m.get("doubleSided", False)),
             }
@@ -391,8 +419,16 @@ def export_xml(scene, out_dir, width, height, spp, seed=0, max_depth=1):
     for mid, m in mats.items():
         x.append(f'    <!-- {m["name"].replace("--", "- -")} -->\n')
         x.append(f'    <bsdf type="twosided" id="{mid}">\n')
-        x.append('        <bsdf type="diffuse">\n')
-        x.append(f'            <rgb name="reflectance" value="{fmt(m["albedo"])}"/>\n')
+        if m["kind"] == "metal":
+            # lightlearn clamps alpha at 1e-3 (shaders/shared/bsdf.glsl MIN_ALPHA).
+            x.append('        <bsdf type="roughconductor">\n')
+            x.append('            <string name="distribution" value="ggx"/>\n')
+            x.append(f'            <float name="alpha" value="{m["alpha"]:.9g}"/>\n')
+            x.append('            <string name="material" value="none"/>\n')
+            x.append(f'            <rgb name="specular_reflectance" value="{fmt(m["albedo"])}"/>\n')
+        else:
+            x.append('        <bsdf type="diffuse">\n')
+            x.append(f'            <rgb name="reflectance" value="{fmt(m["albedo"])}"/>\n')
         x.append("        </bsdf>\n    </bsdf>\n")
     x.append("\n")
 

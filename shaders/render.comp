@@ -1,10 +1,10 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 // One progressive pass: for every pixel one jittered camera ray and one path. At every surface
-// vertex one next-event sample (light chosen by SAMPLER, point on it, shadow ray, Lambertian
-// BRDF). --max-depth 1 is direct light by light sampling alone (the paper's DI estimator, no
+// vertex one next-event sample (light chosen by SAMPLER, point on it, shadow ray, the glTF
+// metallic-roughness BRDF of bsdf.glsl). --max-depth 1 is direct light by light sampling alone (the paper's DI estimator, no
 // BSDF ray). --max-depth D ≥ 2 is a path tracer with up to D surface vertices: the path goes
-// on by cosine-weighted BSDF sampling, and an emitter that a BSDF ray hits counts with the
+// on by BSDF sampling (cosine / GGX visible normals), and an emitter that a BSDF ray hits counts with the
 // power-heuristic MIS weight against the light sampler's exact pmf (light_pmf.glsl), after
 // the next-event sample of the vertex before it carried the complementary weight. Russian
 // roulette from the third vertex on (pbrt-v4's rule: q = 1 − max throughput).
@@ -75,20 +75,13 @@ const float PI = 3.14159265358979;
 
 float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 
+#include "bsdf.glsl"
+
 // The power heuristic (β = 2) weight of a strategy with pdf a against one with pdf b.
 float power_heuristic(float a, float b) {
     float a2 = a * a;
     float b2 = b * b;
     return a2 + b2 > 0.0 ? a2 / (a2 + b2) : 0.0;
-}
-
-// A cosine-distributed direction about n (pdf cos θ / π).
-vec3 sample_cosine(vec3 n, vec2 u) {
-    float r = sqrt(u.x);
-    float phi = 2.0 * PI * u.y;
-    vec3 t = normalize(abs(n.x) > 0.5 ? cross(n, vec3(0.0, 1.0, 0.0)) : cross(n, vec3(1.0, 0.0, 0.0)));
-    vec3 b = cross(n, t);
-    return normalize(r * cos(phi) * t + r * sin(phi) * b + sqrt(max(1.0 - u.x, 0.0)) * n);
 }
 
 void main() {
@@ -151,7 +144,8 @@ void main() {
         if (m.texture != NO_TEXTURE) {
             m.base_color *= sample_texture(m.texture, triangle_uv(tri.prim, x, tri.v0, tri.e1, tri.e2));
         }
-        vec3 f = m.base_color * (1.0 / PI);  // Lambertian BRDF
+        vec3 wo = -dir;
+        Bsdf bsdf = make_bsdf(m, m.base_color, n, wo);
         float pmf;
         float u_light = sample_rand(seed, pixel, s, dim0 + DIM_LIGHT);
         uint li;
@@ -160,9 +154,10 @@ void main() {
         float d2_slot = 1.0;
         float cv_total = 0.0;
         float cv_chosen = 0.0;
-        // --brdf-aware: the observation includes the (Lambertian) BRDF as luminance.
-        float brdf = (SAMPLER == SAMPLER_BAYES && (learn[0].flags & LEARN_BRDF) != 0u)
-                         ? luminance(m.base_color) / PI : 1.0;
+        // --brdf-aware: the observation includes the BRDF towards the light as luminance; its
+        // prior (and light_pmf) take the BRDF's albedo / π, the Lambertian f of equal albedo.
+        const bool brdf_aware = SAMPLER == SAMPLER_BAYES && (learn[0].flags & LEARN_BRDF) != 0u;
+        float brdf = brdf_aware ? bsdf.albedo / PI : 1.0;
         if (SAMPLER == SAMPLER_LIGHTBVH) li = sample_light_tree(x, n, u_light, pmf);
         else if (SAMPLER == SAMPLER_WANG) li = sample_wang(x, n, u_light, pmf);
         else if (learned) li = sample_learned(x, n, u_light, brdf, pmf, slot, p_slot, d2_slot, cv_total, cv_chosen);
@@ -175,11 +170,15 @@ void main() {
         vec3 Ic = vec3(0.0);  // Î_C in RGB, for the control variate
         vec3 wi;
         float dist;
+        vec3 f = vec3(0.0);
         vec2 u = vec2(sample_rand(seed, pixel, s, dim0 + DIM_LIGHT_U), sample_rand(seed, pixel, s, dim0 + DIM_LIGHT_V));
         // NO_LIGHT: no light can reach the front of n here (zero contribution, exactly).
         GpuLight light = lights[li == NO_LIGHT ? 0u : li];
         vec3 Li = li == NO_LIGHT ? vec3(0.0) : sample_light_point(light, x, u, wi, dist);
         float cos_x = dot(n, wi);
+        if (li != NO_LIGHT && cos_x > 0.0) f = bsdf_eval(bsdf, n, wo, wi);
+        // A glossy BRDF can be 0 towards the light: that sample is a zero (also for learning
+        // with --brdf-aware; without it the observation does not see the BRDF).
         if (li != NO_LIGHT && cos_x > 0.0 && any(greaterThan(Li, vec3(0.0)))) {
             // The shadow ray starts just off the surface and aims at the light point itself:
             // keeping wi and dist from x made a surface parallel to an area light (a floor under
@@ -199,11 +198,11 @@ void main() {
                     // The light sample's pdf in solid angle: pmf · d² / (cos_y A).
                     float cos_y = abs(dot(normalize(cross(light.p1 - light.p0, light.p2 - light.p0)), wi));
                     float p_light = pmf * dist * dist / (cos_y * light.area);
-                    w = power_heuristic(p_light, cos_x / PI);
+                    w = power_heuristic(p_light, bsdf_pdf(bsdf, n, wo, wi));
                 }
                 L += beta * f * Li * (cos_x / pmf * w);
                 Ic = Li * (cos_x * p_slot / pmf);
-                observed = luminance(Li) * cos_x * (p_slot / pmf) * brdf;
+                observed = luminance(Li) * cos_x * (p_slot / pmf) * (brdf_aware ? luminance(f) : 1.0);
             }
         }
         if (learned && slot != NO_SLOT) record_observation(slot, observed * d2_slot);
@@ -214,26 +213,31 @@ void main() {
         // luminance). Unbiased for any g fixed within the pass (with MIS too: g need not
         // predict the weighted term); also where the sample was occluded or a dead end
         // (Î_C = 0), which is why it is added here, outside the shadow-ray branch.
-        // p_slot = 0 only where no cluster can light x (g's all 0).
+        // p_slot = 0 only where no cluster can light x (g's all 0). The factor that turns g
+        // into radiance must not depend on the light drawn: the diffuse lobe at normal
+        // incidence (the BRDF itself for a Lambertian material; 0 for a metal, where the
+        // control variate is then off).
         if (cv_total > 0.0 && p_slot > 0.0) {
-            L += beta * f * (vec3(cv_total) - vec3(cv_chosen) / p_slot);
+            vec3 f_cv = (1.0 - bsdf.metallic) * (1.0 - bsdf.specular * max3(bsdf.f0_d)) * bsdf.base / PI;
+            L += beta * f_cv * (vec3(cv_total) - vec3(cv_chosen) / p_slot);
         }
 
         if (!mis) break;
         // The BSDF ray: also taken after the last vertex, to find the emitter it hits.
         vec2 ub = vec2(sample_rand(seed, pixel, s, dim0 + DIM_BSDF_U), sample_rand(seed, pixel, s, dim0 + DIM_BSDF_V));
-        vec3 wo = sample_cosine(n, ub);
-        float cos_o = dot(n, wo);
-        if (cos_o <= 0.0) break;
-        // f cos / pdf for a Lambertian BRDF sampled by cos θ / π.
-        beta *= m.base_color;
+        float bsdf_pdf_o;
+        vec3 wn = bsdf_sample(bsdf, n, wo, ub, bsdf_pdf_o);
+        float cos_o = dot(n, wn);
+        if (cos_o <= 0.0 || !(bsdf_pdf_o > 0.0)) break;
+        // f cos / pdf (the albedo exactly for a Lambertian BRDF sampled by cos θ / π).
+        beta *= bsdf.lambert ? bsdf.base : bsdf_eval(bsdf, n, wo, wn) * (cos_o / bsdf_pdf_o);
         // The light sample above was drawn at x itself: light_pmf must see the same point.
         prev_x = x;
         prev_n = n;
         prev_brdf = brdf;
-        prev_bsdf_pdf = cos_o / PI;
+        prev_bsdf_pdf = bsdf_pdf_o;
         origin = x + n * params.ray_eps;
-        dir = wo;
+        dir = wn;
         if (depth + 1u >= 3u) {
             float q = max(0.0, 1.0 - max(beta.x, max(beta.y, beta.z)));
             if (sample_rand(seed, pixel, s, dim0 + DIM_RR) < q) break;

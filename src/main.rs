@@ -330,6 +330,10 @@ struct SceneArgs {
     /// strings: segments around each curved object (3..=512).
     #[arg(long, default_value_t = 24)]
     resolution: u32,
+    /// Glossy variant: floors (cornell: the tall box, white) become a glTF metal
+    /// (metallic 1, GGX) with this roughness in [0, 1]; all else stays Lambertian.
+    #[arg(long, value_name = "ROUGHNESS")]
+    glossy: Option<f32>,
 }
 
 fn parse_grid(s: &str) -> std::result::Result<(usize, usize), String> {
@@ -535,6 +539,7 @@ fn cmd_scene(a: SceneArgs) -> Result<()> {
         rooms: a.rooms,
         blocks: a.blocks,
         resolution: a.resolution,
+        glossy: a.glossy,
     };
     let builder = families::generate(a.family, &params)?;
     let bytes = if text {

@@ -113,6 +113,7 @@ fn host_and_shader_structs_match() {
     spv.extend(reflect(kernels::TRACE));
     spv.extend(reflect(kernels::LIGHT_SAMPLE));
     spv.extend(reflect(kernels::FOLD));
+    spv.extend(reflect(kernels::BSDF));
     let rust = [
         rust_layout!(BvhNode {
             a_min,
@@ -147,7 +148,12 @@ fn host_and_shader_structs_match() {
             base_color,
             flags,
             emission,
-            texture
+            texture,
+            specular_color,
+            specular,
+            metallic,
+            roughness,
+            pad
         }),
         rust_layout!(GpuTexture {
             offset,
@@ -196,6 +202,23 @@ fn host_and_shader_structs_match() {
             flags
         }),
         rust_layout!(LightQuery { p, u, n, light }),
+        rust_layout!(BsdfQuery {
+            n,
+            u0,
+            v,
+            u1,
+            l,
+            pad,
+            material
+        }),
+        rust_layout!(BsdfResult {
+            f,
+            pdf,
+            sampled,
+            sampled_pdf,
+            weight,
+            p_spec
+        }),
         rust_layout!(LightChoice {
             light,
             pmf,

@@ -287,16 +287,25 @@ fn scale_light(glb: &[u8], light: usize, factor: f64) -> Vec<u8> {
 
 #[test]
 fn cornell_matches_mitsuba() {
-    check_cornell(1);
+    check_cornell(1, None);
 }
 
 #[test]
 fn cornell_path_traced_matches_mitsuba() {
-    check_cornell(8);
+    check_cornell(8, None);
 }
 
-/// Both renderers at `depth` surface vertices per path; see the module comment.
-fn check_cornell(depth: u32) {
+/// The glossy variant: the tall box is a white GGX metal of roughness 0.3 (α = 0.09), which
+/// Mitsuba renders as `roughconductor` (Fresnel 1). Its shadowing term is the separable Smith
+/// form, ours the height-correlated one; at α = 0.09 they differ only at grazing angles.
+#[test]
+fn cornell_glossy_path_traced_matches_mitsuba() {
+    check_cornell(8, Some(0.3));
+}
+
+/// Both renderers at `depth` surface vertices per path, the tall box a metal of roughness
+/// `glossy` if given; see the module comment.
+fn check_cornell(depth: u32, glossy: Option<f32>) {
     if !mitsuba_available() {
         println!("skipping: mitsuba Python package not installed (pip install mitsuba)");
         return;
@@ -305,9 +314,12 @@ fn check_cornell(depth: u32) {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let scene = d.join("cornell.glb");
-    run(Command::new(env!("CARGO_BIN_EXE_lightlearn"))
-        .args(["scene", "cornell", "--lights", "6", "--seed", "1", "--out"])
-        .arg(&scene));
+    let mut gen = Command::new(env!("CARGO_BIN_EXE_lightlearn"));
+    gen.args(["scene", "cornell", "--lights", "6", "--seed", "1"]);
+    if let Some(r) = glossy {
+        gen.args(["--glossy", &r.to_string()]);
+    }
+    run(gen.arg("--out").arg(&scene));
 
     let o1 = render_ours(&scene, 1, &d.join("ours1.exr"), depth);
     let o2 = render_ours(&scene, 2, &d.join("ours2.exr"), depth);
@@ -318,8 +330,9 @@ fn check_cornell(depth: u32) {
     let mitsuba = pair(&m1, &m2);
 
     println!(
-        "Cornell box {W}×{H}, max depth {depth}, {SPP} spp per render, two seeds per renderer; our noise floor: \
+        "Cornell box{} {W}×{H}, max depth {depth}, {SPP} spp per render, two seeds per renderer; our noise floor: \
          relMSE(seed 1, seed 2) = {:.3e}; Mitsuba's: {:.3e}",
+        glossy.map_or(String::new(), |r| format!(" (tall box: metal, roughness {r})")),
         rel_mse(&o1, &o2),
         rel_mse(&m1, &m2)
     );
@@ -344,7 +357,35 @@ fn check_cornell(depth: u32) {
     };
     let wc = compare(&ours, &wrong);
     wc.print("ours vs Mitsuba with bulb 0 × 1.1 (must be rejected)");
+    // ... and, for the glossy box, our render of a box twice as rough: the metal must matter.
+    let rough = glossy.map(|r| {
+        let rough_scene = d.join("cornell_rougher.glb");
+        run(Command::new(env!("CARGO_BIN_EXE_lightlearn"))
+            .args([
+                "scene", "cornell", "--lights", "6", "--seed", "1", "--glossy",
+            ])
+            .arg((2.0 * r).to_string())
+            .arg("--out")
+            .arg(&rough_scene));
+        let o = render_ours(&rough_scene, 3, &d.join("rougher.exr"), depth);
+        let e = Estimate {
+            mean: o,
+            var: ours.var.iter().map(|p| p.map(|v| 2.0 * v)).collect(),
+        };
+        let rc = compare(&e, &mitsuba);
+        rc.print(&format!(
+            "ours with roughness {} vs Mitsuba (must be rejected)",
+            2.0 * r
+        ));
+        rc
+    });
     println!("took {:.1} s", start.elapsed().as_secs_f64());
+    if let Some(rc) = rough {
+        assert!(
+            !rc.failures().is_empty(),
+            "the comparison accepts a metal twice as rough: it cannot see the glossy BRDF"
+        );
+    }
 
     assert!(
         !bright.failures().is_empty(),

@@ -275,3 +275,71 @@ fn unusable_textures_warn_and_bad_texture_coordinates_fail() {
         "{e}"
     );
 }
+
+#[test]
+fn metallic_roughness_materials_load_with_their_factors() {
+    let mut g = small();
+    let metal = g.glossy_material("metal", Vec3::new(0.9, 0.6, 0.3), 1.0, 0.25);
+    g.cuboid("metal box", Vec3::splat(2.0), Vec3::splat(3.0), metal);
+    let s = common::load(&g, "glossy");
+    let by_name = |n: &str| s.materials.iter().find(|m| m.name == n).unwrap();
+    // The writer's plain materials are Lambertian: metallic 0 and specularFactor 0.
+    let grey = by_name("grey");
+    assert_eq!((grey.metallic, grey.specular), (0.0, 0.0));
+    assert!(grey.is_lambertian());
+    let m = by_name("metal");
+    assert_eq!((m.metallic, m.roughness, m.specular), (1.0, 0.25, 1.0));
+    assert_eq!(m.specular_color, Vec3::ONE);
+    assert!(!m.is_lambertian());
+
+    // glTF's defaults (no pbrMetallicRoughness factors, no extension): metallic 1, roughness 1.
+    let text = g.to_gltf_embedded();
+    let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let pbr = &mut doc["materials"][2]["pbrMetallicRoughness"];
+    pbr.as_object_mut().unwrap().remove("metallicFactor");
+    pbr.as_object_mut().unwrap().remove("roughnessFactor");
+    let s = load_text(&doc.to_string(), Path::new(".")).unwrap();
+    let m = s.materials.iter().find(|m| m.name == "metal").unwrap();
+    assert_eq!((m.metallic, m.roughness, m.specular), (1.0, 1.0, 1.0));
+
+    // Out-of-range factors are errors that name the material and the range.
+    doc["materials"][2]["pbrMetallicRoughness"]["roughnessFactor"] = serde_json::json!(1.5);
+    let e = load_text(&doc.to_string(), Path::new("."))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("'metal'") && e.contains("roughnessFactor 1.5") && e.contains("[0, 1]"),
+        "{e}"
+    );
+    doc["materials"][2]["pbrMetallicRoughness"]["roughnessFactor"] = serde_json::json!(0.5);
+    doc["materials"][2]["extensions"] =
+        serde_json::json!({"KHR_materials_specular": {"specularFactor": -0.5}});
+    let e = load_text(&doc.to_string(), Path::new("."))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("'metal'") && e.contains("specularFactor -0.5"),
+        "{e}"
+    );
+
+    // A metallicRoughnessTexture is not sampled: a warning says so.
+    doc["materials"][2]["extensions"] = serde_json::json!({});
+    doc["materials"][2]["pbrMetallicRoughness"]["metallicRoughnessTexture"] =
+        serde_json::json!({"index": 0});
+    doc["textures"] = serde_json::json!([{"source": 0}]);
+    doc["images"] = serde_json::json!([{"uri": "missing.png"}]);
+    let mut warnings = Vec::new();
+    gltf_load::load_bytes(
+        doc.to_string().as_bytes(),
+        "test.gltf",
+        Path::new("."),
+        &mut |w| warnings.push(w),
+    )
+    .unwrap();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("metallicRoughnessTexture") && w.contains("'metal'")),
+        "{warnings:?}"
+    );
+}

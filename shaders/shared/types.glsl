@@ -110,6 +110,8 @@ struct LearnParams {
 struct GpuMaterial {
     vec3 base_color; uint flags;
     vec3 emission; uint texture;
+    vec3 specular_color; float specular;
+    float metallic; float roughness; vec2 pad;
 };
 
 struct GpuTexture {

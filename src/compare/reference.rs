@@ -75,6 +75,13 @@ pub fn key(scene: &Scene, width: u32, height: u32, spp: u32, seed: u32, max_dept
         h.bytes(bytemuck::bytes_of(&m.base_color.to_array()));
         h.bytes(bytemuck::bytes_of(&m.emission.to_array()));
         h.bytes(&[m.double_sided as u8]);
+        // glTF's BRDF parameters only for non-Lambertian materials, so Lambertian scenes keep
+        // the keys they had before there were other materials.
+        if !m.is_lambertian() {
+            let p = [m.metallic, m.roughness, m.specular];
+            h.bytes(bytemuck::cast_slice(&p));
+            h.bytes(bytemuck::bytes_of(&m.specular_color.to_array()));
+        }
     }
     h.bytes(bytemuck::cast_slice(&lights::gpu_lights(scene)));
     // Textures (only when there are any, so untextured scenes keep their keys).

@@ -197,6 +197,40 @@ pub struct GpuMaterial {
     pub emission: [f32; 3],
     /// Index of the base-colour texture in the texture table, `u32::MAX` for none.
     pub texture: u32,
+    /// KHR_materials_specular specularColorFactor and specularFactor.
+    pub specular_color: [f32; 3],
+    pub specular: f32,
+    /// glTF metallicFactor and roughnessFactor (shaders/shared/bsdf.glsl).
+    pub metallic: f32,
+    pub roughness: f32,
+    pub pad: [f32; 2],
+}
+
+/// One query of `bsdf.comp` (tests): a material seen from `v` at normal `n`, a direction `l`
+/// to evaluate, and the random numbers (u0, u1) of a sample.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BsdfQuery {
+    pub n: [f32; 3],
+    pub u0: f32,
+    pub v: [f32; 3],
+    pub u1: f32,
+    pub l: [f32; 3],
+    pub pad: f32,
+    pub material: GpuMaterial,
+}
+
+/// `bsdf.comp`'s answer: f(v, l) and pdf(v, l); the sampled direction, its pdf, and its
+/// weight f cos / pdf; the specular-lobe probability.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BsdfResult {
+    pub f: [f32; 3],
+    pub pdf: f32,
+    pub sampled: [f32; 3],
+    pub sampled_pdf: f32,
+    pub weight: [f32; 3],
+    pub p_spec: f32,
 }
 
 /// One texture of the texture table: where its texels start in the texel buffer (packed

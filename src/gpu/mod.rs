@@ -15,5 +15,6 @@ pub mod kernels {
     pub const TRACE: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace.spv"));
     pub const LIGHT_SAMPLE: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/light_sample.spv"));
     pub const FOLD: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/fold.spv"));
+    pub const BSDF: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bsdf.spv"));
     pub const IMPORTANCE: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/importance.spv"));
 }

@@ -274,6 +274,11 @@ impl GpuScene {
                 },
                 emission: m.emission.to_array(),
                 texture: m.base_color_texture.unwrap_or(u32::MAX),
+                specular_color: m.specular_color.to_array(),
+                specular: m.specular,
+                metallic: m.metallic,
+                roughness: m.roughness,
+                pad: [0.0; 2],
             })
             .collect();
         // Texture table and texels; one dummy entry each when there are none (a buffer is

@@ -8,6 +8,9 @@
 //!   triangle with non-zero emission is an area light.
 //! - Point and line primitives are skipped with a warning (an error if nothing else is left);
 //!   triangle strips and fans are converted to triangles.
+//! - Materials: glTF metallic-roughness (Lambert + GGX, the specification's mix) with
+//!   KHR_materials_specular factors; metallic-roughness, normal and specular textures are
+//!   ignored with a warning.
 //! - The first camera in the scene is used, else a default camera that frames the scene.
 
 use std::collections::HashMap;
@@ -379,6 +382,47 @@ fn material_slot(
             "'{file}': {label} has a non-finite or negative baseColorFactor; use values in [0, 1]"
         );
     }
+    let pbr = m.pbr_metallic_roughness();
+    let (metallic, roughness) = (pbr.metallic_factor(), pbr.roughness_factor());
+    if !(0.0..=1.0).contains(&metallic) || !(0.0..=1.0).contains(&roughness) {
+        bail!(
+            "'{file}': {label} has metallicFactor {metallic} and roughnessFactor {roughness}; \
+             both must be in [0, 1]"
+        );
+    }
+    let (specular, specular_color) = match m.specular() {
+        Some(sp) => (sp.specular_factor(), Vec3::from(sp.specular_color_factor())),
+        None => (1.0, Vec3::ONE),
+    };
+    if !(0.0..=1.0).contains(&specular)
+        || !specular_color.is_finite()
+        || specular_color.min_element() < 0.0
+    {
+        bail!(
+            "'{file}': {label} has KHR_materials_specular specularFactor {specular} and \
+             specularColorFactor {specular_color}; use a factor in [0, 1] and colours ≥ 0"
+        );
+    }
+    let ignored = [
+        (
+            pbr.metallic_roughness_texture().is_some(),
+            "a metallicRoughnessTexture",
+        ),
+        (m.normal_texture().is_some(), "a normal texture"),
+        (
+            m.specular().is_some_and(|sp| {
+                sp.specular_texture().is_some() || sp.specular_color_texture().is_some()
+            }),
+            "a specular texture",
+        ),
+    ];
+    for (present, what) in ignored {
+        if present {
+            warn(format!(
+                "'{file}': {label} has {what}; lightlearn uses the material's factors only"
+            ));
+        }
+    }
     if m.emissive_texture().is_some() {
         // Not sampled: say so instead of silently rendering a flat colour.
         warn(format!(
@@ -411,6 +455,10 @@ fn material_slot(
     materials.push(Material {
         name: m.name().unwrap_or("").to_string(),
         base_color: base_color.clamp(Vec3::ZERO, Vec3::ONE),
+        metallic,
+        roughness,
+        specular,
+        specular_color,
         emission,
         double_sided: m.double_sided(),
         base_color_texture,

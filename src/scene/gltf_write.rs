@@ -27,8 +27,10 @@ impl GltfBuilder {
         Self::default()
     }
 
-    /// Adds a material; `emission` is radiance, stored as emissiveFactor (max component ≤ 1)
-    /// × KHR_materials_emissive_strength.
+    /// Adds a Lambertian material (metallic 0 and KHR_materials_specular specularFactor 0, so
+    /// glTF's 4 % dielectric specular layer is off and any renderer that reads the extension
+    /// sees base colour / π); `emission` is radiance, stored as emissiveFactor (max component
+    /// ≤ 1) × KHR_materials_emissive_strength.
     pub fn material(
         &mut self,
         name: &str,
@@ -48,11 +50,32 @@ impl GltfBuilder {
             "emissiveFactor": [factor.x, factor.y, factor.z],
             "doubleSided": double_sided
         });
+        m["extensions"] = json!({"KHR_materials_specular": {"specularFactor": 0.0}});
         if strength != 1.0 {
-            m["extensions"] =
-                json!({"KHR_materials_emissive_strength": {"emissiveStrength": strength}});
+            m["extensions"]["KHR_materials_emissive_strength"] =
+                json!({"emissiveStrength": strength});
         }
         self.materials.push(m);
+        self.materials.len() - 1
+    }
+
+    /// Adds a plain glTF metallic-roughness material (no extensions: a metallic 0 material
+    /// has the 4 % dielectric specular layer on a Lambertian base), one-sided, not emitting.
+    pub fn glossy_material(
+        &mut self,
+        name: &str,
+        base_color: Vec3,
+        metallic: f32,
+        roughness: f32,
+    ) -> usize {
+        self.materials.push(json!({
+            "name": name,
+            "pbrMetallicRoughness": {
+                "baseColorFactor": [base_color.x, base_color.y, base_color.z, 1.0],
+                "metallicFactor": metallic,
+                "roughnessFactor": roughness
+            }
+        }));
         self.materials.len() - 1
     }
 
@@ -235,8 +258,14 @@ impl GltfBuilder {
             doc["extensions"] = json!({"KHR_lights_punctual": {"lights": self.lights}});
             used.push("KHR_lights_punctual");
         }
-        if self.materials.iter().any(|m| m.get("extensions").is_some()) {
-            used.push("KHR_materials_emissive_strength");
+        for ext in ["KHR_materials_emissive_strength", "KHR_materials_specular"] {
+            if self
+                .materials
+                .iter()
+                .any(|m| m["extensions"].get(ext).is_some())
+            {
+                used.push(ext);
+            }
         }
         if !used.is_empty() {
             doc["extensionsUsed"] = json!(used);

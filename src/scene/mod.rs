@@ -18,14 +18,32 @@ pub fn luminance(c: Vec3) -> f32 {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
-    /// Lambertian albedo (glTF baseColorFactor, rgb).
+    /// glTF baseColorFactor (rgb): the diffuse albedo of the dielectric part and F0 of the
+    /// metal part.
     pub base_color: Vec3,
+    /// glTF metallicFactor in [0, 1] (default 1).
+    pub metallic: f32,
+    /// glTF roughnessFactor in [0, 1] (default 1); GGX α = roughness².
+    pub roughness: f32,
+    /// KHR_materials_specular specularFactor (default 1): the weight of the dielectric's
+    /// specular layer. 0 with metallic 0 is a pure Lambertian material (what our scene
+    /// writer emits for `GltfBuilder::material`).
+    pub specular: f32,
+    /// KHR_materials_specular specularColorFactor (default 1): scales the dielectric F0 (0.04).
+    pub specular_color: Vec3,
     /// Emitted radiance (emissiveFactor × KHR_materials_emissive_strength).
     pub emission: Vec3,
     /// Emits from both faces (glTF `doubleSided`); otherwise only from the CCW front face.
     pub double_sided: bool,
     /// Index into `Scene::textures` of the base-colour texture (multiplies `base_color`).
     pub base_color_texture: Option<u32>,
+}
+
+impl Material {
+    /// No specular layer at all: the BRDF is base colour / π.
+    pub fn is_lambertian(&self) -> bool {
+        self.metallic == 0.0 && self.specular == 0.0
+    }
 }
 
 /// How texture coordinates outside [0, 1] wrap (glTF sampler wrapS / wrapT).

@@ -6,7 +6,7 @@
 use anyhow::{bail, Result};
 use glam::Vec3;
 
-use super::{floor_quad, FamilyParams, MeshAccum};
+use super::{floor_material, floor_quad, FamilyParams, MeshAccum};
 use crate::rng::SplitMix64;
 use crate::scene::gltf_write::GltfBuilder;
 
@@ -103,7 +103,7 @@ pub fn build(p: &FamilyParams) -> Result<GltfBuilder> {
     lit.sort_unstable();
 
     let mut g = GltfBuilder::new();
-    let ground_m = g.material("ground", Vec3::splat(0.3), Vec3::ZERO, false);
+    let ground_m = floor_material(&mut g, p, "ground", Vec3::splat(0.3));
     let facade_m = g.material("facade", Vec3::new(0.55, 0.53, 0.5), Vec3::ZERO, false);
     let window_m = [
         g.material(

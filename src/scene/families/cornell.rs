@@ -26,8 +26,19 @@ pub fn build(p: &FamilyParams) -> GltfBuilder {
         Vec3::new(-1.0, 2.0, -1.0),
     ]);
     w.turned_box(Vec3::new(0.33, 0.3, 0.37), Vec3::splat(0.3), -0.3);
-    w.turned_box(Vec3::new(-0.35, 0.6, -0.3), Vec3::new(0.3, 0.6, 0.3), 0.3);
-    w.emit(&mut g, "walls", white);
+    let tall = (Vec3::new(-0.35, 0.6, -0.3), Vec3::new(0.3, 0.6, 0.3), 0.3);
+    if let Some(r) = p.glossy {
+        // A white metal (Fresnel 1 in glTF's Schlick form): exactly Mitsuba's roughconductor
+        // with material "none" (tests/mitsuba.rs).
+        let metal = g.glossy_material("metal", Vec3::ONE, 1.0, r);
+        let mut b = MeshAccum::default();
+        b.turned_box(tall.0, tall.1, tall.2);
+        w.emit(&mut g, "walls", white);
+        b.emit(&mut g, "tall box", metal);
+    } else {
+        w.turned_box(tall.0, tall.1, tall.2);
+        w.emit(&mut g, "walls", white);
+    }
     let mut left = MeshAccum::default();
     left.quad([
         Vec3::new(-1.0, 0.0, -1.0),

@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 
-use super::{ceiling_quad, floor_quad, FamilyParams, MeshAccum};
+use super::{ceiling_quad, floor_material, floor_quad, FamilyParams, MeshAccum};
 use crate::rng::SplitMix64;
 use crate::scene::gltf_write::GltfBuilder;
 
@@ -14,7 +14,7 @@ const HEIGHT: f32 = 5.0;
 pub fn build(p: &FamilyParams) -> GltfBuilder {
     let mut rng = SplitMix64(p.seed);
     let mut g = GltfBuilder::new();
-    let floor_m = g.material("floor", Vec3::new(0.5, 0.5, 0.5), Vec3::ZERO, false);
+    let floor_m = floor_material(&mut g, p, "floor", Vec3::new(0.5, 0.5, 0.5));
     let wall_m = g.material("wall", Vec3::new(0.75, 0.72, 0.68), Vec3::ZERO, false);
     let table_m = g.material("table", Vec3::new(0.6, 0.45, 0.3), Vec3::ZERO, false);
     let part_m = g.material("partition", Vec3::new(0.35, 0.45, 0.6), Vec3::ZERO, false);

@@ -52,6 +52,22 @@ pub struct FamilyParams {
     pub blocks: Option<usize>,
     /// strings: segments around each curved object.
     pub resolution: u32,
+    /// Glossy variant: floors (the tall box in cornell) become a GGX metal of this roughness.
+    pub glossy: Option<f32>,
+}
+
+/// A floor's material: Lambertian, or with `--glossy R` a metal of the same colour and
+/// roughness R (glTF metallic-roughness, metallic 1).
+pub(crate) fn floor_material(
+    g: &mut GltfBuilder,
+    p: &FamilyParams,
+    name: &str,
+    color: Vec3,
+) -> usize {
+    match p.glossy {
+        Some(r) => g.glossy_material(name, color, 1.0, r),
+        None => g.material(name, color, Vec3::ZERO, false),
+    }
 }
 
 impl Family {
@@ -73,6 +89,11 @@ pub fn generate(family: Family, p: &FamilyParams) -> Result<GltfBuilder> {
             "--lights {} is out of range for {family:?}: use {lo}..={hi}",
             p.lights
         );
+    }
+    if let Some(r) = p.glossy {
+        if !(0.0..=1.0).contains(&r) {
+            bail!("--glossy {r} is out of range: use a roughness in [0, 1]");
+        }
     }
     if !(3..=512).contains(&p.resolution) {
         bail!("--resolution {} is out of range: use 3..=512", p.resolution);
@@ -206,6 +227,7 @@ mod tests {
             rooms: None,
             blocks: None,
             resolution: 12,
+            glossy: None,
         }
     }
 

@@ -8,7 +8,8 @@ use anyhow::{bail, Result};
 use glam::Vec3;
 
 use super::{
-    ceiling_quad, floor_quad, light_colour, shares, wall_with_door, FamilyParams, MeshAccum,
+    ceiling_quad, floor_material, floor_quad, light_colour, shares, wall_with_door, FamilyParams,
+    MeshAccum,
 };
 use crate::rng::SplitMix64;
 use crate::scene::gltf_write::GltfBuilder;
@@ -36,7 +37,7 @@ pub fn build(p: &FamilyParams) -> Result<GltfBuilder> {
     }
     let mut rng = SplitMix64(p.seed);
     let mut g = GltfBuilder::new();
-    let floor_m = g.material("floor", Vec3::new(0.6, 0.58, 0.55), Vec3::ZERO, false);
+    let floor_m = floor_material(&mut g, p, "floor", Vec3::new(0.6, 0.58, 0.55));
     let ceiling_m = g.material("ceiling", Vec3::splat(0.7), Vec3::ZERO, false);
     let wall_m = g.material("wall", Vec3::new(0.7, 0.68, 0.62), Vec3::ZERO, false);
     let table_m = g.material("table", Vec3::new(0.55, 0.4, 0.3), Vec3::ZERO, false);

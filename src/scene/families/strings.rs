@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 
-use super::{floor_quad, shares, FamilyParams, MeshAccum};
+use super::{floor_material, floor_quad, shares, FamilyParams, MeshAccum};
 use crate::rng::SplitMix64;
 use crate::scene::gltf_write::GltfBuilder;
 
@@ -60,7 +60,7 @@ fn sphere(m: &mut MeshAccum, c: Vec3, r: f32, seg: u32) {
 pub fn build(p: &FamilyParams) -> GltfBuilder {
     let mut rng = SplitMix64(p.seed);
     let mut g = GltfBuilder::new();
-    let floor_m = g.material("floor", Vec3::new(0.45, 0.4, 0.35), Vec3::ZERO, false);
+    let floor_m = floor_material(&mut g, p, "floor", Vec3::new(0.45, 0.4, 0.35));
     let wall_m = g.material("wall", Vec3::new(0.7, 0.7, 0.72), Vec3::ZERO, false);
     let tree_m = g.material("tree", Vec3::new(0.1, 0.35, 0.12), Vec3::ZERO, false);
     let ball_m = g.material("ball", Vec3::new(0.6, 0.6, 0.65), Vec3::ZERO, false);
