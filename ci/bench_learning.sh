@@ -40,20 +40,10 @@ for s in rooms16 city; do
     run "$s-grid-$g" "$s" "$ta" wang,bayes --grid "$g"
   done
 done
+python3 ci/bench_table.py "$out" "µs per sample·pixel"
 python3 - "$out" <<'PY'
 import json, sys, pathlib
 root = pathlib.Path(sys.argv[1])
-print("| run | sampler | spp in the budget | µs per sample·pixel | MSE (noise out) | relMSE (noise out) | MSE(wang)/MSE | zero light samples |")
-print("|---|---|---|---|---|---|---|---|")
-for d in sorted(p for p in root.iterdir() if (p / "metrics.json").exists()):
-    m = json.loads((d / "metrics.json").read_text())
-    px = m["width"] * m["height"]
-    for r in m["comparisons"][0]["runs"]:
-        c = r["corrected"] or {"mse": float("nan"), "rel_mse": float("nan")}
-        us = 1e6 * r["seconds"] / (r["spp"] * px)
-        sp = r["speedup_corrected"]
-        print(f"| {d.name} | {r['sampler']} | {r['spp']} | {us:.3f} | {c['mse']:.3e} | {c['rel_mse']:.3e} | "
-              + (f"{sp:.2f}" if sp else "n/a") + f" | {100 * r['zero_sample_fraction']:.1f} % |")
 # Learning curves of the main runs: MSE × seconds at each checkpoint (constant for a sampler
 # that does not learn; falling while bayes learns), with the reference's noise taken out.
 print()

@@ -116,7 +116,7 @@ struct LearnArgs {
     /// pseudo-counts; divisions guarded, a slot never seen lit keeps chance ≥ 1/(n+1)).
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     priors: String,
-    /// bayes: observations include the BRDF (luminance of albedo/π).
+    /// bayes: observations include the BRDF towards the sampled light (luminance of f(v, l)), so glossy receivers learn the reflected contribution; the prior uses the BRDF's albedo / π.
     #[arg(long)]
     brdf_aware: bool,
     /// bayes: subtract the model's predicted mean of every cluster as a control variate

@@ -748,9 +748,9 @@ pub fn report_json(
         "estimated_rel_mse_of_mean": rel,
         "zero_light_sample_fraction": result.zero_sample_fraction(),
         "integrator": if settings.max_depth == 1 {
-            "direct illumination by light sampling, Lambertian, one light sample per pixel sample".to_string()
+            "direct illumination by light sampling, glTF metallic-roughness BRDF, one light sample per pixel sample".to_string()
         } else {
-            format!("path tracing, up to {} surface vertices, Lambertian, next-event estimation + BSDF sampling with MIS (power heuristic), Russian roulette", settings.max_depth)
+            format!("path tracing, up to {} surface vertices, glTF metallic-roughness BRDF (Lambert + GGX), next-event estimation + BSDF sampling with MIS (power heuristic), Russian roulette", settings.max_depth)
         },
         "max_depth": settings.max_depth,
     })
