@@ -84,7 +84,7 @@ impl Kernel {
 
 /// A query with normal +z, viewing direction at cos θ = `cos_v` (φ = 0).
 fn query(m: GpuMaterial, cos_v: f64, l: DVec3, u: (f32, f32)) -> BsdfQuery {
-    let v = DVec3::new((1.0 - cos_v * cos_v).max(0.0).sqrt(), 0.0, cos_v);
+    let v = hemisphere(cos_v, 0.0);
     BsdfQuery {
         n: [0.0, 0.0, 1.0],
         u0: u.0,
@@ -94,6 +94,12 @@ fn query(m: GpuMaterial, cos_v: f64, l: DVec3, u: (f32, f32)) -> BsdfQuery {
         pad: 0.0,
         material: m,
     }
+}
+
+/// The direction at cos θ = c and azimuth φ about +z.
+fn hemisphere(c: f64, phi: f64) -> DVec3 {
+    let s = (1.0 - c * c).max(0.0).sqrt();
+    DVec3::new(s * phi.cos(), s * phi.sin(), c)
 }
 
 /// The glTF metallic-roughness BRDF, f64, from the specification (Appendix B) with
@@ -223,15 +229,8 @@ fn expected_bins(k: &Kernel, m: GpuMaterial, cos_v: f64) -> Vec<f64> {
     let (nc, np) = ((BINS_COS * SUB) as f64, (BINS_PHI * SUB) as f64);
     for ci in 0..BINS_COS * SUB {
         for pi in 0..BINS_PHI * SUB {
-            let c = (ci as f64 + 0.5) / nc;
-            let phi = 2.0 * PI * (pi as f64 + 0.5) / np;
-            let s = (1.0 - c * c).sqrt();
-            q.push(query(
-                m,
-                cos_v,
-                DVec3::new(s * phi.cos(), s * phi.sin(), c),
-                (0.5, 0.5),
-            ));
+            let l = hemisphere((ci as f64 + 0.5) / nc, 2.0 * PI * (pi as f64 + 0.5) / np);
+            q.push(query(m, cos_v, l, (0.5, 0.5)));
         }
     }
     let r = k.run(&q);
@@ -357,15 +356,8 @@ fn albedo(k: &Kernel, m: GpuMaterial, cos_v: f64, seed: u64) -> ((f64, f64), (f6
     }
     for _ in 0..count {
         // Uniform on the hemisphere: cos θ uniform in [0, 1).
-        let c = rng.f32() as f64;
-        let phi = 2.0 * PI * rng.f32() as f64;
-        let s = (1.0 - c * c).sqrt();
-        q.push(query(
-            m,
-            cos_v,
-            DVec3::new(s * phi.cos(), s * phi.sin(), c),
-            (0.5, 0.5),
-        ));
+        let l = hemisphere(rng.f32() as f64, 2.0 * PI * rng.f32() as f64);
+        q.push(query(m, cos_v, l, (0.5, 0.5)));
     }
     let r = k.run(&q);
     let lum = |c: [f32; 3]| lightlearn::scene::luminance(Vec3::from(c)) as f64;
