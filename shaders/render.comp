@@ -2,12 +2,13 @@
 #extension GL_GOOGLE_include_directive : require
 // One progressive pass: for every pixel one jittered camera ray and one path. At every surface
 // vertex one next-event sample (light chosen by SAMPLER, point on it, shadow ray, the glTF
-// metallic-roughness BRDF of bsdf.glsl). --max-depth 1 is direct light by light sampling alone (the paper's DI estimator, no
-// BSDF ray). --max-depth D ≥ 2 is a path tracer with up to D surface vertices: the path goes
-// on by BSDF sampling (cosine / GGX visible normals), and an emitter that a BSDF ray hits counts with the
-// power-heuristic MIS weight against the light sampler's exact pmf (light_pmf.glsl), after
-// the next-event sample of the vertex before it carried the complementary weight. Russian
-// roulette from the third vertex on (pbrt-v4's rule: q = 1 − max throughput).
+// metallic-roughness BRDF of bsdf.glsl). --max-depth 1 is direct light by light sampling
+// alone (the paper's DI estimator, no BSDF ray). --max-depth D ≥ 2 is a path tracer with up
+// to D surface vertices: the path goes on by BSDF sampling (cosine / GGX visible normals),
+// and an emitter that a BSDF ray hits counts with the power-heuristic MIS weight against the
+// light sampler's exact pmf (light_pmf.glsl), after the next-event sample of the vertex
+// before it carried the complementary weight. Russian roulette from the third vertex on
+// (pbrt-v4's rule: q = 1 − max throughput).
 // Sums of the sample and of its square go to `accum` (.xyz); accum.sum.w counts the light
 // samples that came out zero (occluded, facing away, a dead end) and accum.sum_sq.w all
 // light samples: the zero-sample rate learning is meant to cut.
@@ -170,15 +171,11 @@ void main() {
         vec3 Ic = vec3(0.0);  // Î_C in RGB, for the control variate
         vec3 wi;
         float dist;
-        vec3 f = vec3(0.0);
         vec2 u = vec2(sample_rand(seed, pixel, s, dim0 + DIM_LIGHT_U), sample_rand(seed, pixel, s, dim0 + DIM_LIGHT_V));
         // NO_LIGHT: no light can reach the front of n here (zero contribution, exactly).
         GpuLight light = lights[li == NO_LIGHT ? 0u : li];
         vec3 Li = li == NO_LIGHT ? vec3(0.0) : sample_light_point(light, x, u, wi, dist);
         float cos_x = dot(n, wi);
-        if (li != NO_LIGHT && cos_x > 0.0) f = bsdf_eval(bsdf, n, wo, wi);
-        // A glossy BRDF can be 0 towards the light: that sample is a zero (also for learning
-        // with --brdf-aware; without it the observation does not see the BRDF).
         if (li != NO_LIGHT && cos_x > 0.0 && any(greaterThan(Li, vec3(0.0)))) {
             // The shadow ray starts just off the surface and aims at the light point itself:
             // keeping wi and dist from x made a surface parallel to an area light (a floor under
@@ -193,6 +190,8 @@ void main() {
             float tmax = area ? sdist - eps : sdist;
             float ts;
             if (trace_ray(so, to_light / sdist, 0.0, tmax, true, ts) == NO_HIT) {
+                // Evaluated only for visible samples (GGX costs tens of operations).
+                vec3 f = bsdf_eval(bsdf, n, wo, wi);
                 float w = 1.0;
                 if (mis && area) {
                     // The light sample's pdf in solid angle: pmf · d² / (cos_y A).
