@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Issue #7's glossy benchmark: full global illumination (--max-depth 8) at equal time on
 # rooms16-glossy (rooms16 with rough-metal floors, roughness 0.3): `wang` against `bayes`, and
-# `wang` against `bayes --brdf-aware` (the observation includes the BRDF towards the light),
+# `wang` against `bayes --brdf-aware` (the observation includes the BRDF towards the light), and
+# `wang` against `bayes --brdf-select` (cluster weights × the BRDF towards each cluster),
 # against one lightbvh path-traced reference with its own noise subtracted.
 # Usage: ci/bench_glossy.sh [SECONDS_PER_SAMPLER] [OUT_DIR] [REFERENCE_SPP]
 # (defaults: 60, bench-glossy, 8192; the reference is rendered once and cached).
@@ -20,4 +21,5 @@ run() { # name [switches...]
 }
 run bayes
 run brdf-aware --brdf-aware
+run brdf-select --brdf-select
 python3 ci/bench_table.py "$out" "µs per path"

@@ -28,6 +28,9 @@ layout(push_constant) uniform Push { uint query_count; };
 
 #include "light_pmf.glsl"
 
+// The CPU mirrors know no BRDF: the selection factor of --brdf-select is 1 here.
+float brdf_toward(LightNode nd, vec3 p, vec3 n) { return 1.0; }
+
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= query_count) return;

@@ -78,6 +78,40 @@ float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 
 #include "bsdf.glsl"
 
+// --brdf-select: the BRDF of the shading point whose light is being chosen (or whose light
+// pmf light_pmf repeats), seen from sel_v; sel_on only for glossy materials under the flag.
+Bsdf sel_bsdf;
+vec3 sel_v;
+bool sel_on = false;
+
+// The luminance of f(v, l) for the direction l to the node's bounding sphere that is nearest
+// the mirror direction (all of it from inside the sphere), plus a floor of 0.1 × albedo/π:
+// a factor > 0, so every cluster that can light x keeps a chance (unbiased), that favours
+// the clusters a glossy lobe points at. Depends on the shading point only.
+float brdf_toward(LightNode nd, vec3 p, vec3 n) {
+    if (!sel_on) return 1.0;
+    vec3 r = reflect(-sel_v, n);
+    vec3 to = 0.5 * (nd.bmin + nd.bmax) - p;
+    vec3 diag = nd.bmax - nd.bmin;
+    float d2 = dot(to, to);
+    float r2 = 0.25 * dot(diag, diag);
+    vec3 l = r;
+    if (d2 > r2) {
+        vec3 wc = to * inversesqrt(d2);
+        float cos_b = sqrt(1.0 - r2 / d2);
+        float c = dot(r, wc);
+        if (c < cos_b) {
+            vec3 perp = r - c * wc;
+            float lp = length(perp);
+            l = lp > 0.0 ? cos_b * wc + sqrt(r2 / d2) * (perp / lp) : wc;
+        }
+    }
+    // Just above the surface if the nearest direction is below it.
+    float ln = dot(l, n);
+    if (ln < 0.01) l = normalize(l + (0.01 - ln) * n);
+    return luminance(bsdf_eval(sel_bsdf, n, sel_v, l)) + 0.1 * sel_bsdf.albedo / PI;
+}
+
 // The power heuristic (β = 2) weight of a strategy with pdf a against one with pdf b.
 float power_heuristic(float a, float b) {
     float a2 = a * a;
@@ -111,6 +145,9 @@ void main() {
     vec3 prev_x = vec3(0.0);
     vec3 prev_n = vec3(0.0);
     float prev_brdf = 1.0;
+    Bsdf prev_bsdf;
+    vec3 prev_wo = vec3(0.0);
+    const bool brdf_select = SAMPLER == SAMPLER_BAYES && (learn[0].flags & LEARN_BRDF_SELECT) != 0u;
     float prev_bsdf_pdf = 0.0;
     // Vertices 0 … max_depth − 1 sample a light and the BSDF; the ray after the last one
     // only looks for the emitter it hits (its MIS weight completes that vertex's light sample).
@@ -127,6 +164,9 @@ void main() {
             uint li = tri_light[tri.prim];
             if (depth > 0u && li != NO_LIGHT) {
                 // The light sampler's pdf of this point, in solid angle at prev_x.
+                sel_bsdf = prev_bsdf;
+                sel_v = prev_wo;
+                sel_on = brdf_select && !prev_bsdf.lambert;
                 float p_sel = light_pmf(prev_x, prev_n, li, params.light_count, prev_brdf);
                 vec3 to = origin + t * dir - prev_x;
                 float cos_l = abs(dot(ng, dir));
@@ -147,6 +187,9 @@ void main() {
         }
         vec3 wo = -dir;
         Bsdf bsdf = make_bsdf(m, m.base_color, n, wo);
+        sel_bsdf = bsdf;
+        sel_v = wo;
+        sel_on = brdf_select && !bsdf.lambert;
         float pmf;
         float u_light = sample_rand(seed, pixel, s, dim0 + DIM_LIGHT);
         uint li;
@@ -234,6 +277,8 @@ void main() {
         prev_x = x;
         prev_n = n;
         prev_brdf = brdf;
+        prev_bsdf = bsdf;
+        prev_wo = wo;
         prev_bsdf_pdf = bsdf_pdf_o;
         origin = x + n * params.ray_eps;
         dir = wn;

@@ -119,6 +119,11 @@ struct LearnArgs {
     /// bayes: observations include the BRDF towards the sampled light (luminance of f(v, l)), so glossy receivers learn the reflected contribution; the prior uses the BRDF's albedo / π.
     #[arg(long)]
     brdf_aware: bool,
+    /// bayes: multiply each cluster's learned weight by the BRDF at the shading point towards
+    /// the cluster (its direction nearest the mirror direction, plus a floor of 0.1 × albedo/π
+    /// so no cluster drops to 0); observations stay BRDF-free. Only glossy materials change.
+    #[arg(long)]
+    brdf_select: bool,
     /// bayes: subtract the model's predicted mean of every cluster as a control variate
     /// (unbiased; measured 1.4× better on rooms16, no gain on city, so off by default; see
     /// README).
@@ -157,6 +162,7 @@ impl LearnArgs {
             target_mean: self.target == "mean",
             priors: self.priors == "on",
             brdf_aware: self.brdf_aware,
+            brdf_select: self.brdf_select,
             control_variates: self.control_variates,
             prior_zero: self.prior_zero,
             prior_nonzero: self.prior_nonzero,

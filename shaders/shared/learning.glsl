@@ -12,6 +12,12 @@
 
 #define NO_SLOT 0xffffffffu
 
+// --brdf-select: a factor > 0 on slot weights for the BRDF at the shading point towards the
+// node's cluster; every including kernel defines it (render.comp: the BRDF; the test kernel
+// light_sample.comp: 1). It must depend only on the shading point, never on the light drawn,
+// so that light_pmf repeats it exactly.
+float brdf_toward(LightNode nd, vec3 p, vec3 n);
+
 // Fixed point of the window sums: y / scale with 24 fraction bits, y / scale clamped to 4096
 // so that one observation adds at most 2^36 to Σ and 2^48 to Σ² (the 64-bit sums then hold
 // ≥ 2^15 clamped observations per slot and window). The clamp only touches the model, never
@@ -90,6 +96,7 @@ float learned_weights(uint o, vec3 p, vec3 n, float brdf, out float cv_total) {
             float mu0 = imp * di * brdf * learn[0].prior_scale;
             SlotStats st = slot_stats[o + 1u + i];
             w = bayes_weight(st, mu0) / di;
+            if ((learn[0].flags & LEARN_BRDF_SELECT) != 0u) w *= brdf_toward(nd, p, n);
             if (cv && w > 0.0) cv_total += predicted_mean(st, mu0, di, brdf);
         }
         cut_w[i] = w;

@@ -96,6 +96,7 @@ struct SlotDelta {
 #define LEARN_PRIORS 4u
 #define LEARN_BRDF 8u
 #define LEARN_CONTROL_VARIATES 16u
+#define LEARN_BRDF_SELECT 32u
 
 // Hyperparameters and switches of the learned samplers (src/learning/mod.rs LearnSettings).
 struct LearnParams {

@@ -170,6 +170,7 @@ pub const LEARN_TARGET_MEAN: u32 = 2;
 pub const LEARN_PRIORS: u32 = 4;
 pub const LEARN_BRDF: u32 = 8;
 pub const LEARN_CONTROL_VARIATES: u32 = 16;
+pub const LEARN_BRDF_SELECT: u32 = 32;
 
 /// Hyperparameters and switches of the learned samplers.
 #[repr(C)]

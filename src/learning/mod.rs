@@ -18,8 +18,8 @@ pub mod stats_file;
 use anyhow::{bail, Result};
 
 use crate::gpu::layout::{
-    LearnParams, SlotDelta, SlotStats, LEARN_BRDF, LEARN_CONTROL_VARIATES, LEARN_PRIORS,
-    LEARN_REGRESSION, LEARN_TARGET_MEAN,
+    LearnParams, SlotDelta, SlotStats, LEARN_BRDF, LEARN_BRDF_SELECT, LEARN_CONTROL_VARIATES,
+    LEARN_PRIORS, LEARN_REGRESSION, LEARN_TARGET_MEAN,
 };
 
 /// Settings of the learned samplers; defaults are method.md's [ours] values.
@@ -35,6 +35,9 @@ pub struct LearnSettings {
     pub priors: bool,
     /// The observation includes the BRDF (as luminance).
     pub brdf_aware: bool,
+    /// `--brdf-select`: each slot's weight × the BRDF towards the slot's cluster (render kernel
+    /// only; the CPU mirrors and `light_sample.comp` use factor 1).
+    pub brdf_select: bool,
     /// `bayes`: the pixel estimate subtracts the model's predicted mean as a control variate
     /// (method.md §6).
     pub control_variates: bool,
@@ -61,6 +64,7 @@ impl Default for LearnSettings {
             target_mean: false,
             priors: true,
             brdf_aware: false,
+            brdf_select: false,
             control_variates: false,
             prior_zero: 2.0,
             prior_nonzero: 2.0,
@@ -128,6 +132,7 @@ impl LearnSettings {
                 | flag(self.target_mean, LEARN_TARGET_MEAN)
                 | flag(self.priors, LEARN_PRIORS)
                 | flag(self.brdf_aware, LEARN_BRDF)
+                | flag(self.brdf_select, LEARN_BRDF_SELECT)
                 | flag(self.control_variates, LEARN_CONTROL_VARIATES),
             prior_scale: self.prior_scale,
         }
