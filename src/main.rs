@@ -445,6 +445,9 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     if learn.control_variates && a.sampler != LightSampler::Bayes {
         bail!("--control-variates needs the learned model: add --sampler bayes");
     }
+    if learn.brdf_select && a.sampler != LightSampler::Bayes {
+        bail!("--brdf-select scales the learned cluster weights: add --sampler bayes");
+    }
     if (a.save_stats.is_some() || a.load_stats.is_some()) && !a.sampler.learned() {
         bail!(
             "--save-stats/--load-stats need a learning sampler: add --sampler bayes or --sampler donikian"
@@ -638,6 +641,9 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
     let learn = a.learn.settings()?;
     if learn.control_variates && !samplers.contains(&LightSampler::Bayes) {
         bail!("--control-variates applies to bayes only: add bayes to --samplers");
+    }
+    if learn.brdf_select && !samplers.contains(&LightSampler::Bayes) {
+        bail!("--brdf-select applies to bayes only: add bayes to --samplers");
     }
     let mut budgets = Vec::new();
     if let Some(t) = a.time {
