@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Issue #7's glossy benchmark: full global illumination (--max-depth 8) at equal time on
-# rooms16-glossy (rooms16 with rough-metal floors, roughness 0.3): `wang` against `bayes`, and
-# `wang` against `bayes --brdf-aware` (the observation includes the BRDF towards the light), and
-# `wang` against `bayes --brdf-select` (cluster weights × the BRDF towards each cluster),
+# rooms16-glossy (rooms16 with rough-metal floors, roughness 0.3): `wang` against `bayes` as the
+# paper has it (`--brdf-select off`), against `bayes --brdf-aware --brdf-select off` (the
+# observation includes the BRDF towards the light), and against the default `bayes`
+# (`--brdf-select on`: cluster weights × the BRDF towards each cluster),
 # against one lightbvh path-traced reference with its own noise subtracted.
 # Usage: ci/bench_glossy.sh [SECONDS_PER_SAMPLER] [OUT_DIR] [REFERENCE_SPP]
 # (defaults: 60, bench-glossy, 8192; the reference is rendered once and cached).
@@ -19,7 +20,7 @@ run() { # name [switches...]
   ./target/release/lightlearn compare scenes/rooms16-glossy.glb --samplers wang,bayes --time "$t" \
     --max-depth 8 --reference-spp "$ref" --width 128 --height 96 --out "$out/$name" -q "$@"
 }
-run bayes
-run brdf-aware --brdf-aware
-run brdf-select --brdf-select
+run bayes-brdf-select-off --brdf-select off
+run brdf-aware --brdf-aware --brdf-select off
+run brdf-select
 python3 ci/bench_table.py "$out" "µs per path"

@@ -204,16 +204,6 @@ fn bad_input_fails_cleanly() {
     ];
     args.extend_from_slice(SMALL);
     expect_failure(&args, d, &[], &["--control-variates", "--sampler bayes"]);
-    let mut args = vec![
-        "render",
-        "--sampler",
-        "lightbvh",
-        "--brdf-select",
-        "--out",
-        "out.exr",
-    ];
-    args.extend_from_slice(SMALL);
-    expect_failure(&args, d, &[], &["--brdf-select", "--sampler bayes"]);
 
     // No Vulkan driver at all, and a device name that matches nothing.
     let mut args = vec!["render", "--out", "out.exr"];

@@ -996,9 +996,9 @@ fn light_pmf_equals_the_samplers_pmf() {
 /// `--brdf-select` scales every cluster's weight by the BRDF towards it, at the vertex that
 /// samples a light and again in `light_pmf` when a BSDF ray hits an emitter: if the two
 /// disagree, the MIS weights no longer sum to one and the image is biased. On rooms16-glossy
-/// (rough-metal floors) at depth 8, `bayes --brdf-select` must match `lightbvh` in the image
-/// mean per channel within 5σ (σ from both renders' per-pixel variance, conservative: it
-/// includes the pixel footprint). Dropping the factor from light_pmf (a mutation, tried by
+/// (rough-metal floors) at depth 8, `bayes` (`--brdf-select on`, the default) must match
+/// `lightbvh` in the image mean per channel within 5σ (σ from both renders' per-pixel
+/// variance, conservative: it includes the pixel footprint). Dropping the factor from light_pmf (a mutation, tried by
 /// hand) fails here: +5.4 %, z = 23 (on the glossy Cornell box it moved the mean only 0.4 %,
 /// which tests/mitsuba.rs cannot resolve).
 #[test]
@@ -1036,10 +1036,7 @@ fn brdf_select_stays_unbiased_with_mis_on_glossy_floors() {
         (mean, var)
     };
     let (reference, var_r) = render("lightbvh", &["--sampler", "lightbvh", "--seed", "1"]);
-    let (select, var_s) = render(
-        "select",
-        &["--sampler", "bayes", "--brdf-select", "--seed", "2"],
-    );
+    let (select, var_s) = render("select", &["--sampler", "bayes", "--seed", "2"]);
     let sigma = (var_r + var_s).sqrt();
     for c in 0..3 {
         let z = (select[c] - reference[c]) / sigma;

@@ -35,8 +35,8 @@ pub struct LearnSettings {
     pub priors: bool,
     /// The observation includes the BRDF (as luminance).
     pub brdf_aware: bool,
-    /// `--brdf-select`: each slot's weight × the BRDF towards the slot's cluster (render kernel
-    /// only; the CPU mirrors and `light_sample.comp` use factor 1).
+    /// `--brdf-select` (on by default): each slot's weight × the BRDF towards the slot's
+    /// cluster (render kernel only; the CPU mirrors and `light_sample.comp` use factor 1).
     pub brdf_select: bool,
     /// `bayes`: the pixel estimate subtracts the model's predicted mean as a control variate
     /// (method.md §6).
@@ -64,7 +64,7 @@ impl Default for LearnSettings {
             target_mean: false,
             priors: true,
             brdf_aware: false,
-            brdf_select: false,
+            brdf_select: true,
             control_variates: false,
             prior_zero: 2.0,
             prior_nonzero: 2.0,
