@@ -82,7 +82,15 @@ float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
 // pmf light_pmf repeats), seen from sel_v; sel_on only for glossy materials under the flag.
 Bsdf sel_bsdf;
 vec3 sel_v;
+vec3 sel_r;  // the mirror direction of sel_v, once per vertex rather than once per slot
 bool sel_on = false;
+
+void select_brdf(Bsdf b, vec3 v, vec3 n, bool on) {
+    sel_bsdf = b;
+    sel_v = v;
+    sel_r = reflect(-v, n);
+    sel_on = on && !b.lambert;
+}
 
 // The luminance of f(v, l) for the direction l to the node's bounding sphere that is nearest
 // the mirror direction (all of it from inside the sphere), plus a floor of 0.1 × albedo/π:
@@ -90,7 +98,7 @@ bool sel_on = false;
 // the clusters a glossy lobe points at. Depends on the shading point only.
 float brdf_toward(LightNode nd, vec3 p, vec3 n) {
     if (!sel_on) return 1.0;
-    vec3 r = reflect(-sel_v, n);
+    vec3 r = sel_r;
     vec3 to = 0.5 * (nd.bmin + nd.bmax) - p;
     vec3 diag = nd.bmax - nd.bmin;
     float d2 = dot(to, to);
@@ -164,9 +172,7 @@ void main() {
             uint li = tri_light[tri.prim];
             if (depth > 0u && li != NO_LIGHT) {
                 // The light sampler's pdf of this point, in solid angle at prev_x.
-                sel_bsdf = prev_bsdf;
-                sel_v = prev_wo;
-                sel_on = brdf_select && !prev_bsdf.lambert;
+                select_brdf(prev_bsdf, prev_wo, prev_n, brdf_select);
                 float p_sel = light_pmf(prev_x, prev_n, li, params.light_count, prev_brdf);
                 vec3 to = origin + t * dir - prev_x;
                 float cos_l = abs(dot(ng, dir));
@@ -187,9 +193,7 @@ void main() {
         }
         vec3 wo = -dir;
         Bsdf bsdf = make_bsdf(m, m.base_color, n, wo);
-        sel_bsdf = bsdf;
-        sel_v = wo;
-        sel_on = brdf_select && !bsdf.lambert;
+        select_brdf(bsdf, wo, n, brdf_select);
         float pmf;
         float u_light = sample_rand(seed, pixel, s, dim0 + DIM_LIGHT);
         uint li;
