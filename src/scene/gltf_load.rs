@@ -8,8 +8,8 @@
 //!   triangle with non-zero emission is an area light.
 //! - Point and line primitives are skipped with a warning (an error if nothing else is left);
 //!   triangle strips and fans are converted to triangles.
-//! - Materials: glTF metallic-roughness (Lambert + GGX, the specification's mix) with
-//!   KHR_materials_specular factors; metallic-roughness, normal and specular textures are
+//! - Materials: glTF metallic-roughness (Lambert + GGX; the diffuse base coupled to the
+//!   layer as in shaders/shared/bsdf.glsl, which says why) with KHR_materials_specular factors; metallic-roughness, normal and specular textures are
 //!   ignored with a warning.
 //! - The first camera in the scene is used, else a default camera that frames the scene.
 

@@ -26,18 +26,17 @@ pub fn build(p: &FamilyParams) -> GltfBuilder {
         Vec3::new(-1.0, 2.0, -1.0),
     ]);
     w.turned_box(Vec3::new(0.33, 0.3, 0.37), Vec3::splat(0.3), -0.3);
-    let tall = (Vec3::new(-0.35, 0.6, -0.3), Vec3::new(0.3, 0.6, 0.3), 0.3);
-    if let Some(r) = p.glossy {
-        // A white metal (Fresnel 1 in glTF's Schlick form): exactly Mitsuba's roughconductor
-        // with material "none" (tests/mitsuba.rs).
-        let metal = g.glossy_material("metal", Vec3::ONE, 1.0, r);
-        let mut b = MeshAccum::default();
-        b.turned_box(tall.0, tall.1, tall.2);
-        w.emit(&mut g, "walls", white);
-        b.emit(&mut g, "tall box", metal);
-    } else {
-        w.turned_box(tall.0, tall.1, tall.2);
-        w.emit(&mut g, "walls", white);
+    // The tall box: white like the walls, or with --glossy a white metal (Fresnel 1 in glTF's
+    // Schlick form: exactly Mitsuba's roughconductor with material "none", tests/mitsuba.rs).
+    let metal = p
+        .glossy
+        .map(|r| g.glossy_material("metal", Vec3::ONE, 1.0, r));
+    let mut tall = MeshAccum::default();
+    let tall_mesh = if metal.is_some() { &mut tall } else { &mut w };
+    tall_mesh.turned_box(Vec3::new(-0.35, 0.6, -0.3), Vec3::new(0.3, 0.6, 0.3), 0.3);
+    w.emit(&mut g, "walls", white);
+    if let Some(metal) = metal {
+        tall.emit(&mut g, "tall box", metal);
     }
     let mut left = MeshAccum::default();
     left.quad([
