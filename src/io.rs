@@ -46,3 +46,89 @@ pub fn write_atomic_with(p: &Path, write: impl FnOnce(&Path) -> Result<()>) -> R
     }
     result
 }
+
+/// Fails early, before any work, unless `p` can be written: its folder exists and takes new
+/// files, and `p` itself is not a folder. (Measured before: `--out` naming a folder failed
+/// only after the whole render.)
+pub fn check_writable(p: &Path) -> Result<()> {
+    check_parent(p)?;
+    if p.is_dir() {
+        bail!(
+            "cannot write '{}': it is a folder; name a file instead",
+            p.display()
+        );
+    }
+    let probe = temp_path(p).with_extension("probe");
+    std::fs::write(&probe, b"").with_context(|| {
+        format!(
+            "cannot write '{}': its folder does not take new files (permissions?)",
+            p.display()
+        )
+    })?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
+/// Whether `a` and `b` name the same file (also when neither exists yet: their folders and
+/// names are compared).
+pub fn same_path(a: &Path, b: &Path) -> bool {
+    let full = |p: &Path| -> Option<PathBuf> {
+        if let Ok(c) = p.canonicalize() {
+            return Some(c);
+        }
+        let dir = match p.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        Some(dir.canonicalize().ok()?.join(p.file_name()?))
+    };
+    match (full(a), full(b)) {
+        (Some(x), Some(y)) => x == y,
+        _ => a == b,
+    }
+}
+
+/// Moves every written temporary file onto its target together: the files that were there
+/// are kept aside until all new ones are in place, and put back if any move fails, so a
+/// failure leaves the old set (or nothing) and never a mix. The temporaries are removed on
+/// failure.
+pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
+    let backup = |p: &Path| temp_path(p).with_extension("old");
+    let mut kept: Vec<&Path> = Vec::new(); // targets whose old file is aside
+    let mut moved: Vec<&Path> = Vec::new(); // targets that hold the new file
+    let result = (|| -> Result<()> {
+        for (target, _) in files {
+            if target.exists() {
+                std::fs::rename(target, backup(target))
+                    .with_context(|| format!("cannot replace '{}'", target.display()))?;
+                kept.push(target);
+            }
+        }
+        for (target, tmp) in files {
+            std::fs::rename(tmp, target)
+                .with_context(|| format!("cannot move the result into '{}'", target.display()))?;
+            moved.push(target);
+        }
+        Ok(())
+    })();
+    match result {
+        Ok(()) => {
+            for t in kept {
+                let _ = std::fs::remove_file(backup(t));
+            }
+            Ok(())
+        }
+        Err(e) => {
+            for t in moved {
+                let _ = std::fs::remove_file(t);
+            }
+            for t in kept {
+                let _ = std::fs::rename(backup(t), t);
+            }
+            for (_, tmp) in files {
+                let _ = std::fs::remove_file(tmp);
+            }
+            Err(e)
+        }
+    }
+}

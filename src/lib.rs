@@ -6,6 +6,7 @@ pub mod bench;
 pub mod compare;
 pub mod film;
 pub mod gpu;
+pub mod interrupt;
 pub mod io;
 pub mod learning;
 pub mod lights;

@@ -15,7 +15,7 @@ use lightlearn::accel::Bvh;
 use lightlearn::compare::{self, reference, report};
 use lightlearn::film::{self, OutputPaths};
 use lightlearn::gpu::{Context, ContextOptions};
-use lightlearn::learning::stats_file::SavedStats;
+use lightlearn::learning::stats_file::{self, SavedStats};
 use lightlearn::learning::LearnSettings;
 use lightlearn::lights::regions::RegionSettings;
 use lightlearn::render::{self, Budget, GpuScene, LightSampler, RenderSettings};
@@ -227,6 +227,9 @@ struct RenderArgs {
     /// sample indices continue after the saved render's.
     #[arg(long, value_name = "FILE")]
     load_stats: Option<PathBuf>,
+    /// Let --save-stats replace an existing file that is not a statistics file.
+    #[arg(long)]
+    force: bool,
     #[command(flatten)]
     device: DeviceArgs,
 }
@@ -375,6 +378,14 @@ struct BenchArgs {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // First Ctrl-C: finish the current batch and write what is done; second: quit now.
+    let _ = ctrlc::set_handler(|| {
+        if lightlearn::interrupt::requested() {
+            std::process::exit(130);
+        }
+        lightlearn::interrupt::request();
+        eprintln!("\ninterrupted: finishing the current batch (Ctrl-C again to quit at once)");
+    });
     let result = match cli.command {
         Command::Render(a) => cmd_render(a),
         Command::Compare(a) => cmd_compare(a),
@@ -454,7 +465,8 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     // Check the output locations and the statistics file before spending time on the render.
     let paths = OutputPaths::new(&a.out)?;
     if let Some(p) = &a.save_stats {
-        lightlearn::io::check_parent(p)?;
+        let inputs: Vec<&Path> = a.scene.iter().map(PathBuf::as_path).collect();
+        stats_file::check_save_target(p, &inputs, &paths.all(), a.force)?;
     }
     let loaded = match &a.load_stats {
         Some(p) => Some(SavedStats::load(p)?),
@@ -491,8 +503,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     };
     let mut settings = settings;
     if let (Some(saved), Some(p)) = (loaded, &a.load_stats) {
-        let want = render::stats_header(&scene, &gpu, &settings);
-        saved.check_matches(&want, p)?;
+        render::check_resume(&scene, &gpu, &settings, &saved, p)?;
         settings.resume = Some(std::sync::Arc::new(saved));
     }
     let result = render::render(&ctx, &scene, &gpu, &settings, &mut |spp, f| {
@@ -506,14 +517,24 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     report["bvh_build_seconds"] = json!(build_seconds);
     report["light_tree_build_seconds"] = json!(gpu.light_tree_seconds);
     report["total_seconds"] = json!(started.elapsed().as_secs_f64());
-    film::write_outputs(&paths, a.width, a.height, &image, &report)?;
-    if let (Some(p), Some(l)) = (&a.save_stats, &result.learned) {
-        l.saved.save(p)?;
-    }
+    let stats = match (&a.save_stats, &result.learned) {
+        (Some(p), Some(l)) => vec![(p.as_path(), l.saved.to_bytes())],
+        _ => Vec::new(),
+    };
+    let extra: Vec<(&Path, &[u8])> = stats.iter().map(|(p, b)| (*p, b.as_slice())).collect();
+    film::write_outputs_with(&paths, a.width, a.height, &image, &report, &extra)?;
     if result.invalid_samples > 0 {
         eprintln!(
             "warning: {} samples were NaN/Inf and were dropped; please report this scene",
             result.invalid_samples
+        );
+    }
+    if result.interrupted {
+        bail!(
+            "interrupted (Ctrl-C) after {} spp; wrote the image so far to {} (+ .png, .json{})",
+            result.spp,
+            paths.exr.display(),
+            if extra.is_empty() { "" } else { ", statistics" }
         );
     }
     if !a.quiet {
@@ -539,7 +560,7 @@ fn cmd_scene(a: SceneArgs) -> Result<()> {
         Some("gltf") => true,
         _ => bail!("--out '{}' must end in .glb or .gltf", a.out.display()),
     };
-    lightlearn::io::check_parent(&a.out)?;
+    lightlearn::io::check_writable(&a.out)?;
     let params = FamilyParams {
         lights: a.lights,
         seed: a.seed,
@@ -566,9 +587,7 @@ fn cmd_scene(a: SceneArgs) -> Result<()> {
 }
 
 fn cmd_bench_rays(a: BenchArgs) -> Result<()> {
-    if a.triangles < 1000 || a.width == 0 || a.height == 0 {
-        bail!("--triangles must be at least 1000 and --width/--height at least 1");
-    }
+    lightlearn::bench::rays::check_args(a.triangles, a.width, a.height, a.repeats)?;
     let ctx = context(&a.device)?;
     println!("device: {}", ctx.describe());
     lightlearn::bench::rays::run(&ctx, a.triangles, a.width, a.height, a.repeats, &mut |l| {
@@ -631,7 +650,17 @@ fn cmd_reference(a: ReferenceArgs) -> Result<()> {
     Ok(())
 }
 
+/// `compare`, leaving no empty output folder behind when it refuses its inputs.
 fn cmd_compare(a: CompareArgs) -> Result<()> {
+    let created = !a.out.exists();
+    let result = run_compare(&a);
+    if result.is_err() && created {
+        let _ = std::fs::remove_dir(&a.out); // only if still empty
+    }
+    result
+}
+
+fn run_compare(a: &CompareArgs) -> Result<()> {
     // Everything that can be wrong with the request is checked before any rendering.
     check_depth(a.image.max_depth)?;
     let samplers = LightSampler::parse_list(&a.samplers)?;
@@ -693,6 +722,9 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
     };
 
     let (scene, ctx, gpu) = prepare(a.scene.as_deref(), &a.device)?;
+    if samplers.iter().any(|s| s.uses_cuts()) {
+        render::check_region_index_fits(&ctx, &scene, &regions)?;
+    }
     let (reference_image, reference_note, reference_noise) = match given {
         Some((p, px)) => {
             let sidecar: Option<serde_json::Value> = std::fs::read(p.with_extension("json"))

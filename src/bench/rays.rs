@@ -136,6 +136,24 @@ pub struct RayBenchRow {
     pub agreement: f64,
 }
 
+/// The arguments `bench-rays` accepts, checked before any work. Measured before the bounds:
+/// `--width 100000 --height 100000` aborted on a 45 GB allocation, `--triangles 1e8` ran to
+/// 8.8 GB, `--repeats 0` printed rates from nothing. The mesh has the scenes' triangle
+/// limit; 2048² rays of 32 B are lavapipe's 128 MiB storage-buffer limit.
+pub fn check_args(triangles: usize, width: u32, height: u32, repeats: u32) -> Result<()> {
+    use crate::scene::gltf_load::MAX_TRIANGLES;
+    if !(1000..=MAX_TRIANGLES).contains(&triangles) {
+        anyhow::bail!("--triangles {triangles} is out of range: use 1000..={MAX_TRIANGLES}");
+    }
+    if !(1..=2048).contains(&width) || !(1..=2048).contains(&height) {
+        anyhow::bail!("--width/--height {width}×{height} is out of range: use 1..=2048 each");
+    }
+    if !(1..=100).contains(&repeats) {
+        anyhow::bail!("--repeats {repeats} is out of range: use 1..=100");
+    }
+    Ok(())
+}
+
 /// Runs both ray kinds on GPU and CPU; `repeats` timed runs each, best taken.
 pub fn run(
     ctx: &Arc<Context>,

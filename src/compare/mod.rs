@@ -6,7 +6,7 @@ pub mod report;
 
 use std::sync::Arc;
 
-use anyhow::Result;
+use anyhow::{bail, Result};
 use serde::Serialize;
 
 use crate::gpu::Context;
@@ -172,6 +172,12 @@ pub fn compare(
             },
             &mut |spp, f| progress(sampler, spp, f),
         )?;
+        if result.interrupted {
+            bail!(
+                "interrupted (Ctrl-C) while rendering {}; the comparison wrote nothing",
+                sampler.name()
+            );
+        }
         let image = result.mean();
         let m = metrics(&image, reference);
         runs.push(SamplerRun {

@@ -3,7 +3,9 @@
 //!
 //! Cache folder: `$LIGHTLEARN_CACHE`, else `$XDG_CACHE_HOME/lightlearn`, else
 //! `~/.cache/lightlearn`; each entry is `<key>.exr` plus `<key>.json` (the render report,
-//! which records the reference's own estimated error).
+//! which records the reference's own estimated error, and the EXR's checksum: an entry
+//! whose files do not match it is damaged and rendered again, where a damaged entry once
+//! failed every later `compare`).
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -143,6 +145,12 @@ pub fn render_to(
     progress: &mut dyn FnMut(u32, f64),
 ) -> Result<(Vec<[f32; 3]>, serde_json::Value)> {
     let result = render::render(ctx, scene, gpu, settings, progress)?;
+    if result.interrupted {
+        bail!(
+            "interrupted (Ctrl-C) after {} spp; the reference was not written or cached",
+            result.spp
+        );
+    }
     let report = render::report_json(scene, settings, &result, &ctx.describe());
     let image = result.mean();
     film::write_outputs(paths, settings.width, settings.height, &image, &report)?;
@@ -175,10 +183,54 @@ fn cache_paths(scene: &Scene, settings: &RenderSettings) -> (String, OutputPaths
 pub fn store_in_cache(scene: &Scene, settings: &RenderSettings, written: &OutputPaths) {
     let (_, cached) = cache_paths(scene, settings);
     if std::fs::create_dir_all(cache_dir()).is_ok() {
-        for (from, to) in [(&written.exr, &cached.exr), (&written.json, &cached.json)] {
-            let _ = std::fs::read(from).and_then(|b| std::fs::write(to, b));
-        }
+        let _ = std::fs::read(&written.exr)
+            .map_err(anyhow::Error::from)
+            .and_then(|b| crate::io::write_atomic(&cached.exr, &b))
+            .and_then(|_| seal(&written.json, &cached));
     }
+}
+
+/// The key of the EXR's checksum in a cache entry's JSON.
+const CHECKSUM: &str = "cache_exr_fnv1a";
+
+/// Writes the cache entry's JSON: the report at `report_path` plus the checksum of the
+/// entry's EXR as it is on disk (the entry counts as whole only once this is written).
+fn seal(report_path: &std::path::Path, entry: &OutputPaths) -> Result<()> {
+    let mut report: serde_json::Value = serde_json::from_slice(&std::fs::read(report_path)?)?;
+    let sum = crate::learning::stats_file::fnv1a(&std::fs::read(&entry.exr)?);
+    report[CHECKSUM] = serde_json::json!(format!("{sum:016x}"));
+    crate::io::write_atomic(
+        &entry.json,
+        (serde_json::to_string_pretty(&report)? + "\n").as_bytes(),
+    )
+}
+
+/// A cache entry's image and report: None if there is none, an error saying what is wrong
+/// if it is damaged (unreadable, checksum, size, non-finite pixels).
+fn read_entry(
+    paths: &OutputPaths,
+    width: u32,
+    height: u32,
+) -> Result<Option<(Vec<[f32; 3]>, serde_json::Value)>> {
+    if !paths.exr.exists() && !paths.json.exists() {
+        return Ok(None);
+    }
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&paths.json).context("its JSON cannot be read")?)
+            .context("its JSON is damaged")?;
+    let bytes = std::fs::read(&paths.exr).context("its EXR cannot be read")?;
+    let sum = format!("{:016x}", crate::learning::stats_file::fnv1a(&bytes));
+    if report[CHECKSUM].as_str() != Some(sum.as_str()) {
+        bail!("its EXR does not match the checksum in its JSON");
+    }
+    let (w, h, px) = film::read_exr(&paths.exr)?;
+    if (w, h) != (width, height) {
+        bail!("it is {w}×{h}, not {width}×{height}");
+    }
+    if px.iter().flatten().any(|c| !c.is_finite()) {
+        bail!("it holds NaN or Inf pixels");
+    }
+    Ok(Some((px, report)))
 }
 
 /// A reference's own estimated error (variance of its mean), from its JSON report.
@@ -213,13 +265,16 @@ pub fn cached(
             report["estimated_rel_mse_of_mean"].as_f64().unwrap_or(f64::NAN)
         )
     };
-    if paths.exr.exists() && paths.json.exists() {
-        let (w, h, px) = film::read_exr(&paths.exr)?;
-        let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&paths.json)?)?;
-        if (w, h) == (settings.width, settings.height) {
+    match read_entry(&paths, settings.width, settings.height) {
+        Ok(Some((px, report))) => {
             log(format!("using cached reference {}", paths.exr.display()));
             return Ok((px, note(&report), noise(&report)));
         }
+        Ok(None) => {}
+        Err(why) => log(format!(
+            "the cached reference {} is damaged ({why:#}); rendering it again",
+            paths.exr.display()
+        )),
     }
     let dir = cache_dir();
     std::fs::create_dir_all(&dir)
@@ -228,5 +283,7 @@ pub fn cached(
         "rendering the reference once ({spp} spp; cached for later runs)"
     ));
     let (image, report) = render_to(ctx, scene, gpu, settings, &paths, progress)?;
+    seal(&paths.json, &paths)
+        .with_context(|| format!("cannot finish the cache entry '{}'", paths.json.display()))?;
     Ok((image, note(&report), noise(&report)))
 }

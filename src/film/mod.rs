@@ -17,7 +17,8 @@ pub struct OutputPaths {
 }
 
 impl OutputPaths {
-    /// Checks the name and that its folder exists, before any rendering work is done.
+    /// Checks the name and that all three files can be written, before any rendering work
+    /// is done.
     pub fn new(exr: &Path) -> Result<OutputPaths> {
         if exr
             .extension()
@@ -30,12 +31,19 @@ impl OutputPaths {
                 exr.display()
             );
         }
-        crate::io::check_parent(exr)?;
-        Ok(OutputPaths {
+        let paths = OutputPaths {
             exr: exr.to_path_buf(),
             png: exr.with_extension("png"),
             json: exr.with_extension("json"),
-        })
+        };
+        for p in paths.all() {
+            crate::io::check_writable(p)?;
+        }
+        Ok(paths)
+    }
+
+    pub fn all(&self) -> [&Path; 3] {
+        [&self.exr, &self.png, &self.json]
     }
 }
 
@@ -47,24 +55,38 @@ pub fn write_outputs(
     rgb: &[[f32; 3]],
     report: &serde_json::Value,
 ) -> Result<()> {
-    let tmp = [
-        temp_path(&paths.exr),
-        temp_path(&paths.png),
-        temp_path(&paths.json),
-    ];
+    write_outputs_with(paths, width, height, rgb, report, &[])
+}
+
+/// [`write_outputs`] with more files of the same run (`--save-stats`): every file is written
+/// to a temporary first and all are moved into place together ([`crate::io::commit_all`]).
+pub fn write_outputs_with(
+    paths: &OutputPaths,
+    width: u32,
+    height: u32,
+    rgb: &[[f32; 3]],
+    report: &serde_json::Value,
+    extra: &[(&Path, &[u8])],
+) -> Result<()> {
+    let mut files: Vec<(PathBuf, PathBuf)> = paths
+        .all()
+        .iter()
+        .chain(extra.iter().map(|(p, _)| p))
+        .map(|p| (p.to_path_buf(), temp_path(p)))
+        .collect();
     let result = (|| -> Result<()> {
-        write_exr(&tmp[0], width, height, rgb)?;
-        write_png(&tmp[1], width, height, rgb)?;
+        write_exr(&files[0].1, width, height, rgb)?;
+        write_png(&files[1].1, width, height, rgb)?;
         let text = serde_json::to_string_pretty(report)? + "\n";
-        std::fs::write(&tmp[2], text)?;
-        for (t, p) in tmp.iter().zip([&paths.exr, &paths.png, &paths.json]) {
-            std::fs::rename(t, p)
-                .with_context(|| format!("cannot move the result into '{}'", p.display()))?;
+        std::fs::write(&files[2].1, text)?;
+        for ((_, tmp), (_, bytes)) in files[3..].iter().zip(extra) {
+            std::fs::write(tmp, bytes)?;
         }
         Ok(())
-    })();
+    })()
+    .and_then(|_| crate::io::commit_all(&files));
     if result.is_err() {
-        for t in &tmp {
+        for (_, t) in files.drain(..) {
             let _ = std::fs::remove_file(t);
         }
     }

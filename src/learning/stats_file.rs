@@ -2,10 +2,16 @@
 //! cuts they belong to, so a later render (a continuation, the next animation frame, another
 //! machine) starts from what was learned.
 //!
-//! Format (version 1, little-endian): the 8 bytes `LLSTATS\0`, a u32 version, a u32 length
+//! Format (version 2, little-endian): the 8 bytes `LLSTATS\0`, a u32 version, a u32 length
 //! and that many bytes of JSON header (what must match to reuse the statistics), then the
-//! region index (u32 per region), the cuts array (u32) and the totals (`SlotStats`, 32 bytes,
-//! one per cuts entry).
+//! region index (u32 per region), the cuts array (u32), the totals (`SlotStats`, 32 bytes,
+//! one per cuts entry) and an FNV-1a 64 checksum of everything before it. Version 1 is the
+//! same without the checksum (still read).
+//!
+//! A file is checked on load (the checksum, every offset and count) and against the scene
+//! ([`SavedStats::check_cuts`]: every cut covers every light exactly once, every total is
+//! finite and non-negative), so a damaged file is refused by name instead of reaching a
+//! kernel: a flipped bit in a cut once panicked the host and a NaN total reached the image.
 
 use std::path::Path;
 
@@ -15,7 +21,7 @@ use crate::gpu::layout::{GridParams, SlotStats};
 use crate::lights::tree::LightTree;
 
 const MAGIC: &[u8; 8] = b"LLSTATS\0";
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 
 /// What must match between the render that saved and the one that loads.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -33,6 +39,11 @@ pub struct StatsHeader {
     pub grid_dims: [u32; 4],
     pub regions: u32,
     pub cuts_len: u32,
+    /// The cut settings the cuts were built with (absent in files of older versions).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tau: Option<f32>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub k_max: Option<u32>,
 }
 
 #[derive(Clone, Debug)]
@@ -43,14 +54,31 @@ pub struct SavedStats {
     pub stats: Vec<SlotStats>,
 }
 
-/// FNV-1a over the light tree's bytes: equal for the same lights in the same order.
-pub fn scene_fingerprint(tree: &LightTree) -> String {
+/// FNV-1a, 64 bit, of `bytes`.
+pub fn fnv1a(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in bytemuck::cast_slice::<_, u8>(&tree.nodes) {
+    for b in bytes {
         h ^= *b as u64;
         h = h.wrapping_mul(0x100_0000_01b3);
     }
+    h
+}
+
+/// FNV-1a over the light tree's bytes: equal for the same lights in the same order.
+pub fn scene_fingerprint(tree: &LightTree) -> String {
+    let h = fnv1a(bytemuck::cast_slice::<_, u8>(&tree.nodes));
     format!("{h:016x}-{}", tree.order.len())
+}
+
+/// Whether the file at `path` starts like a statistics file of ours (so `--save-stats` may
+/// replace it without `--force`).
+pub fn is_stats_file(path: &Path) -> bool {
+    use std::io::Read;
+    let mut magic = [0u8; 8];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut magic))
+        .is_ok()
+        && &magic == MAGIC
 }
 
 pub fn grid_fields(g: &GridParams) -> ([f32; 4], [u32; 4]) {
@@ -60,11 +88,32 @@ pub fn grid_fields(g: &GridParams) -> ([f32; 4], [u32; 4]) {
     )
 }
 
+/// Fails, before any rendering, unless `--save-stats p` may be written: `p` is none of the
+/// run's inputs or other outputs, and a file already there is a statistics file of ours
+/// (anything else only with `force`). Measured before: `--save-stats` onto the input scene
+/// overwrote it, exit 0.
+pub fn check_save_target(p: &Path, inputs: &[&Path], outputs: &[&Path], force: bool) -> Result<()> {
+    let d = p.display();
+    if inputs.iter().any(|i| crate::io::same_path(p, i)) {
+        bail!("--save-stats '{d}' is the scene this render reads; name another file");
+    }
+    if outputs.iter().any(|o| crate::io::same_path(p, o)) {
+        bail!(
+            "--save-stats '{d}' is also one of this render's images or report; name another file"
+        );
+    }
+    if p.exists() && !p.is_dir() && !is_stats_file(p) && !force {
+        bail!("--save-stats '{d}' exists and is not a lightlearn statistics file; name another file, or add --force to replace it");
+    }
+    crate::io::check_writable(p)
+}
+
 impl SavedStats {
-    pub fn save(&self, path: &Path) -> Result<()> {
-        let header = serde_json::to_vec(&self.header)?;
+    /// The file's bytes.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let header = serde_json::to_vec(&self.header).expect("a header always serialises");
         let mut out = Vec::with_capacity(
-            16 + header.len() + 4 * (self.index.len() + self.cuts.len()) + 32 * self.stats.len(),
+            24 + header.len() + 4 * (self.index.len() + self.cuts.len()) + 32 * self.stats.len(),
         );
         out.extend_from_slice(MAGIC);
         out.extend_from_slice(&VERSION.to_le_bytes());
@@ -73,21 +122,44 @@ impl SavedStats {
         out.extend_from_slice(bytemuck::cast_slice(&self.index));
         out.extend_from_slice(bytemuck::cast_slice(&self.cuts));
         out.extend_from_slice(bytemuck::cast_slice(&self.stats));
-        crate::io::write_atomic(path, &out)
+        let sum = fnv1a(&out);
+        out.extend_from_slice(&sum.to_le_bytes());
+        out
+    }
+
+    /// Writes the file atomically (a temporary file, then a rename).
+    pub fn save(&self, path: &Path) -> Result<()> {
+        crate::io::write_atomic(path, &self.to_bytes())
             .with_context(|| format!("cannot write the statistics file '{}'", path.display()))
     }
 
     pub fn load(path: &Path) -> Result<SavedStats> {
-        let p = path.display();
         let bytes = std::fs::read(path)
-            .with_context(|| format!("cannot read the statistics file '{p}'"))?;
+            .with_context(|| format!("cannot read the statistics file '{}'", path.display()))?;
+        Self::from_bytes(&bytes, &path.display().to_string())
+    }
+
+    /// Parses and checks a file's bytes; `p` names it in errors.
+    pub fn from_bytes(bytes: &[u8], p: &str) -> Result<SavedStats> {
         if bytes.len() < 16 || &bytes[..8] != MAGIC {
             bail!("'{p}' is not a lightlearn statistics file (written by --save-stats)");
         }
         let version = u32::from_le_bytes(bytes[8..12].try_into().unwrap());
-        if version != VERSION {
-            bail!("'{p}' is a version {version} statistics file; this lightlearn reads version {VERSION}: save it again with this version");
+        if version != VERSION && version != 1 {
+            bail!("'{p}' is a version {version} statistics file; this lightlearn reads versions 1 and {VERSION}: save it again with this version");
         }
+        let bytes = if version >= 2 {
+            let Some(body) = bytes.len().checked_sub(8).map(|n| &bytes[..n]) else {
+                bail!("'{p}' is truncated; save it again");
+            };
+            let stored = u64::from_le_bytes(bytes[body.len()..].try_into().unwrap());
+            if body.len() < 16 || fnv1a(body) != stored {
+                bail!("'{p}' is truncated or damaged (its checksum does not match its contents): save it again with --save-stats");
+            }
+            body
+        } else {
+            bytes
+        };
         let hlen = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
         let truncated = || anyhow::anyhow!("'{p}' is truncated or damaged; save it again");
         let hbytes = bytes.get(16..16 + hlen).ok_or_else(truncated)?;
@@ -95,8 +167,9 @@ impl SavedStats {
             .with_context(|| format!("'{p}' has a damaged header; save it again"))?;
         let mut at = 16 + hlen;
         let mut take = |n: usize| -> Result<&[u8]> {
-            let s = bytes.get(at..at + n).ok_or_else(truncated)?;
-            at += n;
+            let end = at.checked_add(n).ok_or_else(truncated)?;
+            let s = bytes.get(at..end).ok_or_else(truncated)?;
+            at = end;
             Ok(s)
         };
         let (r, c) = (header.regions as usize, header.cuts_len as usize);
@@ -109,9 +182,17 @@ impl SavedStats {
                 bytes.len() - at
             );
         }
-        // The cuts must be well formed before a kernel walks them.
-        if let Some(&o) = index.iter().find(|&&o| o as usize >= c) {
-            bail!("'{p}' is damaged: region offset {o} is past its cuts ({c} entries)");
+        // The cuts must be well formed before anything walks them: every region's offset
+        // points at a cut `[count, node…]` that lies inside the array.
+        let cut_fits = |o: u32| {
+            let o = o as usize;
+            o < c && cuts[o] >= 1 && (cuts[o] as usize) < c - o
+        };
+        if c == 0 || !cut_fits(0) {
+            bail!("'{p}' is damaged: its fallback cut is malformed; save it again");
+        }
+        if let Some(&o) = index.iter().find(|&&o| !cut_fits(o)) {
+            bail!("'{p}' is damaged: region offset {o} does not point at a cut inside its {c} entries; save it again");
         }
         Ok(SavedStats {
             header,
@@ -119,6 +200,63 @@ impl SavedStats {
             cuts,
             stats,
         })
+    }
+
+    /// Errors unless every cut of the file is a cut of `tree` (nodes that cover every light
+    /// exactly once, in range order) and every total is a possible one (finite, whole
+    /// non-negative counts, non-negative sums, a positive scale): what a kernel needs to stay
+    /// unbiased and finite. `regions` is the region count of the scene's grid.
+    pub fn check_cuts(&self, tree: &LightTree, regions: u32, path: &Path) -> Result<()> {
+        let p = path.display();
+        let damaged = |what: String| anyhow::anyhow!("'{p}' is damaged: {what}; save it again");
+        if self.index.len() != regions as usize {
+            return Err(damaged(format!(
+                "it has {} regions where the scene's grid has {regions}",
+                self.index.len()
+            )));
+        }
+        let lights = tree.order.len() as u32;
+        let mut offsets: Vec<u32> = self.index.clone();
+        offsets.push(0);
+        offsets.sort_unstable();
+        offsets.dedup();
+        for o in offsets {
+            let o = o as usize;
+            let mut next = 0u32;
+            for &node in &self.cuts[o + 1..o + 1 + self.cuts[o] as usize] {
+                let nd = tree.nodes.get(node as usize).ok_or_else(|| {
+                    damaged(format!("the cut at {o} names light-tree node {node}"))
+                })?;
+                if nd.begin != next {
+                    return Err(damaged(format!(
+                        "the cut at {o} does not cover every light exactly once"
+                    )));
+                }
+                next = nd.begin + nd.count;
+            }
+            if next != lights {
+                return Err(damaged(format!(
+                    "the cut at {o} does not cover every light exactly once"
+                )));
+            }
+        }
+        for (i, s) in self.stats.iter().enumerate() {
+            let count_ok = |n: f32| n >= 0.0 && n.is_finite() && n.fract() == 0.0;
+            let fields = [s.sum, s.sum_sq, s.scale, s.coef_a, s.coef_b, s.coef_c];
+            let ok = count_ok(s.n_zero)
+                && count_ok(s.n_nonzero)
+                && fields.iter().all(|v| v.is_finite())
+                && s.sum >= 0.0
+                && s.sum_sq >= 0.0
+                && s.scale >= 0.0
+                && (s.n_nonzero > 0.0 || s.sum == 0.0 && s.sum_sq == 0.0);
+            if !ok {
+                return Err(damaged(format!(
+                    "statistics entry {i} holds impossible totals ({s:?})"
+                )));
+            }
+        }
+        Ok(())
     }
 
     /// Errors unless these statistics can be used by a render with `want` (every field but the
@@ -148,6 +286,14 @@ impl SavedStats {
                 on_off(want.brdf_aware),
             ),
         ];
+        let mut fields = fields.to_vec();
+        // The cut settings (files of version 1 do not record them).
+        if let (Some(a), Some(b)) = (h.tau, want.tau) {
+            fields.push(("--tau", a.to_string(), b.to_string()));
+        }
+        if let (Some(a), Some(b)) = (h.k_max, want.k_max) {
+            fields.push(("--k-max", a.to_string(), b.to_string()));
+        }
         for (flag, saved, now) in fields {
             if saved != now {
                 bail!("'{p}' was saved with {flag} {saved} but this render uses {flag} {now}; render with {flag} {saved} or drop --load-stats");

@@ -28,14 +28,19 @@ pub struct RegionSettings {
     pub in_cluster_importance: bool,
 }
 
+/// Largest `--grid`: with 6 normal bins a cubic scene has 6·grid³ regions, which must stay
+/// a u32 (grid 895 overflowed it and panicked). Whether the region index also fits the
+/// device's storage buffers depends on the scene's shape: [`largest_grid`].
+pub const MAX_GRID: u32 = 512;
+
 /// Largest `k_max`: the GPU keeps a cut's weights in a local array of this size
 /// (`MAX_CUT` in shaders/shared/regions.glsl).
 pub const MAX_K: u32 = 64;
 
 impl RegionSettings {
     pub fn check(&self) -> anyhow::Result<()> {
-        if !(1..=1024).contains(&self.grid) {
-            anyhow::bail!("--grid {} is out of range: use 1..=1024", self.grid);
+        if !(1..=MAX_GRID).contains(&self.grid) {
+            anyhow::bail!("--grid {} is out of range: use 1..={MAX_GRID}", self.grid);
         }
         if !(1..=MAX_K).contains(&self.k_max) {
             anyhow::bail!("--k-max {} is out of range: use 1..={MAX_K}", self.k_max);
@@ -85,8 +90,13 @@ impl Grid {
     }
 
     pub fn region_count(&self) -> u32 {
-        let d = self.params.dims;
-        d[0] * d[1] * d[2] * self.params.bins
+        u32::try_from(self.region_count_u64()).expect("RegionSettings::check bounds the grid")
+    }
+
+    /// The region count without overflow, for checking a grid before building it.
+    pub fn region_count_u64(&self) -> u64 {
+        let d = self.params.dims.map(u64::from);
+        d[0] * d[1] * d[2] * self.params.bins as u64
     }
 
     /// Region index of (p, n); points outside the bounds clamp to the border cells.
@@ -123,6 +133,26 @@ impl Grid {
         let lo = Vec3::from(g.lo) + Vec3::new(x as f32, y as f32, z as f32) * g.cell;
         (lo + Vec3::splat(0.5 * g.cell), Vec3::splat(0.5 * g.cell))
     }
+}
+
+/// The largest `--grid` (≤ [`MAX_GRID`]) whose region count over [lo, hi] is at most
+/// `max_regions`, or 0 if not even grid 1 fits.
+pub fn largest_grid(lo: Vec3, hi: Vec3, s: &RegionSettings, max_regions: u64) -> u32 {
+    let fits = |g: u32| {
+        let s = RegionSettings { grid: g, ..*s };
+        Grid::new(lo, hi, &s).region_count_u64() <= max_regions
+    };
+    // The region count grows with the grid: binary search the last grid that fits.
+    let (mut ok, mut bad) = (0u32, MAX_GRID + 1);
+    while bad - ok > 1 {
+        let mid = (ok + bad) / 2;
+        if fits(mid) {
+            ok = mid;
+        } else {
+            bad = mid;
+        }
+    }
+    ok
 }
 
 fn node_bounds(n: &LightNode) -> LightBounds {

@@ -11,11 +11,20 @@ use crate::accel::Bvh;
 use crate::gpu::layout::{GpuMaterial, GpuTexture, PixelAccum, RenderParams, MATERIAL_TWO_SIDED};
 use crate::gpu::layout::{SlotDelta, SlotStats};
 use crate::gpu::{kernels, Buffer, ComputePipeline, Context};
-use crate::learning::stats_file::{self, SavedStats, StatsHeader};
-use crate::learning::{LearnDiagnostics, LearnSettings};
+use crate::learning::stats_file::{SavedStats, StatsHeader};
+use crate::learning::LearnSettings;
 use crate::lights;
 use crate::lights::regions::{Cuts, Grid, RegionSettings};
 use crate::scene::Scene;
+
+mod cuts;
+mod result;
+
+pub use cuts::{
+    build_cuts, check_region_index_fits, check_resume, initial_stats, stats_header, BOUNCE_RAYS,
+};
+use result::mean_of;
+pub use result::{Learned, RegionStats, RenderResult};
 
 /// The light samplers, a closed set: one value per `SAMPLER` case in `shaders/render.comp`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -128,101 +137,6 @@ pub struct RenderSettings {
     pub resume: Option<Arc<SavedStats>>,
 }
 
-/// What a render produced: per-pixel sums over `spp` samples.
-pub struct RenderResult {
-    pub width: u32,
-    pub height: u32,
-    pub spp: u32,
-    pub accum: Vec<PixelAccum>,
-    /// Seconds spent in passes (excludes scene upload).
-    pub render_seconds: f64,
-    /// Samples that came out NaN/Inf and were dropped (should be 0).
-    pub invalid_samples: u32,
-    pub regions: RegionStats,
-    /// The learned state at the end (learned samplers only).
-    pub learned: Option<Learned>,
-}
-
-/// What a learned sampler knows at the end of a render.
-pub struct Learned {
-    pub saved: SavedStats,
-    pub diagnostics: LearnDiagnostics,
-}
-
-/// What the regions and cuts of a render cost.
-#[derive(Clone, Copy, Debug, serde::Serialize)]
-pub struct RegionStats {
-    /// Regions with their own cut (the camera reaches them); others use the scene's cut.
-    pub regions_with_cuts: usize,
-    /// Host time to find the regions and build their cuts.
-    pub cut_seconds: f64,
-    /// GPU memory of the region index and the cuts.
-    pub cut_bytes: usize,
-}
-
-impl RenderResult {
-    /// Per-pixel mean (the image).
-    pub fn mean(&self) -> Vec<[f32; 3]> {
-        let inv = 1.0 / self.spp.max(1) as f32;
-        self.accum
-            .iter()
-            .map(|a| [a.sum[0] * inv, a.sum[1] * inv, a.sum[2] * inv])
-            .collect()
-    }
-
-    /// The fraction of the light samples (one per pixel sample that hit a surface) that came
-    /// out zero: occluded, facing away, or a dead end inside a cluster. NaN with no samples.
-    pub fn zero_sample_fraction(&self) -> f64 {
-        let zero: f64 = self.accum.iter().map(|a| a.sum[3] as f64).sum();
-        let all: f64 = self.accum.iter().map(|a| a.sum_sq[3] as f64).sum();
-        zero / all
-    }
-
-    /// Per pixel, the same fraction (0 where the pixel saw no surface): a map of where the
-    /// light samples are wasted.
-    pub fn zero_sample_map(&self) -> Vec<f32> {
-        self.accum
-            .iter()
-            .map(|a| {
-                if a.sum_sq[3] > 0.0 {
-                    a.sum[3] / a.sum_sq[3]
-                } else {
-                    0.0
-                }
-            })
-            .collect()
-    }
-
-    /// The image's own estimated error: mean over pixels and channels of the variance of the
-    /// mean, absolute (an MSE) and relative as relMSE (÷ (mean² + 0.01)).
-    pub fn estimated_error(&self) -> (f64, f64) {
-        let (mut mse, mut rel) = (0f64, 0f64);
-        for (v, m) in self.variance_of_mean().iter().zip(self.mean()) {
-            for k in 0..3 {
-                mse += v[k] as f64;
-                rel += v[k] as f64 / ((m[k] as f64).powi(2) + 0.01);
-            }
-        }
-        let n = (3 * self.accum.len().max(1)) as f64;
-        (mse / n, rel / n)
-    }
-
-    /// Per-pixel variance of the mean (sample variance / spp).
-    pub fn variance_of_mean(&self) -> Vec<[f32; 3]> {
-        let n = self.spp.max(2) as f64;
-        self.accum
-            .iter()
-            .map(|a| {
-                std::array::from_fn(|k| {
-                    let m = a.sum[k] as f64 / n;
-                    let var = ((a.sum_sq[k] as f64 / n - m * m) * n / (n - 1.0)).max(0.0);
-                    (var / n) as f32
-                })
-            })
-            .collect()
-    }
-}
-
 /// Passes are submitted in batches of about this many seconds: long enough that submission
 /// overhead vanishes, short enough for a live progress bar and a tight `--time`.
 pub const PASS_BATCH_SECONDS: f64 = 0.25;
@@ -248,6 +162,9 @@ pub struct GpuScene {
     pub bvh: Bvh,
     pub light_count: u32,
     pub ray_eps: f32,
+    /// What the kernels' results are multiplied by to give radiance: 1 / the factor their
+    /// emission was scaled by ([`lights::emission_scale`]).
+    pub radiance_scale: f32,
     /// Seconds spent building the light tree (reported in the JSON).
     pub light_tree_seconds: f64,
 }
@@ -262,6 +179,7 @@ pub fn ray_epsilon(scene: &Scene) -> f32 {
 
 impl GpuScene {
     pub fn upload(ctx: &Arc<Context>, scene: &Scene, bvh: &Bvh) -> Result<GpuScene> {
+        let emission_scale = lights::emission_scale(scene);
         let materials: Vec<GpuMaterial> = scene
             .materials
             .iter()
@@ -272,7 +190,7 @@ impl GpuScene {
                 } else {
                     0
                 },
-                emission: m.emission.to_array(),
+                emission: (m.emission * emission_scale).to_array(),
                 texture: m.base_color_texture.unwrap_or(u32::MAX),
                 specular_color: m.specular_color.to_array(),
                 specular: m.specular,
@@ -307,10 +225,17 @@ impl GpuScene {
                 .map(|t| [t[0][0], t[0][1], t[1][0], t[1][1], t[2][0], t[2][1]])
                 .collect()
         };
-        let gpu_lights = lights::gpu_lights(scene);
+        let mut gpu_lights = lights::gpu_lights(scene);
+        for l in &mut gpu_lights {
+            l.radiance = l.radiance.map(|c| c * emission_scale);
+        }
         let alias = lights::alias_table(&lights::power_weights(scene));
         let t0 = Instant::now();
-        let tree = lights::tree::LightTree::build(scene);
+        let mut tree = lights::tree::LightTree::build(scene);
+        // Exact (a power of two): the tree's shape and every ratio stay as built.
+        for n in &mut tree.nodes {
+            n.phi *= emission_scale;
+        }
         let light_tree_seconds = t0.elapsed().as_secs_f64();
         Ok(GpuScene {
             nodes: Buffer::from_slice(ctx, "bvh nodes", &bvh.nodes)?,
@@ -330,6 +255,7 @@ impl GpuScene {
             bvh: bvh.clone(),
             light_count: gpu_lights.len() as u32,
             ray_eps: ray_epsilon(scene),
+            radiance_scale: 1.0 / emission_scale,
             light_tree_seconds,
         })
     }
@@ -420,6 +346,9 @@ pub fn render_with_checkpoints(
     settings.regions.check()?;
     settings.learn.check()?;
     let learned = settings.sampler.learned();
+    if settings.sampler.uses_cuts() {
+        check_region_index_fits(ctx, scene, &settings.regions)?;
+    }
     let t0 = Instant::now();
     let cuts = match &settings.resume {
         Some(saved) => {
@@ -511,11 +440,7 @@ pub fn render_with_checkpoints(
     let groups = [w.div_ceil(8), h.div_ceil(8), 1];
     let read_mean = |spp: u32| -> Result<Vec<[f32; 3]>> {
         let data: Vec<PixelAccum> = accum.read()?;
-        let inv = 1.0 / spp.max(1) as f32;
-        Ok(data[..pixels as usize]
-            .iter()
-            .map(|a| [a.sum[0] * inv, a.sum[1] * inv, a.sum[2] * inv])
-            .collect())
+        Ok(mean_of(&data[..pixels as usize], spp, gpu.radiance_scale))
     };
 
     // Checkpoints still ahead, as (seconds, spp) limits; one of the two is infinite.
@@ -527,6 +452,7 @@ pub fn render_with_checkpoints(
     let mut elapsed = 0.0f64; // render clock: passes only
     let mut done = 0u32;
     let mut batch = 1u32;
+    let mut interrupted = false;
     loop {
         let mut k = match settings.budget {
             Budget::Samples(n) => batch.min(n - done),
@@ -578,6 +504,10 @@ pub fn render_with_checkpoints(
                 break;
             }
         }
+        if crate::interrupt::requested() {
+            interrupted = true;
+            break;
+        }
         // Aim the next batch at PASS_BATCH_SECONDS, and never past the next time checkpoint
         // or a time budget's end.
         let per_pass = dt / k as f64;
@@ -627,8 +557,10 @@ pub fn render_with_checkpoints(
         height: h,
         spp: done,
         accum: accum_data[..pixels as usize].to_vec(),
+        radiance_scale: gpu.radiance_scale,
         render_seconds: elapsed,
         invalid_samples: counter_values[0],
+        interrupted,
         regions: RegionStats {
             regions_with_cuts: cuts.built(),
             cut_seconds,
@@ -636,67 +568,6 @@ pub fn render_with_checkpoints(
         },
         learned: learned_state,
     })
-}
-
-/// The header of a statistics file of this scene and these settings with no cuts yet (what
-/// a loaded file must match); [`Cuts`] sizes and the sample count are filled in on saving.
-pub fn stats_header(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) -> StatsHeader {
-    let (lo, hi) = scene.bounds();
-    let grid = Grid::new(lo, hi, &settings.regions);
-    let (grid_params, grid_dims) = stats_file::grid_fields(&grid.params);
-    StatsHeader {
-        scene: stats_file::scene_fingerprint(&gpu.tree),
-        sampler: settings.sampler.name().to_string(),
-        grid: settings.regions.grid,
-        normal_bins: settings.regions.normal_bins,
-        regression: settings.learn.regression,
-        brdf_aware: settings.learn.brdf_aware,
-        samples_done: 0,
-        grid_params,
-        grid_dims,
-        regions: 0,
-        cuts_len: 0,
-    }
-}
-
-/// Bounce rays per pixel that [`build_cuts`] follows to find the regions paths reach.
-pub const BOUNCE_RAYS: u32 = 2;
-
-/// A cosine-distributed direction about the unit normal n.
-fn cosine_direction(n: Vec3, u0: f32, u1: f32) -> Vec3 {
-    let (t, b) = n.any_orthonormal_pair();
-    let r = u0.sqrt();
-    let phi = 2.0 * std::f32::consts::PI * u1;
-    (r * phi.cos() * t + r * phi.sin() * b + (1.0 - u0).max(0.0).sqrt() * n).normalize()
-}
-
-/// Starting totals: no data; the first window's fixed-point scale is the slot's largest
-/// plausible y: Φ/π (y = Î d² ≈ A L cosθ cosθ ≤ Φ/π for a one-sided emitter), ÷ d² to the
-/// region's cell centre without regression (y = Î).
-pub fn initial_stats(
-    tree: &lights::tree::LightTree,
-    cuts: &Cuts,
-    l: &LearnSettings,
-) -> Vec<SlotStats> {
-    let mut stats = vec![SlotStats::default(); cuts.cuts.len()];
-    let mut fill = |o: usize, centre: Option<Vec3>| {
-        for k in 0..cuts.cuts[o] as usize {
-            let nd = &tree.nodes[cuts.cuts[o + 1 + k] as usize];
-            let d2 = match (l.regression, centre) {
-                (false, Some(c)) => crate::learning::node_d2(nd, c),
-                _ => 1.0,
-            };
-            stats[o + 1 + k].scale = (nd.phi * std::f32::consts::FRAC_1_PI / d2).max(1e-30);
-        }
-    };
-    fill(0, None);
-    let mut done = std::collections::HashSet::new();
-    for (r, &o) in cuts.index.iter().enumerate() {
-        if o != 0 && done.insert(o) {
-            fill(o as usize, Some(cuts.grid.cell_box(r as u32).0));
-        }
-    }
-    stats
 }
 
 /// The JSON report written beside every rendered image.
@@ -724,6 +595,7 @@ pub fn report_json(
         "render_seconds": result.render_seconds,
         "device": device,
         "invalid_samples_dropped": result.invalid_samples,
+        "interrupted": result.interrupted,
         "learning": match &result.learned {
             Some(l) => serde_json::json!({
                 "settings": settings.learn,
@@ -754,62 +626,4 @@ pub fn report_json(
         },
         "max_depth": settings.max_depth,
     })
-}
-
-/// The cuts a render uses. For `wang`, `donikian` and `bayes`: one per region the camera's
-/// pixel-centre rays reach (found with the CPU BVH), and when paths go on (`max_depth` ≥ 2)
-/// also the regions where [`BOUNCE_RAYS`] cosine-distributed rays per pixel land, for up to
-/// two bounces: indirect vertices learn only in regions with a cut of their own (measured on
-/// rooms16 at depth 8 without them: 42 % of light samples fell in regions without a cut). A
-/// sample that lands in another region uses the whole-scene cut, which is unbiased, only less
-/// adapted. Other samplers get just the whole-scene cut.
-pub fn build_cuts(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) -> Cuts {
-    let (lo, hi) = scene.bounds();
-    let grid = Grid::new(lo, hi, &settings.regions);
-    let mut reached = Vec::new();
-    if settings.sampler.uses_cuts() {
-        use rayon::prelude::*;
-        let cam = camera_params(scene, settings.width, settings.height);
-        let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
-        let (w, h) = (settings.width, settings.height);
-        let bounces = settings.max_depth.saturating_sub(1).min(2);
-        let eps = gpu.ray_eps;
-        // The first hit of a ray: the point and the normal facing the ray.
-        let hit = |o: Vec3, d: Vec3| -> Option<(Vec3, Vec3)> {
-            let (t, prim) = gpu.bvh.intersect(o, d, 0.0, f32::INFINITY)?;
-            let [a, b, c] = scene.triangles[prim as usize];
-            let ng = (b - a).cross(c - a).normalize();
-            Some((o + t * d, if ng.dot(d) < 0.0 { ng } else { -ng }))
-        };
-        reached = (0..w * h)
-            .into_par_iter()
-            .flat_map_iter(|p| {
-                let x = ((p % w) as f32 + 0.5) / w as f32 * 2.0 - 1.0;
-                let y = 1.0 - ((p / w) as f32 + 0.5) / h as f32 * 2.0;
-                let d = (v(cam.cam_w) + x * v(cam.cam_u) + y * v(cam.cam_v)).normalize();
-                let mut out = Vec::new();
-                if let Some((x0, n0)) = hit(v(cam.cam_pos), d) {
-                    out.push(grid.region(x0, n0));
-                    for k in 0..BOUNCE_RAYS * (bounces > 0) as u32 {
-                        let (mut x, mut n) = (x0, n0);
-                        for b in 0..bounces {
-                            let u = |dim: u32| {
-                                crate::rng::sample_rand(settings.seed ^ 0x5eed, p, k, 2 * b + dim)
-                            };
-                            let dir = cosine_direction(n, u(0), u(1));
-                            let Some((x1, n1)) = hit(x + n * eps, dir) else {
-                                break;
-                            };
-                            out.push(grid.region(x1, n1));
-                            (x, n) = (x1, n1);
-                        }
-                    }
-                }
-                out
-            })
-            .collect();
-        reached.sort_unstable();
-        reached.dedup();
-    }
-    Cuts::build(&gpu.tree, grid, reached, lo, hi, &settings.regions)
 }

@@ -5,6 +5,8 @@
 //! read the same plain arrays.
 
 pub mod families;
+pub mod gltf_check;
+mod gltf_data;
 pub mod gltf_load;
 pub mod gltf_write;
 
@@ -106,7 +108,14 @@ impl Camera {
     }
 
     pub fn look_at(position: Vec3, target: Vec3, up: Vec3, yfov: f32) -> Camera {
-        let forward = (target - position).normalize();
+        Camera::looking(position, target - position, up, yfov)
+    }
+
+    /// A camera at `position` looking along `forward` (a direction, so its precision does
+    /// not depend on how far the camera is from the origin: `look_at(p, p + forward)` turned
+    /// every ray of a scene scaled by 8e6 off its target, a black image).
+    pub fn looking(position: Vec3, forward: Vec3, up: Vec3, yfov: f32) -> Camera {
+        let forward = forward.normalize();
         let right = forward.cross(up).normalize();
         Camera {
             position,

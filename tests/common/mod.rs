@@ -152,3 +152,22 @@ pub fn surface_points(s: &Scene, count: usize, seed: u64) -> Vec<(glam::Vec3, gl
     }
     points
 }
+
+/// Edits the JSON chunk of a .glb.
+pub fn edit_glb(bytes: &[u8], edit: impl FnOnce(&mut serde_json::Value)) -> Vec<u8> {
+    let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let mut json: serde_json::Value = serde_json::from_slice(&bytes[20..20 + len]).unwrap();
+    edit(&mut json);
+    let mut text = serde_json::to_vec(&json).unwrap();
+    while !text.len().is_multiple_of(4) {
+        text.push(b' ');
+    }
+    let rest = &bytes[20 + len..];
+    let mut out = bytes[..8].to_vec();
+    out.extend_from_slice(&((20 + text.len() + rest.len()) as u32).to_le_bytes());
+    out.extend_from_slice(&(text.len() as u32).to_le_bytes());
+    out.extend_from_slice(&bytes[16..20]);
+    out.extend_from_slice(&text);
+    out.extend_from_slice(rest);
+    out
+}

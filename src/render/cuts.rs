@@ -1,0 +1,175 @@
+//! The learned state's structure for a render: which regions get cuts (those the camera's
+//! rays and their bounces reach), their starting statistics, the statistics-file header, and
+//! the checks of loaded statistics and of the region index's size.
+
+use anyhow::{bail, Result};
+use glam::Vec3;
+
+use super::{camera_params, GpuScene, RenderSettings};
+use crate::gpu::layout::SlotStats;
+use crate::gpu::Context;
+use crate::learning::stats_file::{self, SavedStats, StatsHeader};
+use crate::learning::LearnSettings;
+use crate::lights;
+use crate::lights::regions::{Cuts, Grid, RegionSettings};
+use crate::scene::Scene;
+
+/// Checks statistics loaded from `path` before a render starts from them: same scene and
+/// settings ([`SavedStats::check_matches`]) and cuts and totals that are whole
+/// ([`SavedStats::check_cuts`]).
+pub fn check_resume(
+    scene: &Scene,
+    gpu: &GpuScene,
+    settings: &RenderSettings,
+    saved: &SavedStats,
+    path: &std::path::Path,
+) -> Result<()> {
+    saved.check_matches(&stats_header(scene, gpu, settings), path)?;
+    let (lo, hi) = scene.bounds();
+    let regions = Grid::new(lo, hi, &settings.regions).region_count();
+    saved.check_cuts(&gpu.tree, regions, path)
+}
+
+/// Errors, naming `--grid` and the largest grid that fits, when the region index (4 bytes a
+/// region) would not fit one storage buffer of this device (lavapipe: 128 MiB).
+pub fn check_region_index_fits(
+    ctx: &Context,
+    scene: &Scene,
+    regions: &RegionSettings,
+) -> Result<()> {
+    let (lo, hi) = scene.bounds();
+    let count = Grid::new(lo, hi, regions).region_count_u64();
+    let max_bytes = ctx.properties.limits.max_storage_buffer_range as u64;
+    if 4 * count > max_bytes {
+        let g = lights::regions::largest_grid(lo, hi, regions, max_bytes / 4);
+        bail!(
+            "--grid {} gives this scene {count} regions, whose index ({} MiB) exceeds this device's storage-buffer limit of {} MiB; use --grid {g} or less{}",
+            regions.grid,
+            (4 * count) >> 20,
+            max_bytes >> 20,
+            if regions.normal_bins { " (or --normal-bins off)" } else { "" }
+        );
+    }
+    Ok(())
+}
+
+/// The header of a statistics file of this scene and these settings with no cuts yet (what
+/// a loaded file must match); [`Cuts`] sizes and the sample count are filled in on saving.
+pub fn stats_header(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) -> StatsHeader {
+    let (lo, hi) = scene.bounds();
+    let grid = Grid::new(lo, hi, &settings.regions);
+    let (grid_params, grid_dims) = stats_file::grid_fields(&grid.params);
+    StatsHeader {
+        scene: stats_file::scene_fingerprint(&gpu.tree),
+        sampler: settings.sampler.name().to_string(),
+        grid: settings.regions.grid,
+        normal_bins: settings.regions.normal_bins,
+        regression: settings.learn.regression,
+        brdf_aware: settings.learn.brdf_aware,
+        samples_done: 0,
+        grid_params,
+        grid_dims,
+        regions: 0,
+        cuts_len: 0,
+        tau: Some(settings.regions.tau),
+        k_max: Some(settings.regions.k_max),
+    }
+}
+
+/// Bounce rays per pixel that [`build_cuts`] follows to find the regions paths reach.
+pub const BOUNCE_RAYS: u32 = 2;
+
+/// A cosine-distributed direction about the unit normal n.
+fn cosine_direction(n: Vec3, u0: f32, u1: f32) -> Vec3 {
+    let (t, b) = n.any_orthonormal_pair();
+    let r = u0.sqrt();
+    let phi = 2.0 * std::f32::consts::PI * u1;
+    (r * phi.cos() * t + r * phi.sin() * b + (1.0 - u0).max(0.0).sqrt() * n).normalize()
+}
+
+/// Starting totals: no data; the first window's fixed-point scale is the slot's largest
+/// plausible y: Φ/π (y = Î d² ≈ A L cosθ cosθ ≤ Φ/π for a one-sided emitter), ÷ d² to the
+/// region's cell centre without regression (y = Î).
+pub fn initial_stats(
+    tree: &lights::tree::LightTree,
+    cuts: &Cuts,
+    l: &LearnSettings,
+) -> Vec<SlotStats> {
+    let mut stats = vec![SlotStats::default(); cuts.cuts.len()];
+    let mut fill = |o: usize, centre: Option<Vec3>| {
+        for k in 0..cuts.cuts[o] as usize {
+            let nd = &tree.nodes[cuts.cuts[o + 1 + k] as usize];
+            let d2 = match (l.regression, centre) {
+                (false, Some(c)) => crate::learning::node_d2(nd, c),
+                _ => 1.0,
+            };
+            stats[o + 1 + k].scale = (nd.phi * std::f32::consts::FRAC_1_PI / d2).max(1e-30);
+        }
+    };
+    fill(0, None);
+    let mut done = std::collections::HashSet::new();
+    for (r, &o) in cuts.index.iter().enumerate() {
+        if o != 0 && done.insert(o) {
+            fill(o as usize, Some(cuts.grid.cell_box(r as u32).0));
+        }
+    }
+    stats
+}
+
+/// The cuts a render uses. For `wang`, `donikian` and `bayes`: one per region the camera's
+/// pixel-centre rays reach (found with the CPU BVH), and when paths go on (`max_depth` ≥ 2)
+/// also the regions where [`BOUNCE_RAYS`] cosine-distributed rays per pixel land, for up to
+/// two bounces: indirect vertices learn only in regions with a cut of their own (measured on
+/// rooms16 at depth 8 without them: 42 % of light samples fell in regions without a cut). A
+/// sample that lands in another region uses the whole-scene cut, which is unbiased, only less
+/// adapted. Other samplers get just the whole-scene cut.
+pub fn build_cuts(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) -> Cuts {
+    let (lo, hi) = scene.bounds();
+    let grid = Grid::new(lo, hi, &settings.regions);
+    let mut reached = Vec::new();
+    if settings.sampler.uses_cuts() {
+        use rayon::prelude::*;
+        let cam = camera_params(scene, settings.width, settings.height);
+        let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+        let (w, h) = (settings.width, settings.height);
+        let bounces = settings.max_depth.saturating_sub(1).min(2);
+        let eps = gpu.ray_eps;
+        // The first hit of a ray: the point and the normal facing the ray.
+        let hit = |o: Vec3, d: Vec3| -> Option<(Vec3, Vec3)> {
+            let (t, prim) = gpu.bvh.intersect(o, d, 0.0, f32::INFINITY)?;
+            let [a, b, c] = scene.triangles[prim as usize];
+            let ng = (b - a).cross(c - a).normalize();
+            Some((o + t * d, if ng.dot(d) < 0.0 { ng } else { -ng }))
+        };
+        reached = (0..w * h)
+            .into_par_iter()
+            .flat_map_iter(|p| {
+                let x = ((p % w) as f32 + 0.5) / w as f32 * 2.0 - 1.0;
+                let y = 1.0 - ((p / w) as f32 + 0.5) / h as f32 * 2.0;
+                let d = (v(cam.cam_w) + x * v(cam.cam_u) + y * v(cam.cam_v)).normalize();
+                let mut out = Vec::new();
+                if let Some((x0, n0)) = hit(v(cam.cam_pos), d) {
+                    out.push(grid.region(x0, n0));
+                    for k in 0..BOUNCE_RAYS * (bounces > 0) as u32 {
+                        let (mut x, mut n) = (x0, n0);
+                        for b in 0..bounces {
+                            let u = |dim: u32| {
+                                crate::rng::sample_rand(settings.seed ^ 0x5eed, p, k, 2 * b + dim)
+                            };
+                            let dir = cosine_direction(n, u(0), u(1));
+                            let Some((x1, n1)) = hit(x + n * eps, dir) else {
+                                break;
+                            };
+                            out.push(grid.region(x1, n1));
+                            (x, n) = (x1, n1);
+                        }
+                    }
+                }
+                out
+            })
+            .collect();
+        reached.sort_unstable();
+        reached.dedup();
+    }
+    Cuts::build(&gpu.tree, grid, reached, lo, hi, &settings.regions)
+}

@@ -1,0 +1,123 @@
+//! Checks of a glTF document that the `gltf` crate does not make before it indexes with them:
+//! it panicked on a POSITION accessor index out of range (in its own validation) and on
+//! float-typed indices (`unreachable!` in its reader). Each problem becomes one line naming
+//! the element and the fix; the crate's validation runs only after these pass.
+
+use anyhow::{bail, Result};
+use gltf::json::accessor::{ComponentType, GenericComponentType, Type};
+use gltf::json::validation::{Checked, Validate};
+use gltf::json::Root;
+
+/// Every reference a mesh primitive makes (attribute and index accessors, their buffer views
+/// and buffers, its material) points at an element that exists, and index accessors are
+/// unsigned integer scalars; then the crate's own validation.
+pub fn check(root: &Root, name: &str) -> Result<()> {
+    let accessors = root.accessors.len();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let at = format!("'{name}': mesh {m} primitive {p}");
+            let mut used: Vec<(String, usize)> = prim
+                .attributes
+                .iter()
+                .map(|(k, v)| (format!("attribute {}", k.to_string()), v.value()))
+                .collect();
+            if let Some(i) = &prim.indices {
+                used.push(("indices".to_string(), i.value()));
+            }
+            for (what, a) in &used {
+                if *a >= accessors {
+                    bail!("{at}: {what} names accessor {a}, but the file has {accessors}; fix the index or export the file again");
+                }
+                check_accessor(root, *a, &at)?;
+            }
+            if let Some(i) = &prim.indices {
+                let acc = &root.accessors[i.value()];
+                let unsigned = matches!(
+                    acc.component_type,
+                    Checked::Valid(GenericComponentType(
+                        ComponentType::U8 | ComponentType::U16 | ComponentType::U32
+                    ))
+                );
+                if !unsigned || acc.type_ != Checked::Valid(Type::Scalar) {
+                    bail!("{at}: its index accessor {} is not a scalar of unsigned bytes, shorts or ints (glTF 2.0 §3.7.2.1); export the file again", i.value());
+                }
+            }
+            if let Some(mat) = &prim.material {
+                if mat.value() >= root.materials.len() {
+                    bail!(
+                        "{at} names material {}, but the file has {}; fix the index",
+                        mat.value(),
+                        root.materials.len()
+                    );
+                }
+            }
+        }
+    }
+    check_node_cycles(root, name)?;
+    let mut errors = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |path, e| {
+        errors.push(format!("{}: {e}", path()))
+    });
+    if !errors.is_empty() {
+        bail!(
+            "'{name}' is not a valid glTF 2.0 file: {}. Export it again or check it with the Khronos glTF validator.",
+            errors.join("; ")
+        );
+    }
+    Ok(())
+}
+
+fn check_accessor(root: &Root, a: usize, at: &str) -> Result<()> {
+    let Some(view) = &root.accessors[a].buffer_view else {
+        return Ok(());
+    };
+    let Some(v) = root.buffer_views.get(view.value()) else {
+        bail!(
+            "{at}: accessor {a} names buffer view {}, but the file has {}; fix the index",
+            view.value(),
+            root.buffer_views.len()
+        );
+    };
+    if v.buffer.value() >= root.buffers.len() {
+        bail!(
+            "{at}: buffer view {} names buffer {}, but the file has {}; fix the index",
+            view.value(),
+            v.buffer.value(),
+            root.buffers.len()
+        );
+    }
+    Ok(())
+}
+
+/// glTF node hierarchies are trees (glTF 2.0 §3.5.3): a node that is its own ancestor is
+/// named (before, a cycle was walked until the triangle limit and reported as a huge scene).
+fn check_node_cycles(root: &Root, name: &str) -> Result<()> {
+    // 0: not seen, 1: on the current path, 2: done. Iterative depth-first search.
+    let mut state = vec![0u8; root.nodes.len()];
+    for start in 0..root.nodes.len() {
+        if state[start] != 0 {
+            continue;
+        }
+        let mut stack = vec![(start, 0usize)];
+        state[start] = 1;
+        while let Some((n, next)) = stack.last_mut() {
+            let children = root.nodes[*n].children.as_deref().unwrap_or(&[]);
+            let Some(c) = children.get(*next) else {
+                state[*n] = 2;
+                stack.pop();
+                continue;
+            };
+            *next += 1;
+            let c = c.value();
+            match state.get(c) {
+                Some(1) => bail!("'{name}': node {c} is its own ancestor (a cycle in the nodes' `children`); a glTF node hierarchy must be a tree"),
+                Some(0) => {
+                    state[c] = 1;
+                    stack.push((c, 0));
+                }
+                _ => {} // done already, or out of range (the crate's validation names it)
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,461 @@
+//! Hostile but realistic use of the binary: each test is one way a user lost work, saw a
+//! panic or got a silent wrong answer before, and checks the clear refusal (one line, exit
+//! 1, nothing written) or the kept work that replaced it.
+
+mod common;
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn scene(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name)
+}
+
+fn run(args: &[&str], dir: &Path, env: &[(&str, &str)]) -> Output {
+    Command::new(common::exe())
+        .args(args)
+        .current_dir(dir)
+        .envs(env.iter().copied())
+        .output()
+        .expect("run lightlearn")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The run failed with exit 1 and one `error:` line holding every piece of `wants`.
+fn refused(o: &Output, wants: &[&str]) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "should fail with exit 1: {err}");
+    assert!(!err.contains("panicked"), "panicked: {err}");
+    let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "one error line expected: {err}");
+    for w in wants {
+        assert!(errors[0].contains(w), "'{w}' missing from: {err}");
+    }
+}
+
+fn files(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+const TINY: &[&str] = &[
+    "--width",
+    "16",
+    "--height",
+    "12",
+    "--spp",
+    "2",
+    "--max-depth",
+    "1",
+    "-q",
+];
+
+fn render(extra: &[&str]) -> Vec<String> {
+    let mut v: Vec<String> = ["render"].iter().map(|s| s.to_string()).collect();
+    v.extend(extra.iter().map(|s| s.to_string()));
+    v.extend(TINY.iter().map(|s| s.to_string()));
+    v
+}
+
+fn run_render(extra: &[&str], dir: &Path) -> Output {
+    let args = render(extra);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    run(&args, dir, &[])
+}
+
+#[test]
+fn save_stats_never_replaces_the_scene_an_output_or_a_foreign_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(scene("cornell.glb"), d.join("mine.glb")).unwrap();
+    let original = std::fs::read(d.join("mine.glb")).unwrap();
+    std::fs::write(d.join("notes.txt"), "my notes").unwrap();
+
+    let o = run_render(
+        &["mine.glb", "--save-stats", "mine.glb", "--out", "m.exr"],
+        d,
+    );
+    refused(&o, &["mine.glb", "the scene this render reads"]);
+    let o = run_render(
+        &["mine.glb", "--save-stats", "./o.exr", "--out", "o.exr"],
+        d,
+    );
+    refused(&o, &["o.exr", "images or report"]);
+    let o = run_render(&["mine.glb", "--save-stats", "a.json", "--out", "a.exr"], d);
+    refused(&o, &["a.json", "images or report"]);
+    let o = run_render(
+        &["mine.glb", "--save-stats", "notes.txt", "--out", "n.exr"],
+        d,
+    );
+    refused(
+        &o,
+        &["notes.txt", "not a lightlearn statistics file", "--force"],
+    );
+    assert_eq!(std::fs::read(d.join("mine.glb")).unwrap(), original);
+    assert_eq!(std::fs::read(d.join("notes.txt")).unwrap(), b"my notes");
+    assert_eq!(files(d), ["mine.glb", "notes.txt"], "nothing else written");
+
+    // A statistics file of ours is replaced; with --force a foreign one too.
+    for _ in 0..2 {
+        let o = run_render(
+            &["mine.glb", "--save-stats", "s.stats", "--out", "s.exr"],
+            d,
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let o = run_render(
+        &[
+            "mine.glb",
+            "--save-stats",
+            "notes.txt",
+            "--force",
+            "--out",
+            "f.exr",
+        ],
+        d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::read(d.join("notes.txt"))
+        .unwrap()
+        .starts_with(b"LLSTATS"));
+}
+
+#[test]
+fn grids_beyond_their_range_or_the_device_are_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cornell = scene("cornell.glb");
+    let c = cornell.to_str().unwrap();
+    // 6·895³ overflowed u32 and panicked in src/lights/regions.rs.
+    let o = run_render(&[c, "--grid", "895", "--out", "g.exr"], d);
+    refused(&o, &["--grid 895", "1..=512"]);
+    // In range, but the region index exceeds lavapipe's 128 MiB buffers: the advice names
+    // --grid and the largest grid that fits (a cube: 6·177³·4 B ≤ 128 MiB).
+    let o = run_render(&[c, "--grid", "300", "--out", "g.exr"], d);
+    if o.status.success() {
+        eprintln!("note: this device holds the grid-300 region index; the limit is not tested");
+    } else {
+        refused(&o, &["--grid 300", "use --grid 177 or less"]);
+    }
+    let o = run(
+        &[
+            "compare",
+            c,
+            "--samplers",
+            "bayes",
+            "--grid",
+            "1000",
+            "--spp",
+            "1",
+            "--out",
+            "cmp",
+        ],
+        d,
+        &[],
+    );
+    refused(&o, &["--grid 1000"]);
+    assert!(files(d).is_empty(), "nothing written: {:?}", files(d));
+}
+
+#[test]
+fn malformed_gltf_gives_one_line_and_no_panic_text() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cornell = std::fs::read(scene("cornell.glb")).unwrap();
+    let cases: Vec<(&str, Vec<u8>, &[&str])> = vec![
+        (
+            "position.glb",
+            common::edit_glb(&cornell, |j| {
+                j["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = 999.into()
+            }),
+            &["POSITION", "accessor 999"],
+        ),
+        (
+            "floatindex.glb",
+            common::edit_glb(&cornell, |j| {
+                let a = j["meshes"][0]["primitives"][0]["indices"].as_u64().unwrap();
+                j["accessors"][a as usize]["componentType"] = 5126.into();
+            }),
+            &["index accessor", "unsigned"],
+        ),
+        (
+            "cycle.glb",
+            common::edit_glb(&cornell, |j| {
+                j["nodes"][0]["children"] = serde_json::json!([0]);
+            }),
+            &["node 0", "cycle"],
+        ),
+    ];
+    for (name, bytes, wants) in cases {
+        std::fs::write(d.join(name), bytes).unwrap();
+        let o = run_render(&[name, "--out", "out.exr"], d);
+        let mut w = vec![name];
+        w.extend_from_slice(wants);
+        refused(&o, &w);
+        assert!(
+            !stderr(&o).contains("index out of bounds") && !stderr(&o).contains("unreachable"),
+            "{}",
+            stderr(&o)
+        );
+    }
+    assert!(!d.join("out.exr").exists());
+}
+
+#[test]
+fn spot_cone_angles_out_of_range_are_named_in_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut g = lightlearn::scene::gltf_write::GltfBuilder::new();
+    let m = g.material("grey", glam::Vec3::splat(0.5), glam::Vec3::ZERO, false);
+    g.cuboid("box", glam::Vec3::ZERO, glam::Vec3::ONE, m);
+    g.spot_light(
+        "wide",
+        glam::Vec3::new(0.5, 3.0, 0.5),
+        glam::Vec3::NEG_Y,
+        glam::Vec3::ONE,
+        10.0,
+        0.2,
+        0.4,
+    );
+    let bytes = common::edit_glb(&g.to_glb(), |j| {
+        let spot = &mut j["extensions"]["KHR_lights_punctual"]["lights"][0]["spot"];
+        spot["innerConeAngle"] = 1.2.into();
+        spot["outerConeAngle"] = 2.0.into();
+    });
+    std::fs::write(d.join("spot.glb"), bytes).unwrap();
+    let o = run_render(&["spot.glb", "--out", "s.exr"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(
+        err.contains("warning:") && err.contains("'wide'") && err.contains("outer 2"),
+        "{err}"
+    );
+}
+
+#[test]
+fn loaded_statistics_refuse_other_cut_settings() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = run_render(&["--save-stats", "a.stats", "--out", "a.exr"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for (flag, value) in [("--k-max", "4"), ("--tau", "0.5")] {
+        let o = run_render(
+            &["--load-stats", "a.stats", flag, value, "--out", "b.exr"],
+            d,
+        );
+        refused(&o, &["a.stats", flag, "drop --load-stats"]);
+    }
+    let o = run_render(&["--load-stats", "a.stats", "--out", "b.exr"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn outputs_are_checked_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("folder.exr")).unwrap();
+    std::fs::create_dir(d.join("b.png")).unwrap();
+    // A long budget: the refusal must come before any rendering.
+    let t = Instant::now();
+    let o = run(
+        &["render", "--out", "folder.exr", "--spp", "100000", "-q"],
+        d,
+        &[],
+    );
+    refused(&o, &["folder.exr", "is a folder"]);
+    let o = run(
+        &["render", "--out", "b.exr", "--spp", "100000", "-q"],
+        d,
+        &[],
+    );
+    refused(&o, &["b.png", "is a folder"]);
+    assert!(
+        t.elapsed() < Duration::from_secs(60),
+        "refused only after rendering"
+    );
+    assert_eq!(files(d), ["b.png", "folder.exr"]);
+}
+
+#[test]
+fn a_damaged_cached_reference_is_rendered_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cache = d.join("cache");
+    let env = [("LIGHTLEARN_CACHE", cache.to_str().unwrap())];
+    let args = [
+        "compare",
+        "--samplers",
+        "wang",
+        "--spp",
+        "2",
+        "--reference-spp",
+        "4",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--max-depth",
+        "1",
+        "--out",
+        "c",
+    ];
+    let o = run(&args, d, &env);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let exr = std::fs::read_dir(&cache)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "exr"))
+        .unwrap();
+    let good = std::fs::read(&exr).unwrap();
+    // A flipped byte inside the pixel data, and a truncated file.
+    let mut flipped = good.clone();
+    let at = flipped.len() - 40;
+    flipped[at] ^= 0x40;
+    for damaged in [flipped, good[..good.len() / 2].to_vec()] {
+        std::fs::write(&exr, damaged).unwrap();
+        let o = run(&args, d, &env);
+        let err = stderr(&o);
+        assert!(o.status.success(), "{err}");
+        assert!(
+            err.contains("is damaged") && err.contains("rendering it again"),
+            "{err}"
+        );
+        assert_eq!(std::fs::read(&exr).unwrap().len(), good.len());
+        let again = run(&args, d, &env);
+        assert!(
+            stderr(&again).contains("using cached reference"),
+            "{}",
+            stderr(&again)
+        );
+    }
+}
+
+#[test]
+fn bench_rays_checks_its_arguments() {
+    let d = Path::new(".");
+    for (args, want) in [
+        (
+            &["--width", "100000", "--height", "100000"][..],
+            "--width/--height",
+        ),
+        (&["--triangles", "100000000"][..], "--triangles 100000000"),
+        (&["--repeats", "0"][..], "--repeats 0"),
+    ] {
+        let mut a = vec!["bench-rays"];
+        a.extend_from_slice(args);
+        refused(&run(&a, d, &[]), &[want, "out of range"]);
+    }
+}
+
+#[test]
+fn ctrl_c_writes_the_samples_so_far() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut child = Command::new(common::exe())
+        .args([
+            "render",
+            "--time",
+            "60",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--out",
+            "r.exr",
+            "--save-stats",
+            "r.stats",
+        ])
+        .current_dir(d)
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The scene line comes just before the passes start.
+    let mut err = BufReader::new(child.stderr.take().unwrap());
+    let mut line = String::new();
+    err.read_line(&mut line).unwrap();
+    assert!(line.contains("device"), "{line}");
+    std::thread::sleep(Duration::from_millis(1500));
+    let t = Instant::now();
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let status = child.wait().unwrap();
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut err, &mut rest).unwrap();
+    assert!(t.elapsed() < Duration::from_secs(20), "did not stop soon");
+    assert_eq!(status.code(), Some(1), "{rest}");
+    assert!(
+        rest.contains("interrupted") && rest.contains("r.exr"),
+        "{rest}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("r.json")).unwrap()).unwrap();
+    assert_eq!(report["interrupted"], true);
+    let spp = report["spp"].as_u64().unwrap();
+    assert!(spp >= 1, "{report}");
+    assert!(report["render_seconds"].as_f64().unwrap() < 30.0);
+    let (w, h, px) = lightlearn::film::read_exr(&d.join("r.exr")).unwrap();
+    assert_eq!((w, h), (32, 24));
+    assert!(px.iter().flatten().any(|&v| v > 0.0));
+    assert!(d.join("r.png").exists() && d.join("r.stats").exists());
+    assert!(
+        !files(d).iter().any(|f| f.ends_with(".tmp")),
+        "{:?}",
+        files(d)
+    );
+}
+
+/// Damaged inputs through the command line: a statistics file with one flipped bit and
+/// glTF files with changed bytes that the loader refuses end in exit 1, one error line and
+/// no output (the in-process fuzzing of tests/hostile_data.rs covers hundreds of cases).
+#[test]
+fn fuzzed_inputs_fail_cleanly_through_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = run_render(&["--save-stats", "good.stats", "--out", "good.exr"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let stats = std::fs::read(d.join("good.stats")).unwrap();
+    let glb = std::fs::read(scene("cornell.glb")).unwrap();
+    let mut rng = lightlearn::rng::SplitMix64(21);
+    let mut glb_cases = 0;
+    for case in 0..40 {
+        let mut b = stats.clone();
+        let at = (rng.next_u64() % b.len() as u64) as usize;
+        b[at] ^= 1 << (rng.next_u64() % 8);
+        std::fs::write(d.join("bad.stats"), &b).unwrap();
+        if case < 6 {
+            let o = run_render(&["--load-stats", "bad.stats", "--out", "out.exr"], d);
+            refused(&o, &["bad.stats"]);
+        }
+        // A glTF change the loader refuses (many flips land in vertex data and load).
+        let mut g = glb.clone();
+        let at = (rng.next_u64() % 2000) as usize; // the JSON chunk and its neighbourhood
+        g[at] = rng.next_u64() as u8;
+        std::fs::write(d.join("bad.glb"), &g).unwrap();
+        let p = d.join("bad.glb");
+        if glb_cases < 6 && lightlearn::scene::gltf_load::load(&p, &mut |_| {}).is_err() {
+            glb_cases += 1;
+            let o = run_render(&["bad.glb", "--out", "out.exr"], d);
+            refused(&o, &["bad.glb"]);
+        }
+    }
+    assert!(glb_cases >= 3, "only {glb_cases} refused glTF cases");
+    let left: Vec<String> = files(d)
+        .into_iter()
+        .filter(|f| f.starts_with("out") || f.ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+}
