@@ -5,7 +5,7 @@
 use anyhow::{bail, Result};
 use glam::Vec3;
 
-use super::{camera_params, GpuScene, RenderSettings};
+use super::{camera_vectors, GpuScene, RenderSettings};
 use crate::gpu::layout::SlotStats;
 use crate::gpu::Context;
 use crate::learning::stats_file::{self, SavedStats, StatsHeader};
@@ -123,13 +123,18 @@ pub fn initial_stats(
 /// rooms16 at depth 8 without them: 42 % of light samples fell in regions without a cut). A
 /// sample that lands in another region uses the whole-scene cut, which is unbiased, only less
 /// adapted. Other samplers get just the whole-scene cut.
-pub fn build_cuts(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) -> Cuts {
+pub fn build_cuts(
+    scene: &Scene,
+    gpu: &GpuScene,
+    settings: &RenderSettings,
+    camera: &crate::scene::Camera,
+) -> Cuts {
     let (lo, hi) = scene.bounds();
     let grid = Grid::new(lo, hi, &settings.regions);
     let mut reached = Vec::new();
     if settings.sampler.uses_cuts() {
         use rayon::prelude::*;
-        let cam = camera_params(scene, settings.width, settings.height);
+        let cam = camera_vectors(camera, settings.width, settings.height);
         let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
         let (w, h) = (settings.width, settings.height);
         let bounces = settings.max_depth.saturating_sub(1).min(2);

@@ -8,23 +8,23 @@ use anyhow::{bail, Result};
 use glam::Vec3;
 
 use crate::accel::Bvh;
-use crate::gpu::layout::{GpuMaterial, GpuTexture, PixelAccum, RenderParams, MATERIAL_TWO_SIDED};
-use crate::gpu::layout::{SlotDelta, SlotStats};
-use crate::gpu::{kernels, Buffer, ComputePipeline, Context};
-use crate::learning::stats_file::{SavedStats, StatsHeader};
+use crate::gpu::layout::{GpuMaterial, GpuTexture, RenderParams, MATERIAL_TWO_SIDED};
+use crate::gpu::{Buffer, Context};
+use crate::learning::stats_file::SavedStats;
 use crate::learning::LearnSettings;
 use crate::lights;
-use crate::lights::regions::{Cuts, Grid, RegionSettings};
+use crate::lights::regions::RegionSettings;
 use crate::scene::Scene;
 
 mod cuts;
 mod result;
+mod session;
 
 pub use cuts::{
     build_cuts, check_region_index_fits, check_resume, initial_stats, stats_header, BOUNCE_RAYS,
 };
-use result::mean_of;
 pub use result::{Learned, RegionStats, RenderResult};
+pub use session::Session;
 
 /// The light samplers, a closed set: one value per `SAMPLER` case in `shaders/render.comp`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -261,9 +261,13 @@ impl GpuScene {
     }
 }
 
-/// Camera vectors in the form `render.comp` takes.
+/// The scene camera's vectors in the form `render.comp` takes.
 pub fn camera_params(scene: &Scene, width: u32, height: u32) -> RenderParams {
-    let c = &scene.camera;
+    camera_vectors(&scene.camera, width, height)
+}
+
+/// A camera's vectors in the form `render.comp` takes.
+pub fn camera_vectors(c: &crate::scene::Camera, width: u32, height: u32) -> RenderParams {
     let tan = (0.5 * c.yfov).tan();
     let aspect = width as f32 / height as f32;
     let right = c.forward.cross(c.up).normalize();
@@ -332,128 +336,17 @@ pub fn render_with_checkpoints(
     on_checkpoint: &mut dyn FnMut(Checkpoint) -> Result<()>,
     progress: &mut dyn FnMut(u32, f64),
 ) -> Result<RenderResult> {
-    let (w, h) = (settings.width, settings.height);
-    if w == 0 || h == 0 || w > 16384 || h > 16384 {
-        bail!("image size {w}×{h} is out of range; use 1..=16384 for --width and --height");
-    }
-    let pixels = w as u64 * h as u64;
-    let accum = Buffer::zeroed(
-        ctx,
-        "pixel accumulators",
-        pixels * std::mem::size_of::<PixelAccum>() as u64,
-    )?;
-    let counters = Buffer::zeroed(ctx, "counters", 16)?;
-    settings.regions.check()?;
-    settings.learn.check()?;
-    let learned = settings.sampler.learned();
-    if settings.sampler.uses_cuts() {
-        check_region_index_fits(ctx, scene, &settings.regions)?;
-    }
-    let t0 = Instant::now();
-    let cuts = match &settings.resume {
-        Some(saved) => {
-            let (lo, hi) = scene.bounds();
-            let grid = Grid::new(lo, hi, &settings.regions);
-            Cuts::from_parts(
-                grid,
-                saved.index.clone(),
-                saved.cuts.clone(),
-                settings.regions.in_cluster_importance,
-            )
-        }
-        None => build_cuts(scene, gpu, settings),
-    };
-    let cut_seconds = t0.elapsed().as_secs_f64();
-    let region_buffers = (
-        Buffer::from_slice(ctx, "region grid", &[cuts.grid.params])?,
-        Buffer::from_slice(ctx, "region index", &cuts.index)?,
-        Buffer::from_slice(ctx, "cuts", &cuts.cuts)?,
-    );
-    // Learned statistics, one entry per cuts entry (1 dummy entry for the other samplers).
-    let stats0: Vec<SlotStats> = match (&settings.resume, learned) {
-        (Some(saved), true) => saved.stats.clone(),
-        (None, true) => initial_stats(&gpu.tree, &cuts, &settings.learn),
-        (_, false) => vec![SlotStats::default()],
-    };
-    let slot_count = stats0.len() as u32;
-    let stats = Buffer::from_slice(ctx, "learned statistics", &stats0)?;
-    let delta = Buffer::zeroed(
-        ctx,
-        "learning window sums",
-        slot_count as u64 * std::mem::size_of::<SlotDelta>() as u64,
-    )?;
-    let learn_params =
-        Buffer::from_slice(ctx, "learning parameters", &[settings.learn.gpu_params()])?;
-    let pipeline = ComputePipeline::new(
-        ctx,
-        "render",
-        kernels::RENDER,
-        21,
-        std::mem::size_of::<RenderParams>() as u32,
-        &[
-            settings.sampler.shader_id(),
-            settings.regions.in_cluster_importance as u32,
-        ],
-    )?;
-    pipeline.bind(&[
-        &gpu.nodes,
-        &gpu.tris,
-        &gpu.tri_material,
-        &gpu.materials,
-        &gpu.lights,
-        &gpu.alias,
-        &accum,
-        &counters,
-        &gpu.light_nodes,
-        &gpu.light_order,
-        &region_buffers.0,
-        &region_buffers.1,
-        &region_buffers.2,
-        &stats,
-        &delta,
-        &learn_params,
-        &gpu.light_position,
-        &gpu.tri_light,
-        &gpu.textures,
-        &gpu.texels,
-        &gpu.tri_uv,
-    ])?;
-    let fold = ComputePipeline::new(ctx, "fold", kernels::FOLD, 3, 8, &[])?;
-    fold.bind(&[&stats, &delta, &learn_params])?;
-    let fold_groups = [slot_count.div_ceil(64), 1, 1];
-    let first_sample = settings
-        .resume
-        .as_ref()
-        .map_or(0, |s| s.header.samples_done);
-    let update_every = settings.learn.update_every;
-    let (fold_all, fold_touched) = ([slot_count, 1u32], [slot_count, 0u32]);
-    if learned {
-        // The weight coefficients of fresh or loaded statistics (under this render's settings).
-        ctx.submit(|cmd| fold.dispatch(cmd, bytemuck::cast_slice(&fold_all), fold_groups))?;
-    }
-    let mut params = camera_params(scene, w, h);
-    params.seed = settings.seed;
-    params.light_count = gpu.light_count;
-    params.ray_eps = gpu.ray_eps;
-    params.stratified = settings.stratified as u32;
-    params.max_depth = settings.max_depth;
-    let groups = [w.div_ceil(8), h.div_ceil(8), 1];
-    let read_mean = |spp: u32| -> Result<Vec<[f32; 3]>> {
-        let data: Vec<PixelAccum> = accum.read()?;
-        Ok(mean_of(&data[..pixels as usize], spp, gpu.radiance_scale))
-    };
-
+    let mut session = Session::new(ctx, scene, gpu, settings)?;
     // Checkpoints still ahead, as (seconds, spp) limits; one of the two is infinite.
     let mut pending: std::collections::VecDeque<(f64, u32)> = match checkpoints {
         Checkpoints::None => Default::default(),
         Checkpoints::Seconds(t) => t.iter().map(|&t| (t, u32::MAX)).collect(),
         Checkpoints::Samples(n) => n.iter().map(|&n| (f64::INFINITY, n)).collect(),
     };
-    let mut elapsed = 0.0f64; // render clock: passes only
-    let mut done = 0u32;
     let mut batch = 1u32;
     let mut interrupted = false;
     loop {
+        let (done, elapsed) = (session.spp(), session.film_seconds());
         let mut k = match settings.budget {
             Budget::Samples(n) => batch.min(n - done),
             Budget::Seconds(_) => batch,
@@ -466,23 +359,8 @@ pub fn render_with_checkpoints(
         if k == 0 {
             break;
         }
-        let t0 = Instant::now();
-        ctx.submit(|cmd| {
-            for i in 0..k {
-                params.sample_index = first_sample + done + i;
-                pipeline.dispatch(cmd, bytemuck::bytes_of(&params), groups);
-                ctx.barrier(cmd);
-                // Posteriors stay frozen for a whole pass: each pass's samples depend only
-                // on earlier passes, so the average of passes stays unbiased.
-                if learned && (params.sample_index + 1).is_multiple_of(update_every) {
-                    fold.dispatch(cmd, bytemuck::cast_slice(&fold_touched), fold_groups);
-                    ctx.barrier(cmd);
-                }
-            }
-        })?;
-        let dt = t0.elapsed().as_secs_f64();
-        done += k;
-        elapsed += dt;
+        let dt = session.run_passes(k)?;
+        let (done, elapsed) = (session.spp(), elapsed + dt);
         let fraction = match settings.budget {
             Budget::Samples(n) => done as f64 / n as f64,
             Budget::Seconds(s) => (elapsed / s).min(1.0),
@@ -496,7 +374,7 @@ pub fn render_with_checkpoints(
             on_checkpoint(Checkpoint {
                 spp: done,
                 seconds: elapsed,
-                mean: read_mean(done)?,
+                mean: session.image()?,
             })?;
         }
         if let Budget::Seconds(s) = settings.budget {
@@ -520,54 +398,9 @@ pub fn render_with_checkpoints(
         }
         batch = ((target / per_pass.max(1e-9)) as u32).clamp(1, MAX_PASSES_PER_BATCH);
     }
-    let accum_data: Vec<PixelAccum> = accum.read()?;
-    let counter_values = counters.read::<u32>()?;
-    let learned_state = if learned {
-        // Fold what is left of the last window, so the saved statistics hold every sample.
-        if !(first_sample + done).is_multiple_of(update_every) {
-            ctx.submit(|cmd| fold.dispatch(cmd, bytemuck::cast_slice(&fold_touched), fold_groups))?;
-        }
-        let totals: Vec<SlotStats> = stats.read()?;
-        let diagnostics = crate::learning::diagnostics(
-            &cuts.cuts,
-            &cuts.offsets,
-            &totals,
-            &settings.learn,
-            counter_values[1] as u64,
-        );
-        Some(Learned {
-            saved: SavedStats {
-                header: StatsHeader {
-                    samples_done: first_sample + done,
-                    regions: cuts.index.len() as u32,
-                    cuts_len: cuts.cuts.len() as u32,
-                    ..stats_header(scene, gpu, settings)
-                },
-                index: cuts.index.clone(),
-                cuts: cuts.cuts.clone(),
-                stats: totals,
-            },
-            diagnostics,
-        })
-    } else {
-        None
-    };
-    Ok(RenderResult {
-        width: w,
-        height: h,
-        spp: done,
-        accum: accum_data[..pixels as usize].to_vec(),
-        radiance_scale: gpu.radiance_scale,
-        render_seconds: elapsed,
-        invalid_samples: counter_values[0],
-        interrupted,
-        regions: RegionStats {
-            regions_with_cuts: cuts.built(),
-            cut_seconds,
-            cut_bytes: 4 * (cuts.index.len() + cuts.cuts.len()),
-        },
-        learned: learned_state,
-    })
+    let mut result = session.result()?;
+    result.interrupted = interrupted;
+    Ok(result)
 }
 
 /// The JSON report written beside every rendered image.

@@ -1,0 +1,402 @@
+//! The render session: one object per (scene, device) that `render`, `compare` and
+//! `reference` drive (and the preview, animation and farm are to drive), holding three
+//! lifetimes (docs: architecture in the README):
+//!
+//! - the **scene** (`GpuScene`, borrowed: uploaded once);
+//! - the **learned state**: grid, region index, cuts, statistics and window sums, and the
+//!   learning pass counter [`Session::passes`], which never goes back;
+//! - the **film**: accumulators and counters, and its sample count, reset by
+//!   [`Session::reset_film`], [`Session::set_camera`] and [`Session::resize`].
+//!
+//! The camera is an input: [`Session::set_camera`] replaces it and resets the film, the
+//! learning stays (regions live in world space).
+//!
+//! Random numbers: every pass draws from the stream of its *learning* pass index, never of
+//! the film's sample count. A film reset therefore never replays a stream the statistics
+//! were learned from (the weights of a pass would then depend on its own random numbers:
+//! a bias), and a `--load-stats` continuation goes on exactly where the saved render
+//! stopped (tested bit for bit in tests/learning.rs).
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{bail, Result};
+
+use super::cuts::{build_cuts, check_region_index_fits, initial_stats, stats_header};
+use super::result::mean_of;
+use super::{camera_vectors, GpuScene, Learned, RegionStats, RenderResult, RenderSettings};
+use crate::gpu::layout::{PixelAccum, RenderParams, SlotDelta, SlotStats};
+use crate::gpu::{kernels, Buffer, ComputePipeline, Context};
+use crate::learning::stats_file::{SavedStats, StatsHeader};
+use crate::lights::regions::{Cuts, Grid};
+use crate::scene::{Camera, Scene};
+
+/// Bindings of `render.comp` (set 0), in order.
+const RENDER_BINDINGS: u32 = 21;
+
+/// The learned state: regions, cuts and statistics (GPU buffers and the host's copy of the
+/// cuts), and the learning pass counter.
+struct LearnedState {
+    cuts: Cuts,
+    grid: Buffer,
+    index: Buffer,
+    cuts_buf: Buffer,
+    stats: Buffer,
+    delta: Buffer,
+    params: Buffer,
+    slots: u32,
+    /// Passes learned from, including a loaded file's (the next pass's sample index).
+    passes: u32,
+    cut_seconds: f64,
+}
+
+/// The film: per-pixel sums and counters since the last reset.
+struct Film {
+    width: u32,
+    height: u32,
+    accum: Buffer,
+    /// [0]: samples dropped as NaN/Inf; [1]: learned samples in regions without a cut.
+    counters: Buffer,
+    spp: u32,
+    /// Seconds spent in passes since the reset.
+    seconds: f64,
+}
+
+impl Film {
+    fn new(ctx: &Arc<Context>, width: u32, height: u32) -> Result<Film> {
+        if width == 0 || height == 0 || width > 16384 || height > 16384 {
+            bail!("image size {width}×{height} is out of range; use 1..=16384 for --width and --height");
+        }
+        let pixels = width as u64 * height as u64;
+        Ok(Film {
+            width,
+            height,
+            accum: Buffer::zeroed(
+                ctx,
+                "pixel accumulators",
+                pixels * std::mem::size_of::<PixelAccum>() as u64,
+            )?,
+            counters: Buffer::zeroed(ctx, "counters", 16)?,
+            spp: 0,
+            seconds: 0.0,
+        })
+    }
+
+    fn pixels(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+}
+
+/// One scene on one device with its learned state and film; see the module comment.
+pub struct Session<'a> {
+    ctx: Arc<Context>,
+    scene: &'a Scene,
+    gpu: &'a GpuScene,
+    settings: RenderSettings,
+    camera: Camera,
+    learned: LearnedState,
+    film: Film,
+    render: ComputePipeline,
+    fold: ComputePipeline,
+}
+
+impl<'a> Session<'a> {
+    /// A session with the scene's own camera; `settings.resume` starts from loaded
+    /// statistics (their cuts and sample count), else the cuts are built for the regions
+    /// the camera's rays reach. `settings.budget` is not used (the caller's loop decides).
+    pub fn new(
+        ctx: &Arc<Context>,
+        scene: &'a Scene,
+        gpu: &'a GpuScene,
+        settings: &RenderSettings,
+    ) -> Result<Session<'a>> {
+        settings.regions.check()?;
+        settings.learn.check()?;
+        let film = Film::new(ctx, settings.width, settings.height)?;
+        if settings.sampler.uses_cuts() {
+            check_region_index_fits(ctx, scene, &settings.regions)?;
+        }
+        let learned = LearnedState::new(ctx, scene, gpu, settings, &scene.camera)?;
+        let render = ComputePipeline::new(
+            ctx,
+            "render",
+            kernels::RENDER,
+            RENDER_BINDINGS,
+            std::mem::size_of::<RenderParams>() as u32,
+            &[
+                settings.sampler.shader_id(),
+                settings.regions.in_cluster_importance as u32,
+            ],
+        )?;
+        let fold = ComputePipeline::new(ctx, "fold", kernels::FOLD, 3, 8, &[])?;
+        let session = Session {
+            ctx: ctx.clone(),
+            scene,
+            gpu,
+            settings: settings.clone(),
+            camera: scene.camera,
+            learned,
+            film,
+            render,
+            fold,
+        };
+        session.bind()?;
+        if session.is_learning() {
+            // The weight coefficients of fresh or loaded statistics (under these settings).
+            session.fold_all(true)?;
+        }
+        Ok(session)
+    }
+
+    fn is_learning(&self) -> bool {
+        self.settings.sampler.learned()
+    }
+
+    fn bind(&self) -> Result<()> {
+        let (g, l, f) = (self.gpu, &self.learned, &self.film);
+        self.render.bind(&[
+            &g.nodes,
+            &g.tris,
+            &g.tri_material,
+            &g.materials,
+            &g.lights,
+            &g.alias,
+            &f.accum,
+            &f.counters,
+            &g.light_nodes,
+            &g.light_order,
+            &l.grid,
+            &l.index,
+            &l.cuts_buf,
+            &l.stats,
+            &l.delta,
+            &l.params,
+            &g.light_position,
+            &g.tri_light,
+            &g.textures,
+            &g.texels,
+            &g.tri_uv,
+        ])?;
+        self.fold.bind(&[&l.stats, &l.delta, &l.params])
+    }
+
+    /// Folds the window into the totals: every slot (`force`: also recomputes the
+    /// coefficients of slots with an empty window) or those the window touched.
+    fn fold_all(&self, force: bool) -> Result<()> {
+        let push = [self.learned.slots, force as u32];
+        let groups = [self.learned.slots.div_ceil(64), 1, 1];
+        self.ctx
+            .submit(|cmd| self.fold.dispatch(cmd, bytemuck::cast_slice(&push), groups))
+    }
+
+    /// The push constants of the next pass.
+    fn pass_params(&self) -> RenderParams {
+        let mut p = camera_vectors(&self.camera, self.film.width, self.film.height);
+        p.seed = self.settings.seed;
+        p.light_count = self.gpu.light_count;
+        p.ray_eps = self.gpu.ray_eps;
+        p.stratified = self.settings.stratified as u32;
+        p.max_depth = self.settings.max_depth;
+        p.sample_index = self.learned.passes;
+        p
+    }
+
+    /// Runs `k` passes (one sample per pixel each) in one submission; returns their seconds.
+    /// The posteriors stay frozen within a pass and are folded every `--update-every`
+    /// passes: each pass's samples depend only on earlier passes, so the average of passes
+    /// is unbiased.
+    pub fn run_passes(&mut self, k: u32) -> Result<f64> {
+        let mut params = self.pass_params();
+        let groups = [self.film.width.div_ceil(8), self.film.height.div_ceil(8), 1];
+        let learning = self.is_learning();
+        let update_every = self.settings.learn.update_every;
+        let fold_push = [self.learned.slots, 0u32];
+        let fold_groups = [self.learned.slots.div_ceil(64), 1, 1];
+        let t0 = Instant::now();
+        self.ctx.submit(|cmd| {
+            for i in 0..k {
+                params.sample_index = self.learned.passes + i;
+                self.render
+                    .dispatch(cmd, bytemuck::bytes_of(&params), groups);
+                self.ctx.barrier(cmd);
+                if learning && (params.sample_index + 1).is_multiple_of(update_every) {
+                    self.fold
+                        .dispatch(cmd, bytemuck::cast_slice(&fold_push), fold_groups);
+                    self.ctx.barrier(cmd);
+                }
+            }
+        })?;
+        let dt = t0.elapsed().as_secs_f64();
+        self.learned.passes += k;
+        self.film.spp += k;
+        self.film.seconds += dt;
+        Ok(dt)
+    }
+
+    /// Samples per pixel in the film.
+    pub fn spp(&self) -> u32 {
+        self.film.spp
+    }
+
+    /// Passes learned from, a loaded file's included; never goes back.
+    pub fn passes(&self) -> u32 {
+        self.learned.passes
+    }
+
+    /// Seconds spent in passes since the film was reset.
+    pub fn film_seconds(&self) -> f64 {
+        self.film.seconds
+    }
+
+    pub fn camera(&self) -> Camera {
+        self.camera
+    }
+
+    /// The film's mean image (radiance), read back now.
+    pub fn image(&self) -> Result<Vec<[f32; 3]>> {
+        let data: Vec<PixelAccum> = self.film.accum.read()?;
+        Ok(mean_of(
+            &data[..self.film.pixels()],
+            self.film.spp,
+            self.gpu.radiance_scale,
+        ))
+    }
+
+    /// Clears the film (image, counters, its sample count); the learning stays.
+    pub fn reset_film(&mut self) -> Result<()> {
+        self.film.accum.clear()?;
+        self.film.counters.clear()?;
+        self.film.spp = 0;
+        self.film.seconds = 0.0;
+        Ok(())
+    }
+
+    /// A new camera: the film is reset, the learning stays.
+    pub fn set_camera(&mut self, camera: Camera) -> Result<()> {
+        self.camera = camera;
+        self.reset_film()
+    }
+
+    /// A new image size: a new, empty film; the learning stays.
+    pub fn resize(&mut self, width: u32, height: u32) -> Result<()> {
+        self.film = Film::new(&self.ctx, width, height)?;
+        self.settings.width = width;
+        self.settings.height = height;
+        self.bind()
+    }
+
+    /// The learned statistics with their regions and cuts, as a file would hold them
+    /// (learned samplers only). Folds what is left of the current window first, so the
+    /// totals hold every sample.
+    pub fn snapshot(&self) -> Result<Option<SavedStats>> {
+        if !self.is_learning() {
+            return Ok(None);
+        }
+        if !self
+            .learned
+            .passes
+            .is_multiple_of(self.settings.learn.update_every)
+        {
+            self.fold_all(false)?;
+        }
+        let cuts = &self.learned.cuts;
+        Ok(Some(SavedStats {
+            header: StatsHeader {
+                samples_done: self.learned.passes,
+                regions: cuts.index.len() as u32,
+                cuts_len: cuts.cuts.len() as u32,
+                ..stats_header(self.scene, self.gpu, &self.settings)
+            },
+            index: cuts.index.clone(),
+            cuts: cuts.cuts.clone(),
+            stats: self.learned.stats.read()?,
+        }))
+    }
+
+    /// What the film holds, with the learned state's diagnostics (the render result).
+    pub fn result(&self) -> Result<RenderResult> {
+        let accum: Vec<PixelAccum> = self.film.accum.read()?;
+        let counters = self.film.counters.read::<u32>()?;
+        let learned = match self.snapshot()? {
+            Some(saved) => Some(Learned {
+                diagnostics: crate::learning::diagnostics(
+                    &saved.cuts,
+                    &self.learned.cuts.offsets,
+                    &saved.stats,
+                    &self.settings.learn,
+                    counters[1] as u64,
+                ),
+                saved,
+            }),
+            None => None,
+        };
+        let cuts = &self.learned.cuts;
+        Ok(RenderResult {
+            width: self.film.width,
+            height: self.film.height,
+            spp: self.film.spp,
+            accum: accum[..self.film.pixels()].to_vec(),
+            radiance_scale: self.gpu.radiance_scale,
+            render_seconds: self.film.seconds,
+            invalid_samples: counters[0],
+            interrupted: false,
+            regions: RegionStats {
+                regions_with_cuts: cuts.built(),
+                cut_seconds: self.learned.cut_seconds,
+                cut_bytes: 4 * (cuts.index.len() + cuts.cuts.len()),
+            },
+            learned,
+        })
+    }
+}
+
+impl LearnedState {
+    fn new(
+        ctx: &Arc<Context>,
+        scene: &Scene,
+        gpu: &GpuScene,
+        settings: &RenderSettings,
+        camera: &Camera,
+    ) -> Result<LearnedState> {
+        let t0 = Instant::now();
+        let cuts = match &settings.resume {
+            Some(saved) => {
+                let (lo, hi) = scene.bounds();
+                Cuts::from_parts(
+                    Grid::new(lo, hi, &settings.regions),
+                    saved.index.clone(),
+                    saved.cuts.clone(),
+                    settings.regions.in_cluster_importance,
+                )
+            }
+            None => build_cuts(scene, gpu, settings, camera),
+        };
+        let cut_seconds = t0.elapsed().as_secs_f64();
+        // One entry per cuts entry (1 dummy entry for the samplers that do not learn).
+        let stats: Vec<SlotStats> = match (&settings.resume, settings.sampler.learned()) {
+            (Some(saved), true) => saved.stats.clone(),
+            (None, true) => initial_stats(&gpu.tree, &cuts, &settings.learn),
+            (_, false) => vec![SlotStats::default()],
+        };
+        let slots = stats.len() as u32;
+        Ok(LearnedState {
+            grid: Buffer::from_slice(ctx, "region grid", &[cuts.grid.params])?,
+            index: Buffer::from_slice(ctx, "region index", &cuts.index)?,
+            cuts_buf: Buffer::from_slice(ctx, "cuts", &cuts.cuts)?,
+            stats: Buffer::from_slice(ctx, "learned statistics", &stats)?,
+            delta: Buffer::zeroed(
+                ctx,
+                "learning window sums",
+                slots as u64 * std::mem::size_of::<SlotDelta>() as u64,
+            )?,
+            params: Buffer::from_slice(ctx, "learning parameters", &[settings.learn.gpu_params()])?,
+            slots,
+            passes: settings
+                .resume
+                .as_ref()
+                .map_or(0, |s| s.header.samples_done),
+            cuts,
+            cut_seconds,
+        })
+    }
+}
