@@ -50,7 +50,19 @@ layout(std430, set = 0, binding = 18) readonly buffer Textures { GpuTexture text
 layout(std430, set = 0, binding = 19) readonly buffer Texels { uint texels[]; };
 layout(std430, set = 0, binding = 20) readonly buffer TriUv { float tri_uv[]; };
 
+// Regions without a cut of their own that samples reached, for the host to build cuts for
+// between frames: [0] counts newly set bits, then one bit per region.
+layout(std430, set = 0, binding = 21) buffer MissingRegions { uint missing_regions[]; };
+
 layout(push_constant) uniform Push { RenderParams params; };
+
+void flag_missing_region(uint r) {
+    uint word = 1u + (r >> 5u);
+    uint bit = 1u << (r & 31u);
+    if ((missing_regions[word] & bit) != 0u) return;
+    if ((atomicOr(missing_regions[word], bit) & bit) == 0u) atomicAdd(missing_regions[0], 1u);
+}
+#define FLAG_MISSING_REGIONS
 
 #include "bvh.glsl"
 #include "lights.glsl"

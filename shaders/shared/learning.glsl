@@ -115,7 +115,7 @@ float learned_weights(uint o, vec3 p, vec3 n, float brdf, out float cv_total) {
 // here); both 0 otherwise.
 uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint slot,
                     out float p_slot, out float d2, out float cv_total, out float cv_chosen) {
-    uint o = region_index[region_of(p, n)];
+    uint o = region_cut(p, n);
     uint count = cuts[o];
     bool regression = (learn[0].flags & LEARN_REGRESSION) != 0u;
     const bool cv = SAMPLER == SAMPLER_BAYES && (learn[0].flags & LEARN_CONTROL_VARIATES) != 0u;

@@ -20,6 +20,18 @@ uint region_of(vec3 p, vec3 n) {
     return flat_cell * g.bins + bin;
 }
 
+// The offset in `cuts` of the cut of the region of (p, n) (0: the shared fallback). A kernel
+// that defines FLAG_MISSING_REGIONS (render.comp) also reports a region that has no cut yet,
+// so the host builds one between frames (src/render/session.rs).
+uint region_cut(vec3 p, vec3 n) {
+    uint r = region_of(p, n);
+    uint o = region_index[r];
+#ifdef FLAG_MISSING_REGIONS
+    if (o == 0u) flag_missing_region(r);
+#endif
+    return o;
+}
+
 #define MAX_CUT 64  // RegionSettings::k_max is checked against it
 
 // The weights of the current cut's slots (filled by the sampler that calls pick_in_cut).
@@ -87,7 +99,7 @@ float wang_weights(uint o, vec3 p, vec3 n) {
 }
 
 uint sample_wang(vec3 p, vec3 n, float u, out float pmf) {
-    uint o = region_index[region_of(p, n)];
+    uint o = region_cut(p, n);
     uint count = cuts[o];
     float total = wang_weights(o, p, n);
     pmf = 0.0;

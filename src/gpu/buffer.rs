@@ -132,6 +132,63 @@ impl Buffer {
         })
     }
 
+    /// Copies the first `min(size)` bytes of `src` into this buffer (GPU to GPU).
+    pub fn copy_from(&self, src: &Buffer) -> Result<()> {
+        let region = [vk::BufferCopy::default().size(self.size.min(src.size))];
+        self.ctx.submit(|cmd| unsafe {
+            self.ctx
+                .device
+                .cmd_copy_buffer(cmd, src.raw, self.raw, &region)
+        })
+    }
+
+    /// Copies `bytes` into the buffer at byte `offset` through a staging buffer.
+    pub fn write_at(&self, offset: u64, bytes: &[u8]) -> Result<()> {
+        if bytes.is_empty() {
+            return Ok(());
+        }
+        let mut staging = Buffer::new(
+            &self.ctx,
+            "staging upload",
+            bytes.len() as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
+        staging.mapped_mut()?[..bytes.len()].copy_from_slice(bytes);
+        let region = [vk::BufferCopy::default()
+            .dst_offset(offset)
+            .size(bytes.len() as u64)];
+        self.ctx.submit(|cmd| unsafe {
+            self.ctx
+                .device
+                .cmd_copy_buffer(cmd, staging.raw, self.raw, &region)
+        })
+    }
+
+    /// Reads the first `count` `T`s back.
+    pub fn read_first<T: Pod>(&self, count: usize) -> Result<Vec<T>> {
+        let bytes = (count * std::mem::size_of::<T>()) as u64;
+        assert!(bytes <= self.size, "read past the end of a buffer");
+        let staging = Buffer::new(
+            &self.ctx,
+            "staging readback",
+            bytes.max(4),
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
+        let region = [vk::BufferCopy::default().size(bytes.max(4))];
+        self.ctx.submit(|cmd| unsafe {
+            self.ctx
+                .device
+                .cmd_copy_buffer(cmd, self.raw, staging.raw, &region)
+        })?;
+        let mapped = staging.mapped()?;
+        let n = std::mem::size_of::<T>();
+        Ok((0..count)
+            .map(|i| bytemuck::pod_read_unaligned(&mapped[i * n..(i + 1) * n]))
+            .collect())
+    }
+
     /// Reads the whole buffer back as `T`s.
     pub fn read<T: Pod>(&self) -> Result<Vec<T>> {
         let staging = Buffer::new(

@@ -259,6 +259,71 @@ impl SavedStats {
         Ok(())
     }
 
+    /// The statistics learned by `parts` together (renders of one scene with the same
+    /// settings: other seeds, other machines, other cameras). Every region with a cut in any
+    /// part gets that cut (a pure function of the region, the light tree and the settings, so
+    /// parts that share a region have the same cut, which is checked) and the sum of the
+    /// parts' totals: counts and sums add (in f64, rounded once), the window scale becomes
+    /// the merged root mean square as `fold.comp` sets it, and the weight coefficients are
+    /// recomputed when the file is loaded. `samples_done` is the parts' total. Parts of
+    /// another scene or other settings are refused naming the field.
+    pub fn merge(parts: &[(SavedStats, String)]) -> Result<SavedStats> {
+        let Some(((first, first_name), rest)) = parts.split_first() else {
+            bail!("nothing to merge: give at least one statistics file");
+        };
+        for (p, name) in rest {
+            p.check_matches(&first.header, Path::new(name))
+                .with_context(|| format!("cannot merge '{name}' with '{first_name}'"))?;
+            if p.index.len() != first.index.len() {
+                bail!("'{name}' has {} regions but '{first_name}' has {}; they were saved for other region grids", p.index.len(), first.index.len());
+            }
+        }
+        let cut_of = |s: &SavedStats, o: u32| {
+            let o = o as usize;
+            s.cuts[o..o + 1 + s.cuts[o] as usize].to_vec()
+        };
+        for (p, name) in rest {
+            if cut_of(p, 0) != cut_of(first, 0) {
+                bail!("'{name}' has another fallback cut than '{first_name}': other settings or lights; save both with the same version and settings");
+            }
+        }
+        let mut cuts = cut_of(first, 0);
+        let mut stats = first.stats[..cuts.len()].to_vec();
+        let mut index = vec![0u32; first.index.len()];
+        for (r, slot) in index.iter_mut().enumerate() {
+            let holders: Vec<&(SavedStats, String)> =
+                parts.iter().filter(|(p, _)| p.index[r] != 0).collect();
+            let Some(((h, _), others)) = holders.split_first() else {
+                continue;
+            };
+            let cut = cut_of(h, h.index[r]);
+            for (p, name) in others {
+                if cut_of(p, p.index[r]) != cut {
+                    bail!("'{name}' has another cut for region {r} than '{first_name}': other cut settings; they cannot be merged");
+                }
+            }
+            *slot = cuts.len() as u32;
+            for k in 0..cut.len() {
+                let slots: Vec<&SlotStats> = holders
+                    .iter()
+                    .map(|(p, _)| &p.stats[p.index[r] as usize + k])
+                    .collect();
+                stats.push(if k == 0 { *slots[0] } else { sum_slots(&slots) });
+            }
+            cuts.extend_from_slice(&cut);
+        }
+        let mut header = first.header.clone();
+        header.samples_done = parts.iter().map(|(p, _)| p.header.samples_done).sum();
+        header.regions = index.len() as u32;
+        header.cuts_len = cuts.len() as u32;
+        Ok(SavedStats {
+            header,
+            index,
+            cuts,
+            stats,
+        })
+    }
+
     /// Errors unless these statistics can be used by a render with `want` (every field but the
     /// sample count and sizes must match), naming the field and the fix.
     pub fn check_matches(&self, want: &StatsHeader, path: &Path) -> Result<()> {
@@ -315,4 +380,20 @@ fn pod_vec<T: bytemuck::Pod>(bytes: &[u8]) -> Vec<T> {
     let mut v = vec![T::zeroed(); bytes.len() / std::mem::size_of::<T>()];
     bytemuck::cast_slice_mut::<T, u8>(&mut v).copy_from_slice(bytes);
     v
+}
+
+/// The totals of several parts' copies of one slot, added.
+fn sum_slots(slots: &[&SlotStats]) -> SlotStats {
+    let add = |f: fn(&SlotStats) -> f32| slots.iter().map(|s| f(s) as f64).sum::<f64>() as f32;
+    let mut s = SlotStats {
+        n_zero: add(|s| s.n_zero),
+        n_nonzero: add(|s| s.n_nonzero),
+        sum: add(|s| s.sum),
+        sum_sq: add(|s| s.sum_sq),
+        ..*slots[0]
+    };
+    if s.sum_sq > 0.0 && s.n_nonzero > 0.0 {
+        s.scale = (s.sum_sq / s.n_nonzero).sqrt();
+    }
+    s
 }

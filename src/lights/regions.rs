@@ -288,6 +288,33 @@ impl Cuts {
         }
     }
 
+    /// Builds and appends the cuts of `regions` that have none yet (regions a moved camera
+    /// or a later sample reached), in the order given; returns (region, offset) of each new
+    /// cut. A cut is a pure function of its region, the tree and the settings, so where the
+    /// new cuts are appended changes no sample.
+    pub fn append(
+        &mut self,
+        tree: &LightTree,
+        regions: &[u32],
+        s: &RegionSettings,
+    ) -> Vec<(u32, u32)> {
+        let mut added = Vec::new();
+        for &r in regions {
+            if self.index[r as usize] != 0 {
+                continue;
+            }
+            let (c, h) = self.grid.cell_box(r);
+            let cut = build_cut(tree, c, h, s);
+            let offset = self.cuts.len() as u32;
+            self.cuts.push(cut.len() as u32);
+            self.cuts.extend(&cut);
+            self.index[r as usize] = offset;
+            self.offsets.push(offset);
+            added.push((r, offset));
+        }
+        added
+    }
+
     /// Cuts read back from a statistics file (`--load-stats`).
     pub fn from_parts(
         grid: Grid,

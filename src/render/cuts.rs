@@ -96,24 +96,36 @@ pub fn initial_stats(
     l: &LearnSettings,
 ) -> Vec<SlotStats> {
     let mut stats = vec![SlotStats::default(); cuts.cuts.len()];
-    let mut fill = |o: usize, centre: Option<Vec3>| {
-        for k in 0..cuts.cuts[o] as usize {
-            let nd = &tree.nodes[cuts.cuts[o + 1 + k] as usize];
-            let d2 = match (l.regression, centre) {
-                (false, Some(c)) => crate::learning::node_d2(nd, c),
-                _ => 1.0,
-            };
-            stats[o + 1 + k].scale = (nd.phi * std::f32::consts::FRAC_1_PI / d2).max(1e-30);
-        }
-    };
-    fill(0, None);
+    fill_initial(&mut stats, tree, cuts, 0, None, l);
     let mut done = std::collections::HashSet::new();
     for (r, &o) in cuts.index.iter().enumerate() {
         if o != 0 && done.insert(o) {
-            fill(o as usize, Some(cuts.grid.cell_box(r as u32).0));
+            fill_initial(&mut stats, tree, cuts, o, Some(r as u32), l);
         }
     }
     stats
+}
+
+/// The starting totals of the cut at offset `o` (of `region`; None: the fallback) into
+/// `stats` (indexed like `cuts.cuts`).
+pub fn fill_initial(
+    stats: &mut [SlotStats],
+    tree: &lights::tree::LightTree,
+    cuts: &Cuts,
+    o: u32,
+    region: Option<u32>,
+    l: &LearnSettings,
+) {
+    let o = o as usize;
+    let centre = region.map(|r| cuts.grid.cell_box(r).0);
+    for k in 0..cuts.cuts[o] as usize {
+        let nd = &tree.nodes[cuts.cuts[o + 1 + k] as usize];
+        let d2 = match (l.regression, centre) {
+            (false, Some(c)) => crate::learning::node_d2(nd, c),
+            _ => 1.0,
+        };
+        stats[o + 1 + k].scale = (nd.phi * std::f32::consts::FRAC_1_PI / d2).max(1e-30);
+    }
 }
 
 /// The cuts a render uses. For `wang`, `donikian` and `bayes`: one per region the camera's

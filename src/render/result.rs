@@ -35,6 +35,9 @@ pub struct Learned {
 pub struct RegionStats {
     /// Regions with their own cut (the camera reaches them); others use the scene's cut.
     pub regions_with_cuts: usize,
+    /// Of those, the regions whose cuts were built between frames, because samples reached
+    /// them without one (jitter, bounces, a moved camera).
+    pub regions_added_between_frames: usize,
     /// Host time to find the regions and build their cuts.
     pub cut_seconds: f64,
     /// GPU memory of the region index and the cuts.

@@ -22,7 +22,7 @@ use std::time::Instant;
 
 use anyhow::{bail, Result};
 
-use super::cuts::{build_cuts, check_region_index_fits, initial_stats, stats_header};
+use super::cuts::{build_cuts, check_region_index_fits, fill_initial, initial_stats, stats_header};
 use super::result::mean_of;
 use super::{camera_vectors, GpuScene, Learned, RegionStats, RenderResult, RenderSettings};
 use crate::gpu::layout::{PixelAccum, RenderParams, SlotDelta, SlotStats};
@@ -32,7 +32,7 @@ use crate::lights::regions::{Cuts, Grid};
 use crate::scene::{Camera, Scene};
 
 /// Bindings of `render.comp` (set 0), in order.
-const RENDER_BINDINGS: u32 = 21;
+const RENDER_BINDINGS: u32 = 22;
 
 /// The learned state: regions, cuts and statistics (GPU buffers and the host's copy of the
 /// cuts), and the learning pass counter.
@@ -44,7 +44,12 @@ struct LearnedState {
     stats: Buffer,
     delta: Buffer,
     params: Buffer,
+    /// Regions without a cut that samples reached (render.comp `missing_regions`): a count
+    /// of newly set bits, then one bit per region.
+    missing: Buffer,
     slots: u32,
+    /// Regions whose cuts were built between frames (not before the first pass).
+    regions_added: usize,
     /// Passes learned from, including a loaded file's (the next pass's sample index).
     passes: u32,
     cut_seconds: f64,
@@ -98,6 +103,9 @@ pub struct Session<'a> {
     film: Film,
     render: ComputePipeline,
     fold: ComputePipeline,
+    /// The camera or size changed since the session began (cuts grow on the film's schedule
+    /// too).
+    moved: bool,
 }
 
 impl<'a> Session<'a> {
@@ -139,6 +147,7 @@ impl<'a> Session<'a> {
             film,
             render,
             fold,
+            moved: false,
         };
         session.bind()?;
         if session.is_learning() {
@@ -176,6 +185,7 @@ impl<'a> Session<'a> {
             &g.textures,
             &g.texels,
             &g.tri_uv,
+            &l.missing,
         ])?;
         self.fold.bind(&[&l.stats, &l.delta, &l.params])
     }
@@ -201,11 +211,40 @@ impl<'a> Session<'a> {
         p
     }
 
-    /// Runs `k` passes (one sample per pixel each) in one submission; returns their seconds.
-    /// The posteriors stay frozen within a pass and are folded every `--update-every`
-    /// passes: each pass's samples depend only on earlier passes, so the average of passes
-    /// is unbiased.
+    /// Runs `k` passes (one sample per pixel each); returns their seconds, including the
+    /// cuts built between them. The posteriors stay frozen within a pass and are folded
+    /// every `--update-every` passes: each pass's samples depend only on earlier passes, so
+    /// the average of passes is unbiased. Regions reached without a cut get one after
+    /// learning pass 1, 2, 4, …, 32 and every 64th ([`growth_point`]), and after a camera
+    /// move or resize also after the film's passes 1, 2, 4, …, 32: a fixed schedule, so the
+    /// image does not depend on how passes are batched, and a `--load-stats` continuation
+    /// of a render saved at a growth point grows where the uninterrupted render grew.
     pub fn run_passes(&mut self, k: u32) -> Result<f64> {
+        let mut seconds = 0.0;
+        let mut left = k;
+        while left > 0 {
+            let (passes, spp) = (self.learned.passes, self.film.spp);
+            let mut n = left.min(next_growth_point(passes) - passes);
+            if self.moved && spp < 32 {
+                n = n.min(next_growth_point(spp) - spp);
+            }
+            seconds += self.submit_passes(n)?;
+            left -= n;
+            // After the chunk, so a render saved at a growth point has grown what its last
+            // passes reached, as the uninterrupted render has at that point.
+            let (passes, spp) = (self.learned.passes, self.film.spp);
+            if growth_point(passes) || self.moved && spp <= 32 && growth_point(spp) {
+                let t0 = Instant::now();
+                self.grow_regions()?;
+                seconds += t0.elapsed().as_secs_f64();
+            }
+        }
+        self.film.seconds += seconds;
+        Ok(seconds)
+    }
+
+    /// `k` passes in one submission; their seconds.
+    fn submit_passes(&mut self, k: u32) -> Result<f64> {
         let mut params = self.pass_params();
         let groups = [self.film.width.div_ceil(8), self.film.height.div_ceil(8), 1];
         let learning = self.is_learning();
@@ -229,8 +268,83 @@ impl<'a> Session<'a> {
         let dt = t0.elapsed().as_secs_f64();
         self.learned.passes += k;
         self.film.spp += k;
-        self.film.seconds += dt;
         Ok(dt)
+    }
+
+    /// Builds cuts (and, for the learned samplers, starting statistics) for the regions
+    /// that samples reached without one since the last frame, appends them and rebinds:
+    /// the regions a moved camera reaches then learn instead of using the shared fallback
+    /// cut. Only at a fold boundary (the window is empty), so the statistics grow by
+    /// appending totals alone. Returns how many regions got a cut.
+    fn grow_regions(&mut self) -> Result<usize> {
+        let learning = self.is_learning();
+        if !self.settings.sampler.uses_cuts()
+            || learning
+                && !self
+                    .learned
+                    .passes
+                    .is_multiple_of(self.settings.learn.update_every)
+        {
+            return Ok(0);
+        }
+        let l = &mut self.learned;
+        if l.missing.read_first::<u32>(1)?[0] == 0 {
+            return Ok(0);
+        }
+        let t0 = Instant::now();
+        let words: Vec<u32> = l.missing.read()?;
+        l.missing.clear()?;
+        let mut regions = Vec::new();
+        for (w, &bits) in words[1..].iter().enumerate() {
+            let mut b = bits;
+            while b != 0 {
+                regions.push(w as u32 * 32 + b.trailing_zeros());
+                b &= b - 1;
+            }
+        }
+        regions.retain(|&r| (r as usize) < l.cuts.index.len());
+        // Ascending region order: the same cuts at the same offsets on every run.
+        let added = l
+            .cuts
+            .append(&self.gpu.tree, &regions, &self.settings.regions);
+        if added.is_empty() {
+            return Ok(0);
+        }
+        l.index.write(bytemuck::cast_slice(&l.cuts.index))?;
+        l.cuts_buf = Buffer::from_slice(&self.ctx, "cuts", &l.cuts.cuts)?;
+        if learning {
+            let (old, new) = (l.slots as usize, l.cuts.cuts.len());
+            let mut fresh = vec![SlotStats::default(); new];
+            for &(r, o) in &added {
+                fill_initial(
+                    &mut fresh,
+                    &self.gpu.tree,
+                    &l.cuts,
+                    o,
+                    Some(r),
+                    &self.settings.learn,
+                );
+            }
+            let slot = std::mem::size_of::<SlotStats>() as u64;
+            let stats = Buffer::zeroed(&self.ctx, "learned statistics", new as u64 * slot)?;
+            stats.copy_from(&l.stats)?;
+            stats.write_at(old as u64 * slot, bytemuck::cast_slice(&fresh[old..]))?;
+            let delta = Buffer::zeroed(
+                &self.ctx,
+                "learning window sums",
+                new as u64 * std::mem::size_of::<SlotDelta>() as u64,
+            )?;
+            delta.copy_from(&l.delta)?;
+            (l.stats, l.delta, l.slots) = (stats, delta, new as u32);
+        }
+        l.regions_added += added.len();
+        l.cut_seconds += t0.elapsed().as_secs_f64();
+        self.bind()?;
+        if learning {
+            // The new slots' coefficients; the others are recomputed from unchanged totals.
+            self.fold_all(true)?;
+        }
+        Ok(added.len())
     }
 
     /// Samples per pixel in the film.
@@ -274,12 +388,14 @@ impl<'a> Session<'a> {
     /// A new camera: the film is reset, the learning stays.
     pub fn set_camera(&mut self, camera: Camera) -> Result<()> {
         self.camera = camera;
+        self.moved = true;
         self.reset_film()
     }
 
     /// A new image size: a new, empty film; the learning stays.
     pub fn resize(&mut self, width: u32, height: u32) -> Result<()> {
         self.film = Film::new(&self.ctx, width, height)?;
+        self.moved = true;
         self.settings.width = width;
         self.settings.height = height;
         self.bind()
@@ -343,10 +459,26 @@ impl<'a> Session<'a> {
             regions: RegionStats {
                 regions_with_cuts: cuts.built(),
                 cut_seconds: self.learned.cut_seconds,
+                regions_added_between_frames: self.learned.regions_added,
                 cut_bytes: 4 * (cuts.index.len() + cuts.cuts.len()),
             },
             learned,
         })
+    }
+}
+
+/// Whether regions reached without a cut get one after `n` passes: 1, 2, 4, 8, 16, 32,
+/// then every 64th (soon after the start or a camera move, rarely once settled).
+pub fn growth_point(n: u32) -> bool {
+    n > 0 && (n <= 32 && n.is_power_of_two() || n.is_multiple_of(64))
+}
+
+/// The first growth point after `spp`.
+fn next_growth_point(spp: u32) -> u32 {
+    if spp < 32 {
+        (spp + 1).next_power_of_two()
+    } else {
+        (spp / 64 + 1).saturating_mul(64)
     }
 }
 
@@ -379,7 +511,10 @@ impl LearnedState {
             (_, false) => vec![SlotStats::default()],
         };
         let slots = stats.len() as u32;
+        let words = 1 + cuts.index.len().div_ceil(32);
         Ok(LearnedState {
+            missing: Buffer::zeroed(ctx, "missing regions", 4 * words as u64)?,
+            regions_added: 0,
             grid: Buffer::from_slice(ctx, "region grid", &[cuts.grid.params])?,
             index: Buffer::from_slice(ctx, "region index", &cuts.index)?,
             cuts_buf: Buffer::from_slice(ctx, "cuts", &cuts.cuts)?,

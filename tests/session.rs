@@ -1,0 +1,271 @@
+//! The render session: the learned state outlives camera moves and film resets, regions that
+//! a moved camera reaches get cuts between frames and learn, images after a move are
+//! unbiased, and statistics of several sessions merge by addition.
+
+mod common;
+
+use std::path::Path;
+
+use glam::Vec3;
+use lightlearn::accel::Bvh;
+use lightlearn::learning::stats_file::SavedStats;
+use lightlearn::render::{Budget, GpuScene, LightSampler, RenderResult, RenderSettings, Session};
+use lightlearn::scene::{gltf_load, Camera, Scene};
+
+fn scene(name: &str) -> Scene {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name);
+    gltf_load::load(&p, &mut |_| {}).unwrap()
+}
+
+fn settings(sampler: LightSampler, seed: u32) -> RenderSettings {
+    RenderSettings {
+        width: 48,
+        height: 36,
+        budget: Budget::Samples(1),
+        seed,
+        sampler,
+        regions: Default::default(),
+        learn: Default::default(),
+        resume: None,
+        stratified: true,
+        max_depth: 1,
+    }
+}
+
+/// A camera in the far corner of rooms16 looking back across it: it sees rooms and walls
+/// the scene's own camera does not.
+fn camera_b(s: &Scene) -> Camera {
+    let (lo, hi) = s.bounds();
+    let p = Vec3::new(
+        lo.x + 0.85 * (hi.x - lo.x),
+        1.5,
+        lo.z + 0.85 * (hi.z - lo.z),
+    );
+    Camera::looking(p, Vec3::new(-1.0, -0.25, -0.6), Vec3::Y, s.camera.yfov)
+}
+
+/// Share of the film's light samples that fell in regions without their own cut.
+fn fallback_share(r: &RenderResult) -> f64 {
+    let all: f64 = r.accum.iter().map(|a| a.sum_sq[3] as f64).sum();
+    r.learned.as_ref().unwrap().diagnostics.samples_in_fallback as f64 / all
+}
+
+/// |z| of the difference of two images' means per channel, from their estimated variances.
+fn mean_z(a: &RenderResult, b: &RenderResult) -> f64 {
+    let (ma, mb) = (a.mean(), b.mean());
+    let (va, vb) = (a.variance_of_mean(), b.variance_of_mean());
+    let n = ma.len() as f64;
+    (0..3)
+        .map(|k| {
+            let d: f64 = ma
+                .iter()
+                .zip(&mb)
+                .map(|(x, y)| (x[k] - y[k]) as f64)
+                .sum::<f64>()
+                / n;
+            let v: f64 = va
+                .iter()
+                .zip(&vb)
+                .map(|(x, y)| (x[k] + y[k]) as f64)
+                .sum::<f64>()
+                / (n * n);
+            (d / v.sqrt()).abs()
+        })
+        .fold(0.0, f64::max)
+}
+
+/// A converged image at `camera` by a sampler that does not learn.
+fn reference(
+    ctx: &std::sync::Arc<lightlearn::gpu::Context>,
+    s: &Scene,
+    gpu: &GpuScene,
+    camera: Camera,
+    spp: u32,
+) -> RenderResult {
+    let mut r = Session::new(ctx, s, gpu, &settings(LightSampler::Lightbvh, 99)).unwrap();
+    r.set_camera(camera).unwrap();
+    r.run_passes(spp).unwrap();
+    r.result().unwrap()
+}
+
+#[test]
+fn a_moved_camera_keeps_the_learning_and_its_new_regions_learn() {
+    let ctx = common::ctx();
+    let s = scene("rooms16.glb");
+    let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
+    let mut session = Session::new(&ctx, &s, &gpu, &settings(LightSampler::Bayes, 3)).unwrap();
+    let a = s.camera;
+    let b = camera_b(&s);
+    let mut counter = vec![session.passes()];
+
+    session.run_passes(16).unwrap();
+    counter.push(session.passes());
+    let at_a = session.result().unwrap();
+    let cuts_at_a = at_a.regions.regions_with_cuts;
+
+    // Camera B: the film restarts, the learning does not.
+    session.set_camera(b).unwrap();
+    assert_eq!(session.spp(), 0);
+    assert_eq!(session.image().unwrap().iter().flatten().sum::<f32>(), 0.0);
+    session.run_passes(1).unwrap();
+    counter.push(session.passes());
+    let first = fallback_share(&session.result().unwrap());
+    session.run_passes(15).unwrap();
+    session.reset_film().unwrap();
+    session.run_passes(64).unwrap();
+    counter.push(session.passes());
+    let at_b = session.result().unwrap();
+    let later = fallback_share(&at_b);
+    let added = at_b.regions.regions_with_cuts - cuts_at_a;
+    eprintln!(
+        "camera B: fallback share {first:.3} in its first pass, {later:.4} after; {added} regions got cuts ({} built between frames in all)",
+        at_b.regions.regions_added_between_frames
+    );
+    assert!(
+        first > 0.2,
+        "camera B should first reach regions without cuts ({first})"
+    );
+    assert!(
+        later < 0.01,
+        "fallback share after the first passes at B: {later}"
+    );
+    assert!(
+        added >= 20,
+        "regions reached only from B get cuts ({added})"
+    );
+    // They learn: the regions that got cuts after A hold observations.
+    let (sa, sb) = (
+        &at_a.learned.as_ref().unwrap().saved,
+        &at_b.learned.as_ref().unwrap().saved,
+    );
+    let new: Vec<usize> = (0..sb.index.len())
+        .filter(|&r| sa.index[r] == 0 && sb.index[r] != 0)
+        .collect();
+    let learned = new
+        .iter()
+        .filter(|&&r| {
+            let o = sb.index[r] as usize;
+            sb.stats[o + 1..o + 1 + sb.cuts[o] as usize]
+                .iter()
+                .any(|x| x.n_zero + x.n_nonzero > 0.0)
+        })
+        .count();
+    assert!(
+        learned * 2 >= new.len() && learned >= 10,
+        "{learned} of the {} regions added after A hold observations",
+        new.len()
+    );
+
+    // The image at B is unbiased against a fresh reference.
+    let r = reference(&ctx, &s, &gpu, b, 512);
+    let z = mean_z(&at_b, &r);
+    eprintln!("camera B: |z| of the image mean against a fresh reference {z:.2}");
+    assert!(z < 4.0, "camera B image biased: |z| = {z}");
+    assert!(at_b.mean().iter().flatten().sum::<f32>() > 0.0);
+
+    // Back to A: the film restarts again, the counter still only grows.
+    session.set_camera(a).unwrap();
+    session.run_passes(8).unwrap();
+    counter.push(session.passes());
+    assert_eq!(session.spp(), 8);
+    assert!(counter.windows(2).all(|w| w[0] < w[1]), "{counter:?}");
+    assert_eq!(counter, [0, 16, 17, 96, 104]);
+}
+
+#[test]
+fn statistics_of_two_sessions_merge_by_addition() {
+    let ctx = common::ctx();
+    let s = scene("rooms16.glb");
+    let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
+    let learn = |seed: u32, camera: Camera, passes: u32| {
+        let mut x = Session::new(&ctx, &s, &gpu, &settings(LightSampler::Bayes, seed)).unwrap();
+        x.set_camera(camera).unwrap();
+        x.run_passes(passes).unwrap();
+        x.snapshot().unwrap().unwrap()
+    };
+    let pa = learn(1, s.camera, 16);
+    let pb = learn(2, camera_b(&s), 24);
+    let merged = SavedStats::merge(&[(pa.clone(), "a".into()), (pb.clone(), "b".into())]).unwrap();
+    assert_eq!(merged.header.samples_done, 40);
+
+    // Per region: the sum of the parts where both have it, the part itself where one has.
+    let slots = |p: &SavedStats, r: usize| {
+        let o = p.index[r] as usize;
+        (o != 0).then(|| p.stats[o + 1..o + 1 + p.cuts[o] as usize].to_vec())
+    };
+    let (mut both, mut one) = (0, 0);
+    for r in 0..merged.index.len() {
+        let (a, b, m) = (slots(&pa, r), slots(&pb, r), slots(&merged, r));
+        match (a, b) {
+            (None, None) => assert!(m.is_none()),
+            (Some(x), None) | (None, Some(x)) => {
+                one += 1;
+                assert_eq!(m.unwrap(), x, "region {r}: taken as it is");
+            }
+            (Some(x), Some(y)) => {
+                both += 1;
+                for ((m, x), y) in m.unwrap().iter().zip(&x).zip(&y) {
+                    assert_eq!(m.n_zero, x.n_zero + y.n_zero);
+                    assert_eq!(m.n_nonzero, x.n_nonzero + y.n_nonzero);
+                    assert_eq!(m.sum, (x.sum as f64 + y.sum as f64) as f32);
+                    assert_eq!(m.sum_sq, (x.sum_sq as f64 + y.sum_sq as f64) as f32);
+                }
+            }
+        }
+    }
+    eprintln!("merge: {both} regions in both parts, {one} in one");
+    assert!(both > 50 && one > 50, "both {both}, one {one}");
+
+    // The merged file is whole, loads and renders unbiased.
+    let merged = SavedStats::from_bytes(&merged.to_bytes(), "merged").unwrap();
+    let mut set = settings(LightSampler::Bayes, 5);
+    lightlearn::render::check_resume(&s, &gpu, &set, &merged, Path::new("merged")).unwrap();
+    set.resume = Some(std::sync::Arc::new(merged));
+    let mut m = Session::new(&ctx, &s, &gpu, &set).unwrap();
+    assert_eq!(m.passes(), 40);
+    m.run_passes(64).unwrap();
+    let z = mean_z(
+        &m.result().unwrap(),
+        &reference(&ctx, &s, &gpu, s.camera, 512),
+    );
+    eprintln!("merged statistics: |z| against a fresh reference {z:.2}");
+    assert!(z < 4.0, "render from merged statistics biased: |z| = {z}");
+
+    // Parts of other settings or another scene are refused.
+    let mut other = settings(LightSampler::Bayes, 1);
+    other.regions.grid = 16;
+    let mut x = Session::new(&ctx, &s, &gpu, &other).unwrap();
+    x.run_passes(2).unwrap();
+    let grid16 = x.snapshot().unwrap().unwrap();
+    let err = SavedStats::merge(&[(pa.clone(), "a".into()), (grid16, "g".into())]).unwrap_err();
+    assert!(format!("{err:#}").contains("--grid"), "{err:#}");
+    let c = scene("cornell.glb");
+    let cg = GpuScene::upload(&ctx, &c, &Bvh::build(&c.triangles)).unwrap();
+    let mut y = Session::new(&ctx, &c, &cg, &settings(LightSampler::Bayes, 1)).unwrap();
+    y.run_passes(2).unwrap();
+    let err = SavedStats::merge(&[
+        (pa, "a".into()),
+        (y.snapshot().unwrap().unwrap(), "c".into()),
+    ])
+    .unwrap_err();
+    assert!(format!("{err:#}").contains("other lights"), "{err:#}");
+}
+
+#[test]
+fn resize_gives_a_new_film_and_keeps_the_learning() {
+    let ctx = common::ctx();
+    let s = scene("cornell.glb");
+    let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
+    let mut x = Session::new(&ctx, &s, &gpu, &settings(LightSampler::Bayes, 1)).unwrap();
+    x.run_passes(4).unwrap();
+    x.resize(20, 10).unwrap();
+    assert_eq!((x.spp(), x.passes()), (0, 4));
+    x.run_passes(4).unwrap();
+    let r = x.result().unwrap();
+    assert_eq!((r.width, r.height, r.accum.len()), (20, 10, 200));
+    assert!(r.mean().iter().flatten().all(|v| v.is_finite()));
+    assert!(r.mean().iter().flatten().any(|&v| v > 0.0));
+    assert!(x.resize(0, 10).is_err());
+}
