@@ -11,6 +11,30 @@ pub fn request() {
     REQUESTED.store(true, Ordering::SeqCst);
 }
 
+static ACTIVE: AtomicBool = AtomicBool::new(false);
+
+/// Marks a pass loop as running while the guard lives: only then can a stop be honoured
+/// after the current batch (elsewhere a Ctrl-C should end the program at once).
+pub struct Active;
+
+impl Active {
+    pub fn begin() -> Active {
+        ACTIVE.store(true, Ordering::SeqCst);
+        Active
+    }
+}
+
+impl Drop for Active {
+    fn drop(&mut self) {
+        ACTIVE.store(false, Ordering::SeqCst);
+    }
+}
+
+/// Whether a pass loop is running.
+pub fn active() -> bool {
+    ACTIVE.load(Ordering::SeqCst)
+}
+
 /// Whether a stop was asked for.
 pub fn requested() -> bool {
     REQUESTED.load(Ordering::SeqCst)

@@ -88,19 +88,24 @@ pub fn same_path(a: &Path, b: &Path) -> bool {
     }
 }
 
-/// Moves every written temporary file onto its target together: the files that were there
-/// are kept aside until all new ones are in place, and put back if any move fails, so a
-/// failure leaves the old set (or nothing) and never a mix. The temporaries are removed on
-/// failure.
+/// Moves every written temporary file onto its target together: each file already there
+/// first gets a second name (a hard link, or a copy where links are not possible), then each
+/// temporary is renamed over its target (an atomic replace, so a target never goes missing,
+/// even if the program is killed), and if any move fails, the old files are renamed back
+/// and the new ones that had no predecessor are removed. So a failure leaves the old set,
+/// never a mix. The temporaries are removed on failure.
 pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
     let backup = |p: &Path| temp_path(p).with_extension("old");
-    let mut kept: Vec<&Path> = Vec::new(); // targets whose old file is aside
+    let mut kept: Vec<&Path> = Vec::new(); // targets with a second name of their old file
     let mut moved: Vec<&Path> = Vec::new(); // targets that hold the new file
     let result = (|| -> Result<()> {
         for (target, _) in files {
             if target.exists() {
-                std::fs::rename(target, backup(target))
-                    .with_context(|| format!("cannot replace '{}'", target.display()))?;
+                let b = backup(target);
+                let _ = std::fs::remove_file(&b);
+                std::fs::hard_link(target, &b)
+                    .or_else(|_| std::fs::copy(target, &b).map(|_| ()))
+                    .with_context(|| format!("cannot keep the old '{}'", target.display()))?;
                 kept.push(target);
             }
         }
@@ -111,24 +116,71 @@ pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
         }
         Ok(())
     })();
-    match result {
-        Ok(()) => {
-            for t in kept {
-                let _ = std::fs::remove_file(backup(t));
-            }
-            Ok(())
-        }
-        Err(e) => {
-            for t in moved {
+    let mut failed_restore = Vec::new();
+    if result.is_err() {
+        for t in &moved {
+            if !kept.contains(t) {
                 let _ = std::fs::remove_file(t);
             }
-            for t in kept {
-                let _ = std::fs::rename(backup(t), t);
+        }
+        for t in &kept {
+            if moved.contains(t) && std::fs::rename(backup(t), t).is_err() {
+                failed_restore.push(t.display().to_string());
             }
-            for (_, tmp) in files {
-                let _ = std::fs::remove_file(tmp);
-            }
-            Err(e)
+        }
+        for (_, tmp) in files {
+            let _ = std::fs::remove_file(tmp);
+        }
+    }
+    for t in &kept {
+        // A backup that could not be put back stays: it is the only copy of the old file.
+        if !failed_restore.contains(&t.display().to_string()) {
+            let _ = std::fs::remove_file(backup(t));
+        }
+    }
+    match result {
+        Err(e) if !failed_restore.is_empty() => Err(e.context(format!(
+            "and the old {} could not be put back",
+            failed_restore.join(", ")
+        ))),
+        r => r,
+    }
+}
+
+/// Files of one run written to temporaries one by one, then committed together
+/// ([`commit_all`]); temporaries of a set that is dropped uncommitted are removed.
+#[derive(Default)]
+pub struct FileSet {
+    files: Vec<(PathBuf, PathBuf)>,
+}
+
+impl FileSet {
+    /// Lets `write` fill the temporary of `target`.
+    pub fn add_with(
+        &mut self,
+        target: &Path,
+        write: impl FnOnce(&Path) -> Result<()>,
+    ) -> Result<()> {
+        let tmp = temp_path(target);
+        self.files.push((target.to_path_buf(), tmp.clone()));
+        write(&tmp).with_context(|| format!("cannot write '{}'", target.display()))
+    }
+
+    pub fn add(&mut self, target: &Path, bytes: &[u8]) -> Result<()> {
+        self.add_with(target, |tmp| Ok(std::fs::write(tmp, bytes)?))
+    }
+
+    /// Moves every file into place together.
+    pub fn commit(mut self) -> Result<()> {
+        let files = std::mem::take(&mut self.files);
+        commit_all(&files)
+    }
+}
+
+impl Drop for FileSet {
+    fn drop(&mut self) {
+        for (_, tmp) in &self.files {
+            let _ = std::fs::remove_file(tmp);
         }
     }
 }

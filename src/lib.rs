@@ -1,6 +1,7 @@
 //! lightlearn: a GPU many-light renderer (Vulkan compute) built around Bayesian online
 //! learning of light selection. See README.md and shared design notes for the method.
 
+pub mod abi;
 pub mod accel;
 pub mod bench;
 pub mod compare;

@@ -378,9 +378,10 @@ struct BenchArgs {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    // First Ctrl-C: finish the current batch and write what is done; second: quit now.
+    // First Ctrl-C during a render: finish the current batch and write what is done; a
+    // second one, or one at any other time (loading, building, writing): quit now.
     let _ = ctrlc::set_handler(|| {
-        if lightlearn::interrupt::requested() {
+        if lightlearn::interrupt::requested() || !lightlearn::interrupt::active() {
             std::process::exit(130);
         }
         lightlearn::interrupt::request();
@@ -652,10 +653,18 @@ fn cmd_reference(a: ReferenceArgs) -> Result<()> {
 
 /// `compare`, leaving no empty output folder behind when it refuses its inputs.
 fn cmd_compare(a: CompareArgs) -> Result<()> {
-    let created = !a.out.exists();
+    // The folders this run creates (the output folder and missing parents), outermost last.
+    let created: Vec<PathBuf> = a
+        .out
+        .ancestors()
+        .take_while(|p| !p.as_os_str().is_empty() && !p.exists())
+        .map(Path::to_path_buf)
+        .collect();
     let result = run_compare(&a);
-    if result.is_err() && created {
-        let _ = std::fs::remove_dir(&a.out); // only if still empty
+    if result.is_err() {
+        for d in &created {
+            let _ = std::fs::remove_dir(d); // only if still empty
+        }
     }
     result
 }
@@ -779,10 +788,11 @@ fn run_compare(a: &CompareArgs) -> Result<()> {
         comparisons.push(c);
     }
 
-    // Outputs: EXRs, metrics.json, convergence.csv, index.html (each written atomically).
+    // Outputs: EXRs, metrics.json, convergence.csv, index.html, moved into place together.
     let (w, h) = (a.image.width, a.image.height);
-    let exr = |name: String, img: &[[f32; 3]]| {
-        lightlearn::io::write_atomic_with(&a.out.join(name), |tmp| film::write_exr(tmp, w, h, img))
+    let mut out = lightlearn::io::FileSet::default();
+    let mut exr = |name: String, img: &[[f32; 3]]| {
+        out.add_with(&a.out.join(name), |tmp| film::write_exr(tmp, w, h, img))
     };
     exr("reference.exr".into(), &reference_image)?;
     for c in &comparisons {
@@ -804,11 +814,11 @@ fn run_compare(a: &CompareArgs) -> Result<()> {
         "reference": reference_note,
         "comparisons": comparisons,
     });
-    lightlearn::io::write_atomic(
+    out.add(
         &a.out.join("metrics.json"),
         (serde_json::to_string_pretty(&metrics)? + "\n").as_bytes(),
     )?;
-    lightlearn::io::write_atomic(
+    out.add(
         &a.out.join("convergence.csv"),
         report::convergence_csv(&comparisons).as_bytes(),
     )?;
@@ -821,7 +831,8 @@ fn run_compare(a: &CompareArgs) -> Result<()> {
         reference_note: &reference_note,
         comparisons: &comparisons,
     })?;
-    lightlearn::io::write_atomic(&a.out.join("index.html"), page.as_bytes())?;
+    out.add(&a.out.join("index.html"), page.as_bytes())?;
+    out.commit()?;
 
     if !a.image.quiet {
         for c in &comparisons {

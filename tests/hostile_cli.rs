@@ -166,6 +166,28 @@ fn grids_beyond_their_range_or_the_device_are_refused_by_name() {
     );
     refused(&o, &["--grid 1000"]);
     assert!(files(d).is_empty(), "nothing written: {:?}", files(d));
+    // A refusal after the output folder was made (a reference of another size): the
+    // folders it made are removed again.
+    let o = run_render(&[c, "--out", "small.exr"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(
+        &[
+            "compare",
+            c,
+            "--samplers",
+            "wang",
+            "--spp",
+            "1",
+            "--reference",
+            "small.exr",
+            "--out",
+            "new/cmp",
+        ],
+        d,
+        &[],
+    );
+    refused(&o, &["small.exr", "16×12"]);
+    assert!(!d.join("new").exists(), "{:?}", files(d));
 }
 
 #[test]

@@ -232,7 +232,7 @@ fn damaged_statistics_files_are_refused() {
             "{n} bytes"
         );
     }
-    assert_eq!(cases, 300);
+    assert!(cases > 0);
 
     // Whole files (a valid checksum) with impossible contents.
     let resaved = |f: &dyn Fn(&mut SavedStats)| {
@@ -256,6 +256,13 @@ fn damaged_statistics_files_are_refused() {
             "cut misses lights",
             resaved(&|s| s.cuts[o + 1] = s.cuts[o + 2]),
         ),
+        (
+            "a scale that makes y / scale overflow",
+            resaved(&|s| {
+                let t = &mut s.stats[o + 1];
+                (t.n_nonzero, t.sum, t.sum_sq, t.scale) = (1.0, 1.0, 1.0, 1e-25);
+            }),
+        ),
     ];
     for (what, s) in bad {
         let err = render::check_resume(
@@ -276,6 +283,11 @@ fn damaged_statistics_files_are_refused() {
     let mut s = saved.clone();
     s.index[0] = s.cuts.len() as u32 + 5;
     assert!(SavedStats::from_bytes(&s.to_bytes(), "a.stats").is_err());
+    // A cut longer than the kernels' cut array (64) that still lies inside the file.
+    let mut s = saved.clone();
+    s.cuts[0] = 65;
+    let err = SavedStats::from_bytes(&s.to_bytes(), "a.stats").unwrap_err();
+    assert!(err.to_string().contains("fallback cut"), "{err}");
 }
 
 /// Random byte changes to a small glTF never panic or hang the loader: each either loads or
@@ -321,7 +333,13 @@ fn fuzzed_gltf_never_panics_or_hangs() {
                 loaded += 1;
             }
             Err(e) => {
-                assert!(e.to_string().contains("f.glb"), "case {case}: {e}");
+                let e = e.to_string();
+                assert!(e.contains("f.glb"), "case {case}: {e}");
+                // Caught by our checks, not by catching a panic of the gltf crate.
+                assert!(
+                    !e.contains("could not report"),
+                    "case {case} panicked inside: {e}"
+                );
                 refused += 1;
             }
         }

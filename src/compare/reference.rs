@@ -220,7 +220,10 @@ fn read_entry(
             .context("its JSON is damaged")?;
     let bytes = std::fs::read(&paths.exr).context("its EXR cannot be read")?;
     let sum = format!("{:016x}", crate::learning::stats_file::fnv1a(&bytes));
-    if report[CHECKSUM].as_str() != Some(sum.as_str()) {
+    // Entries cached before the checksum existed have none: checked below by what can be
+    // checked, and sealed.
+    let legacy = report[CHECKSUM].is_null();
+    if !legacy && report[CHECKSUM].as_str() != Some(sum.as_str()) {
         bail!("its EXR does not match the checksum in its JSON");
     }
     let (w, h, px) = film::read_exr(&paths.exr)?;
@@ -229,6 +232,9 @@ fn read_entry(
     }
     if px.iter().flatten().any(|c| !c.is_finite()) {
         bail!("it holds NaN or Inf pixels");
+    }
+    if legacy {
+        let _ = seal(&paths.json, paths);
     }
     Ok(Some((px, report)))
 }

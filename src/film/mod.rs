@@ -93,14 +93,21 @@ pub fn write_outputs_with(
     result.with_context(|| format!("cannot write the render to '{}'", paths.exr.display()))
 }
 
-/// Float32 RGB OpenEXR.
+/// Float32 RGB OpenEXR. Written with one thread, so the same pixels give the same bytes
+/// (with the crate's parallel writer, four runs of one command gave four files: the chunks
+/// came out in a different order, 0 pixels differing).
 pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<()> {
+    use exr::prelude::*;
     let w = width as usize;
-    exr::prelude::write_rgb_file(path, w, height as usize, |x, y| {
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
         let p = rgb[y * w + x];
         (p[0], p[1], p[2])
-    })
-    .map_err(|e| anyhow!("EXR write failed: {e}"))
+    });
+    Image::from_channels((w, height as usize), channels)
+        .write()
+        .non_parallel()
+        .to_file(path)
+        .map_err(|e| anyhow!("EXR write failed: {e}"))
 }
 
 /// Reads a float RGB EXR written by [`write_exr`] (tests, `compare`).

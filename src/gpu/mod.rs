@@ -1,8 +1,11 @@
-//! Vulkan through ash: context, buffers, compute pipelines, and the host/shader struct layouts.
+//! Vulkan through ash: context, buffers, compute pipelines, shader modules. Knows no
+//! renderer; the host/shader structs are plain data in `crate::abi`.
 
 pub mod buffer;
 pub mod context;
-pub mod layout;
+/// The host/shader structs live in [`crate::abi`] (plain data, no device); this name stays
+/// for the device code and the tests.
+pub use crate::abi as layout;
 pub mod pipeline;
 
 pub use buffer::Buffer;

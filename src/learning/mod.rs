@@ -17,7 +17,7 @@ pub mod stats_file;
 
 use anyhow::{bail, Result};
 
-use crate::gpu::layout::{
+use crate::abi::{
     LearnParams, SlotDelta, SlotStats, LEARN_BRDF, LEARN_BRDF_SELECT, LEARN_CONTROL_VARIATES,
     LEARN_PRIORS, LEARN_REGRESSION, LEARN_TARGET_MEAN,
 };
@@ -518,6 +518,6 @@ pub fn predicted_means(
 }
 
 /// The regression distance² of a node (the same clamp as the importance's).
-pub fn node_d2(nd: &crate::gpu::layout::LightNode, p: glam::Vec3) -> f32 {
+pub fn node_d2(nd: &crate::abi::LightNode, p: glam::Vec3) -> f32 {
     crate::lights::tree::clamped_d2(nd.bmin.into(), nd.bmax.into(), p)
 }

@@ -17,7 +17,7 @@ use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 
-use crate::gpu::layout::{GridParams, SlotStats};
+use crate::abi::{GridParams, SlotStats};
 use crate::lights::tree::LightTree;
 
 const MAGIC: &[u8; 8] = b"LLSTATS\0";
@@ -184,9 +184,12 @@ impl SavedStats {
         }
         // The cuts must be well formed before anything walks them: every region's offset
         // points at a cut `[count, node…]` that lies inside the array.
+        // At most MAX_K nodes: the kernels hold a cut's weights in an array of that size.
         let cut_fits = |o: u32| {
             let o = o as usize;
-            o < c && cuts[o] >= 1 && (cuts[o] as usize) < c - o
+            o < c
+                && (1..=crate::lights::regions::MAX_K).contains(&cuts[o])
+                && (cuts[o] as usize) < c - o
         };
         if c == 0 || !cut_fits(0) {
             bail!("'{p}' is damaged: its fallback cut is malformed; save it again");
@@ -204,7 +207,8 @@ impl SavedStats {
 
     /// Errors unless every cut of the file is a cut of `tree` (nodes that cover every light
     /// exactly once, in range order) and every total is a possible one (finite, whole
-    /// non-negative counts, non-negative sums, a positive scale): what a kernel needs to stay
+    /// non-negative counts, non-negative sums, a positive scale that keeps y / scale finite):
+    /// what a kernel needs to stay
     /// unbiased and finite. `regions` is the region count of the scene's grid.
     pub fn check_cuts(&self, tree: &LightTree, regions: u32, path: &Path) -> Result<()> {
         let p = path.display();
@@ -222,8 +226,9 @@ impl SavedStats {
         offsets.dedup();
         for o in offsets {
             let o = o as usize;
+            let slots = o + 1..o + 1 + self.cuts[o] as usize;
             let mut next = 0u32;
-            for &node in &self.cuts[o + 1..o + 1 + self.cuts[o] as usize] {
+            for &node in &self.cuts[slots.clone()] {
                 let nd = tree.nodes.get(node as usize).ok_or_else(|| {
                     damaged(format!("the cut at {o} names light-tree node {node}"))
                 })?;
@@ -239,21 +244,13 @@ impl SavedStats {
                     "the cut at {o} does not cover every light exactly once"
                 )));
             }
-        }
-        for (i, s) in self.stats.iter().enumerate() {
-            let count_ok = |n: f32| n >= 0.0 && n.is_finite() && n.fract() == 0.0;
-            let fields = [s.sum, s.sum_sq, s.scale, s.coef_a, s.coef_b, s.coef_c];
-            let ok = count_ok(s.n_zero)
-                && count_ok(s.n_nonzero)
-                && fields.iter().all(|v| v.is_finite())
-                && s.sum >= 0.0
-                && s.sum_sq >= 0.0
-                && s.scale >= 0.0
-                && (s.n_nonzero > 0.0 || s.sum == 0.0 && s.sum_sq == 0.0);
-            if !ok {
-                return Err(damaged(format!(
-                    "statistics entry {i} holds impossible totals ({s:?})"
-                )));
+            for i in slots {
+                if !possible_totals(&self.stats[i]) {
+                    return Err(damaged(format!(
+                        "statistics entry {i} holds impossible totals ({:?})",
+                        self.stats[i]
+                    )));
+                }
             }
         }
         Ok(())
@@ -396,4 +393,22 @@ fn sum_slots(slots: &[&SlotStats]) -> SlotStats {
         s.scale = (s.sum_sq / s.n_nonzero).sqrt();
     }
     s
+}
+
+/// Totals a render can have made: whole non-negative counts, finite non-negative sums with
+/// no sum without data, and a positive scale that keeps y / scale and (y / scale)² f32
+/// numbers (the kernels work with those; a tiny scale made the weights Inf). (Σy)² ≤ n Σy²
+/// is not required: the window's 24-bit fixed point rounds (y / scale)² ≪ 2^-24 to 0.
+fn possible_totals(s: &SlotStats) -> bool {
+    let count_ok = |n: f32| n >= 0.0 && n.is_finite() && n.fract() == 0.0;
+    let (s1, s2) = (s.sum / s.scale, s.sum_sq / (s.scale * s.scale));
+    count_ok(s.n_zero)
+        && count_ok(s.n_nonzero)
+        && s.sum >= 0.0
+        && s.sum_sq >= 0.0
+        && s.scale > 0.0
+        && s.scale.is_finite()
+        && s1.is_finite()
+        && s2.is_finite()
+        && (s.n_nonzero > 0.0 || s.sum == 0.0 && s.sum_sq == 0.0)
 }

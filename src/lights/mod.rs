@@ -4,9 +4,7 @@
 pub mod regions;
 pub mod tree;
 
-use crate::gpu::layout::{
-    AliasEntry, GpuLight, LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE, LIGHT_TWO_SIDED,
-};
+use crate::abi::{AliasEntry, GpuLight, LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE, LIGHT_TWO_SIDED};
 use crate::scene::{Light, Scene};
 
 /// The GPU form of every light, in `Scene::lights` order.

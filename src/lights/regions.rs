@@ -11,7 +11,7 @@ use std::collections::{BinaryHeap, HashMap};
 use glam::Vec3;
 
 use super::tree::{LightBounds, LightTree};
-use crate::gpu::layout::{GridParams, LightNode, LIGHT_NODE_TWO_SIDED};
+use crate::abi::{GridParams, LightNode, LIGHT_NODE_TWO_SIDED};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RegionSettings {

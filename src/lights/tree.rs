@@ -12,7 +12,7 @@ use std::f32::consts::PI;
 
 use glam::Vec3;
 
-use crate::gpu::layout::{LightNode, LIGHT_NODE_TWO_SIDED};
+use crate::abi::{LightNode, LIGHT_NODE_TWO_SIDED};
 use crate::scene::{Light, Scene};
 
 /// What a light (or a set of lights) can emit, and where to.

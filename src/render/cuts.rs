@@ -142,7 +142,18 @@ pub fn build_cuts(
     camera: &crate::scene::Camera,
 ) -> Cuts {
     let (lo, hi) = scene.bounds();
-    let grid = Grid::new(lo, hi, &settings.regions);
+    // Samplers without cuts never look a region up: one region, whatever --grid says (a
+    // large grid once built a 3 GB index for `power`).
+    let grid = if settings.sampler.uses_cuts() {
+        Grid::new(lo, hi, &settings.regions)
+    } else {
+        let one = RegionSettings {
+            grid: 1,
+            normal_bins: false,
+            ..settings.regions
+        };
+        Grid::new(lo, hi, &one)
+    };
     let mut reached = Vec::new();
     if settings.sampler.uses_cuts() {
         use rayon::prelude::*;

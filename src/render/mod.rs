@@ -337,6 +337,7 @@ pub fn render_with_checkpoints(
     progress: &mut dyn FnMut(u32, f64),
 ) -> Result<RenderResult> {
     let mut session = Session::new(ctx, scene, gpu, settings)?;
+    let _active = crate::interrupt::Active::begin();
     // Checkpoints still ahead, as (seconds, spp) limits; one of the two is infinite.
     let mut pending: std::collections::VecDeque<(f64, u32)> = match checkpoints {
         Checkpoints::None => Default::default(),

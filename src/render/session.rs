@@ -124,6 +124,15 @@ impl<'a> Session<'a> {
         if settings.sampler.uses_cuts() {
             check_region_index_fits(ctx, scene, &settings.regions)?;
         }
+        if let Some(saved) = &settings.resume {
+            super::check_resume(
+                scene,
+                gpu,
+                settings,
+                saved,
+                std::path::Path::new("--load-stats"),
+            )?;
+        }
         let learned = LearnedState::new(ctx, scene, gpu, settings, &scene.camera)?;
         let render = ComputePipeline::new(
             ctx,

@@ -40,12 +40,11 @@ pub fn load(path: &Path, warn: &mut dyn FnMut(String)) -> Result<Scene> {
     // The gltf crate indexes with unwrap in a few places; gltf_check catches the cases we
     // know, and a malformed file that slips past it must still give one clear line, never a
     // panic's text (the hook is silenced while the loader runs).
-    let hook = std::panic::take_hook();
-    std::panic::set_hook(Box::new(|_| {}));
-    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        load_bytes(&bytes, &name, &base, warn)
-    }));
-    std::panic::set_hook(hook);
+    let result = silenced(|| {
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            load_bytes(&bytes, &name, &base, warn)
+        }))
+    });
     match result {
         Ok(r) => r,
         Err(_) => bail!(
@@ -53,6 +52,29 @@ pub fn load(path: &Path, warn: &mut dyn FnMut(String)) -> Result<Scene> {
              check it with the Khronos glTF validator"
         ),
     }
+}
+
+thread_local! {
+    static SILENT: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f` with panic messages of this thread silenced (other threads' panics still print):
+/// a hook installed once that defers to the previous one unless the panicking thread asked
+/// for silence.
+fn silenced<T>(f: impl FnOnce() -> T) -> T {
+    static INSTALL: std::sync::Once = std::sync::Once::new();
+    INSTALL.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !SILENT.with(|s| s.get()) {
+                previous(info)
+            }
+        }));
+    });
+    SILENT.with(|s| s.set(true));
+    let out = f();
+    SILENT.with(|s| s.set(false));
+    out
 }
 
 /// Load from bytes; `name` is used in messages and `base` resolves relative buffer URIs.
@@ -254,6 +276,7 @@ pub fn load_bytes(
                         if !(yfov > 1e-4 && yfov < std::f32::consts::PI - 1e-4)
                             || forward.length_squared() == 0.0
                             || up.length_squared() == 0.0
+                            || forward.normalize().cross(up.normalize()).length_squared() < 1e-12
                         {
                             bail!("'{name}': camera {} has an invalid yfov ({yfov}) or a degenerate transform; use 0 < yfov < π", cam.index());
                         }
@@ -298,7 +321,7 @@ pub fn load_bytes(
                         }
                         let outer = outer_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2);
                         let inner = inner_cone_angle.clamp(0.0, outer);
-                        // KHR_lights_punctual: 0 ≤ inner < outer ≤ π/2.
+                        // KHR_lights_punctual: 0 ≤ inner < outer ≤ π/2 (inner = outer is taken as a hard edge).
                         if (outer, inner) != (outer_cone_angle, inner_cone_angle) {
                             warn(format!(
                                 "'{name}': {label} has cone angles inner {inner_cone_angle} / outer {outer_cone_angle} outside 0 ≤ inner ≤ outer ≤ π/2; rendered with inner {inner} / outer {outer}"
@@ -331,6 +354,7 @@ pub fn load_bytes(
         ));
     }
     let (origin, unit) = scene_frame(&triangles, &light_positions);
+    let (lo0, hi0) = bounds64(&triangles, &light_positions);
     let to_f32 = |p: DVec3| ((p - origin) * unit).as_vec3();
     for (l, p) in scene.lights.iter_mut().zip(&light_positions) {
         if let Light::Point {
@@ -413,6 +437,10 @@ pub fn load_bytes(
             bail!("'{name}': {what} emits more power than 32-bit floats hold; lower its emissiveStrength/intensity (the image scales with it)");
         }
     }
+    // Rescaling (scene_frame) can take a punctual intensity below f32's range.
+    if total <= 0.0 || scene.lights.iter().any(|l| scene.light_power(l) == 0.0) {
+        bail!("'{name}': a light's power rounds to 0 in 32-bit floats once the scene is brought to the renderer's scale (it is {:.3e} units across); scale the scene or the light's intensity", (hi0 - lo0).length());
+    }
     if total > f32::MAX as f64 / 16.0 {
         bail!("'{name}': its lights emit {total:.3e} W in total, more than 32-bit floats can render; lower the emission (the image scales with it)");
     }
@@ -424,6 +452,16 @@ pub fn load_bytes(
         None => Camera::framing(lo, hi),
     };
     Ok(scene)
+}
+
+/// The bounds of triangles and points in f64.
+fn bounds64(triangles: &[[DVec3; 3]], points: &[DVec3]) -> (DVec3, DVec3) {
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    for p in triangles.iter().flatten().chain(points) {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    (lo, hi)
 }
 
 /// Sizes (bounding-box diagonals) the renderer takes as they are: every committed scene
@@ -443,11 +481,7 @@ pub const NATIVE_SIZES: std::ops::RangeInclusive<f64> = 1.0..=16384.0;
 ///
 /// Scenes inside the range with their centre near the origin load bit for bit as written.
 fn scene_frame(triangles: &[[DVec3; 3]], points: &[DVec3]) -> (DVec3, f64) {
-    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-    for p in triangles.iter().flatten().chain(points) {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
-    }
+    let (lo, hi) = bounds64(triangles, points);
     if !lo.is_finite() {
         return (DVec3::ZERO, 1.0);
     }

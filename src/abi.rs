@@ -1,4 +1,6 @@
-//! Every struct the host shares with the kernels. Each is mirrored field by field in
+//! The shader ABI as plain data: every struct and constant the host shares with the
+//! kernels (depends on bytemuck only, so the plain-data modules use it without the device
+//! layer). Each is mirrored field by field in
 //! `shaders/shared/types.glsl` (same names), and `tests/layout.rs` reads the compiled SPIR-V
 //! and fails on any offset or size mismatch.
 //!
