@@ -225,7 +225,7 @@ void main() {
         if (learned && li != NO_LIGHT && slot == NO_SLOT) atomicAdd(counters[1], 1u);
         // The observation of the chosen cluster: Î_C = L_e G V / (P(l|C) p(y|l)) as
         // luminance (not divided by P(C|x)); zero when occluded or facing away. Learning
-        // models the light-sampling estimator, so it takes no MIS weight (method.md §5).
+        // models the light-sampling estimator, so it takes no MIS weight (docs/method.md §5).
         float observed = 0.0;
         vec3 Ic = vec3(0.0);  // Î_C in RGB, for the control variate
         vec3 wi;
@@ -266,7 +266,7 @@ void main() {
         if (learned && slot != NO_SLOT) record_observation(slot, observed * d2_slot);
         light_samples += 1.0;
         zero_samples += any(greaterThan(Ic, vec3(0.0))) ? 0.0 : 1.0;
-        // --control-variates (method.md §6): Σ_C g_C + (Î_C − g_C) / P(C) instead of
+        // --control-variates (docs/method.md §6): Σ_C g_C + (Î_C − g_C) / P(C) instead of
         // Î_C / P(C), with g_C the model's predicted mean of Î_C (gray: the model learns
         // luminance). Unbiased for any g fixed within the pass (with MIS too: g need not
         // predict the weighted term); also where the sample was occluded or a dead end

@@ -64,7 +64,7 @@ struct DeviceArgs {
     validation: bool,
 }
 
-/// Regions and cuts (method.md §2), used by `--sampler wang`.
+/// Regions and cuts (docs/method.md §2), used by `--sampler wang`.
 #[derive(Args)]
 struct RegionArgs {
     /// Region grid: cells along the longest axis of the scene bounds.
@@ -100,7 +100,7 @@ impl RegionArgs {
     }
 }
 
-/// The learned samplers (`--sampler bayes|donikian`, method.md §3–§8).
+/// The learned samplers (`--sampler bayes|donikian`, docs/method.md §3–§8).
 #[derive(Args)]
 struct LearnArgs {
     /// Fold new observations into the posteriors every K passes (1 pass = 1 spp).

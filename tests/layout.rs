@@ -1,4 +1,4 @@
-//! Host/shader struct layouts: every `#[repr(C)]` struct in src/gpu/layout.rs must have the
+//! Host/shader struct layouts: every `#[repr(C)]` struct in src/abi.rs must have the
 //! same member names, offsets and size as its GLSL mirror in the compiled SPIR-V.
 
 use std::collections::HashMap;

@@ -1,5 +1,5 @@
-// The learned cluster samplers: `bayes` (Vévoda et al. 2018, method.md §3–§4) and `donikian`
-// (Donikian et al. 2006, method.md §8), and the recording of their observations.
+// The learned cluster samplers: `bayes` (Vévoda et al. 2018, docs/method.md §3–§4) and `donikian`
+// (Donikian et al. 2006, docs/method.md §8), and the recording of their observations.
 // Mirror of src/learning/mod.rs (`slot_weight`, `donikian_weights`); tests/learning.rs checks
 // GPU against CPU. The including kernel declares the region buffers, `slot_stats`
 // (SlotStats[], parallel to `cuts`), `slot_delta` (SlotDelta[], same) and `learn`
@@ -26,7 +26,7 @@ float brdf_toward(LightNode nd, vec3 p, vec3 n);
 #define FIX_CLAMP 4096.0
 #define TWO_POW_32 4294967296.0
 
-// The posterior's sampling weight of one slot at x (method.md §4) before the 1/d² factor,
+// The posterior's sampling weight of one slot at x (docs/method.md §4) before the 1/d² factor,
 // from the coefficients fold.comp stored (posterior.glsl); mu0 is the prior mean of y at x.
 float bayes_weight(SlotStats s, float mu0) {
     // t is clamped so that t² stays a normal float: only absurd prior/scale ratios are
@@ -38,7 +38,7 @@ float bayes_weight(SlotStats s, float mu0) {
     return s.scale * (v > 0.0 ? sqrt(v) : t * sqrt(s.coef_a));
 }
 
-// The posterior's predicted mean of the observation Î_C at x (method.md §6): (1 − p̂0) μ / d²
+// The posterior's predicted mean of the observation Î_C at x (docs/method.md §6): (1 − p̂0) μ / d²
 // with μ the regression constant's posterior mean at prior mean mu0, divided by the
 // observation's BRDF factor (brdf; 1 unless --brdf-aware) so that it predicts Î_C itself.
 float predicted_mean(SlotStats s, float mu0, float di, float brdf) {

@@ -1,4 +1,4 @@
-// The bayes sampling weight of one slot in closed form (method.md §3–§4), as coefficients
+// The bayes sampling weight of one slot in closed form (docs/method.md §3–§4), as coefficients
 // the fold kernel stores once per slot and the render kernel evaluates per shading point.
 // Mirror of src/learning/mod.rs `coefficients`.
 //
@@ -40,7 +40,7 @@ vec3 posterior_rpq(SlotStats s, LearnParams L) {
 }
 
 // The posterior's predicted mean of y, E[y] = (1 − p̂0) μ = scale (a t + b): the control
-// variate of method.md §6 (and the weight of --target mean).
+// variate of docs/method.md §6 (and the weight of --target mean).
 vec2 mean_coefficients(SlotStats s, LearnParams L) {
     vec3 rpq = posterior_rpq(s, L);
     return vec2(rpq.x * rpq.y, rpq.x * rpq.z);

@@ -1,4 +1,4 @@
-// Host/shader shared structs. Mirror of src/gpu/layout.rs, field for field and by name;
+// Host/shader shared structs. Mirror of src/abi.rs, field for field and by name;
 // tests/layout.rs checks offsets and sizes in the compiled SPIR-V.
 #ifndef TYPES_GLSL
 #define TYPES_GLSL

@@ -1,4 +1,4 @@
-//! Online learning of cluster selection (method.md §3–§8): the settings of the `bayes` and
+//! Online learning of cluster selection (docs/method.md §3–§8): the settings of the `bayes` and
 //! `donikian` samplers, the Bayesian posterior of one (region, cut slot), the sampling weights
 //! built from it, and the saved-statistics file.
 //!
@@ -8,7 +8,7 @@
 //! kernel evaluates it from the totals at each shading point, because the prior mean depends
 //! on x (below). This module is the CPU mirror the tests check the kernels against.
 //!
-//! One deviation from method.md §3, and why: the prior mean μ0 is the unoccluded estimate at
+//! One deviation from docs/method.md §3, and why: the prior mean μ0 is the unoccluded estimate at
 //! the shading point x (Ĩ_C(x) · d_C(x)² / π), not at the region centre. With it the `bayes`
 //! pmf before any data is exactly ∝ Ĩ_C(x), i.e. learning starts exactly where `wang` is
 //! (the test), and no region-centre estimate can be zero for a slot that lights x.
@@ -22,7 +22,7 @@ use crate::abi::{
     LEARN_PRIORS, LEARN_REGRESSION, LEARN_TARGET_MEAN,
 };
 
-/// Settings of the learned samplers; defaults are method.md's [ours] values.
+/// Settings of the learned samplers; defaults are docs/method.md's [ours] values.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct LearnSettings {
     /// Fold the observations into the posteriors every this many passes.
@@ -39,7 +39,7 @@ pub struct LearnSettings {
     /// cluster (render kernel only; the CPU mirrors and `light_sample.comp` use factor 1).
     pub brdf_select: bool,
     /// `bayes`: the pixel estimate subtracts the model's predicted mean as a control variate
-    /// (method.md §6).
+    /// (docs/method.md §6).
     pub control_variates: bool,
     /// Beta prior pseudo-counts of zero and non-zero observations (n̄_o, n̄_v).
     pub prior_zero: f32,
@@ -139,7 +139,7 @@ impl LearnSettings {
     }
 }
 
-/// The posterior of one slot (method.md §3), in f64: Beta(a, b) on p0 and
+/// The posterior of one slot (docs/method.md §3), in f64: Beta(a, b) on p0 and
 /// Normal-inverse-gamma (μ, κ, α, β) on (k, h).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Posterior {
@@ -298,7 +298,7 @@ pub fn mean_coefficients(s: &SlotStats, l: &LearnSettings) -> [f32; 2] {
     [r * pp, r * q]
 }
 
-/// The control variate of method.md §6 (`predicted_mean` in learning.glsl): the predicted
+/// The control variate of docs/method.md §6 (`predicted_mean` in learning.glsl): the predicted
 /// mean of the observation Î_C = y / d² at prior mean mu0, regression distance² di (1
 /// without regression) and BRDF factor brdf (1 unless --brdf-aware; 0 gives 0).
 pub fn predicted_mean(s: &SlotStats, mu0: f32, di: f32, brdf: f32, l: &LearnSettings) -> f32 {

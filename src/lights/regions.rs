@@ -1,4 +1,4 @@
-//! Regions and cuts (method.md §2): the scene bounds split into a uniform grid of cubic cells
+//! Regions and cuts (docs/method.md §2): the scene bounds split into a uniform grid of cubic cells
 //! (`grid` cells along the longest axis), each cell split into 6 normal bins (dominant axis
 //! and sign of the shading normal) so both sides of a wall keep apart; every region that
 //! shading points reach gets a cut of the light tree. The `wang` sampler (Wang & Åkerlund
@@ -53,7 +53,7 @@ impl RegionSettings {
 }
 
 impl Default for RegionSettings {
-    /// method.md §2 defaults.
+    /// docs/method.md §2 defaults.
     fn default() -> Self {
         RegionSettings {
             grid: 32,
@@ -390,7 +390,7 @@ impl Cuts {
 /// How a light is picked inside a chosen cluster.
 #[derive(Clone, Copy, Debug)]
 pub enum Inside {
-    /// ∝ power (Wang & Åkerlund 2009; method.md §4's default).
+    /// ∝ power (Wang & Åkerlund 2009; docs/method.md §4's default).
     Power,
     /// By descending the cluster's subtree ∝ importance at this shading point.
     Importance(Vec3, Vec3),

@@ -4,7 +4,7 @@
 //! covers a contiguous range of `order`. Each node bounds its lights' positions, emission
 //! directions (a cone: axis, θ_o, θ_e) and power.
 //!
-//! `importance` is the unoccluded estimate Ĩ_C(x) of method.md §2, mirrored exactly in
+//! `importance` is the unoccluded estimate Ĩ_C(x) of docs/method.md §2, mirrored exactly in
 //! `shaders/shared/light_tree.glsl`; `sample` / `pmf` are the `lightbvh` sampler's stochastic
 //! descent, the reference the GPU kernel is tested against.
 
