@@ -4,6 +4,7 @@
 pub mod abi;
 pub mod accel;
 pub mod bench;
+pub mod commands;
 pub mod compare;
 pub mod film;
 pub mod gpu;

@@ -27,7 +27,7 @@ pub use result::{Learned, RegionStats, RenderResult};
 pub use session::Session;
 
 /// The light samplers, a closed set: one value per `SAMPLER` case in `shaders/render.comp`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum LightSampler {
     /// Every light equally likely.
@@ -61,18 +61,33 @@ impl LightSampler {
         }
     }
 
+    /// Every sampler, in the order of their shader ids.
+    pub const ALL: [LightSampler; 6] = [
+        LightSampler::Uniform,
+        LightSampler::Power,
+        LightSampler::Lightbvh,
+        LightSampler::Wang,
+        LightSampler::Donikian,
+        LightSampler::Bayes,
+    ];
+
+    /// The sampler a user typed (any case).
+    pub fn from_name(name: &str) -> anyhow::Result<LightSampler> {
+        LightSampler::ALL
+            .into_iter()
+            .find(|v| v.name().eq_ignore_ascii_case(name))
+            .ok_or_else(|| {
+                let all: Vec<&str> = LightSampler::ALL.iter().map(|v| v.name()).collect();
+                anyhow::anyhow!("unknown sampler '{name}'; choose from {}", all.join(", "))
+            })
+    }
+
     /// Parses a comma-separated list such as "power,uniform".
     pub fn parse_list(s: &str) -> anyhow::Result<Vec<LightSampler>> {
-        use clap::ValueEnum;
-        let all: Vec<&str> = LightSampler::value_variants()
-            .iter()
-            .map(|v| v.name())
-            .collect();
+        let all: Vec<&str> = LightSampler::ALL.iter().map(|v| v.name()).collect();
         let mut out = Vec::new();
         for name in s.split(',').map(str::trim).filter(|n| !n.is_empty()) {
-            let v = LightSampler::from_str(name, true).map_err(|_| {
-                anyhow::anyhow!("unknown sampler '{name}'; choose from {}", all.join(", "))
-            })?;
+            let v = LightSampler::from_name(name)?;
             if out.contains(&v) {
                 bail!("sampler '{name}' is listed twice");
             }

@@ -22,7 +22,7 @@ use glam::Vec3;
 use super::gltf_write::{box_mesh, GltfBuilder};
 use crate::rng::SplitMix64;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Family {
     /// A building floor: rows of rooms on corridors, joined by doors; lights in every room.
     Rooms,
@@ -34,6 +34,27 @@ pub enum Family {
     Strings,
     /// A Cornell-style box with a ceiling panel and a few bulbs.
     Cornell,
+}
+
+impl Family {
+    pub const ALL: [Family; 5] = [
+        Family::Rooms,
+        Family::Hall,
+        Family::City,
+        Family::Strings,
+        Family::Cornell,
+    ];
+
+    /// The name users type.
+    pub fn name(self) -> &'static str {
+        match self {
+            Family::Rooms => "rooms",
+            Family::Hall => "hall",
+            Family::City => "city",
+            Family::Strings => "strings",
+            Family::Cornell => "cornell",
+        }
+    }
 }
 
 /// Largest `--lights` for the big families: 1M lights is 64 MB of light data on the GPU and a

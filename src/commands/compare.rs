@@ -1,0 +1,229 @@
+//! `lightlearn compare`: samplers side by side on one scene at equal time and/or equal
+//! samples against a reference; writes the EXRs, `metrics.json`, `convergence.csv` and the
+//! HTML report together. Everything that can be wrong with the request is checked before
+//! any rendering, and a refused request leaves no folder behind.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context as _, Result};
+use serde_json::json;
+
+use super::{check_depth, prepare, Ui};
+use crate::compare::{self, reference, report, Comparison};
+use crate::film;
+use crate::gpu::ContextOptions;
+use crate::learning::LearnSettings;
+use crate::lights::regions::RegionSettings;
+use crate::render::{Budget, LightSampler};
+
+/// What `compare` is asked for.
+#[derive(Clone, Debug)]
+pub struct CompareRequest {
+    pub scene: Option<PathBuf>,
+    /// The first is the baseline of the speed-ups.
+    pub samplers: Vec<LightSampler>,
+    pub time: Option<f64>,
+    pub spp: Option<u32>,
+    /// A given reference image; None: rendered once and cached.
+    pub reference: Option<PathBuf>,
+    pub reference_spp: u32,
+    pub out: PathBuf,
+    pub width: u32,
+    pub height: u32,
+    pub seed: u32,
+    pub max_depth: u32,
+    pub regions: RegionSettings,
+    pub learn: LearnSettings,
+    pub device: ContextOptions,
+}
+
+/// What a comparison measured and where its report is.
+pub struct CompareOutcome {
+    pub comparisons: Vec<Comparison>,
+    pub report: PathBuf,
+}
+
+/// Runs the comparison; the folders it creates are removed again if it fails.
+pub fn run(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
+    // The folders this run creates (the output folder and missing parents), innermost first.
+    let created: Vec<PathBuf> = a
+        .out
+        .ancestors()
+        .take_while(|p| !p.as_os_str().is_empty() && !p.exists())
+        .map(Path::to_path_buf)
+        .collect();
+    let result = run_checked(a, ui);
+    if result.is_err() {
+        for d in &created {
+            let _ = std::fs::remove_dir(d); // only if still empty
+        }
+    }
+    result
+}
+
+fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
+    // Everything that can be wrong with the request is checked before any rendering.
+    check_depth(a.max_depth)?;
+    let samplers = a.samplers.clone();
+    if samplers.is_empty() {
+        bail!("--samplers needs at least one sampler");
+    }
+    let (regions, learn) = (a.regions, a.learn);
+    regions.check()?;
+    learn.check()?;
+    if learn.control_variates && !samplers.contains(&LightSampler::Bayes) {
+        bail!("--control-variates applies to bayes only: add bayes to --samplers");
+    }
+    let mut budgets = Vec::new();
+    if let Some(t) = a.time {
+        if !(t.is_finite() && t > 0.0) {
+            bail!("--time must be a positive number of seconds");
+        }
+        budgets.push(Budget::Seconds(t));
+    }
+    if let Some(n) = a.spp {
+        if n == 0 {
+            bail!("--spp must be at least 1");
+        }
+        budgets.push(Budget::Samples(n));
+    }
+    if budgets.is_empty() {
+        bail!("give --time SECONDS (equal time) and/or --spp N (equal samples)");
+    }
+    let ref_settings =
+        reference::settings(a.width, a.height, a.reference_spp, a.seed, a.max_depth)?;
+    std::fs::create_dir_all(&a.out)
+        .with_context(|| format!("cannot create the output folder '{}'", a.out.display()))?;
+    crate::io::write_atomic(&a.out.join(".write-test"), b"")
+        .with_context(|| format!("the output folder '{}' is not writable", a.out.display()))?;
+    let _ = std::fs::remove_file(a.out.join(".write-test"));
+    let given = match &a.reference {
+        Some(p) => {
+            let (w, h, px) = film::read_exr(p)?;
+            if (w, h) != (a.width, a.height) {
+                bail!(
+                    "reference '{}' is {w}×{h} but the comparison renders {}×{}; pass --width {w} --height {h} or another reference",
+                    p.display(),
+                    a.width,
+                    a.height
+                );
+            }
+            if let Some(i) = px.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
+                bail!(
+                    "reference '{}' has a NaN or Inf at pixel ({}, {}); render it again",
+                    p.display(),
+                    i as u32 % w,
+                    i as u32 / w
+                );
+            }
+            Some((p.clone(), px))
+        }
+        None => None,
+    };
+
+    let (scene, ctx, gpu, _) = prepare(a.scene.as_deref(), &a.device, ui)?;
+    if samplers.iter().any(|s| s.uses_cuts()) {
+        crate::render::check_region_index_fits(&ctx, &scene, &regions)?;
+    }
+    let (reference_image, reference_note, reference_noise) = match given {
+        Some((p, px)) => {
+            let sidecar: Option<serde_json::Value> = std::fs::read(p.with_extension("json"))
+                .ok()
+                .and_then(|b| serde_json::from_slice(&b).ok());
+            let noise = sidecar.as_ref().and_then(reference::noise);
+            let note = noise.map_or(
+                String::from("its own error is unknown (no JSON beside it)"),
+                |e| format!("its own estimated relMSE {:.2e}", e.rel_mse),
+            );
+            (px, format!("{} (given); {note}", p.display()), noise)
+        }
+        None => {
+            let mut log = Vec::new();
+            let r = reference::cached(
+                &ctx,
+                &scene,
+                &gpu,
+                &ref_settings,
+                &mut |spp, f| ui.progress("reference", spp, f),
+                &mut |m| log.push(m),
+            );
+            ui.phase_done();
+            for m in log {
+                ui.message(&m);
+            }
+            r?
+        }
+    };
+
+    let mut comparisons = Vec::new();
+    for budget in budgets {
+        let c = compare::compare(
+            &ctx,
+            &scene,
+            &gpu,
+            &samplers,
+            &regions,
+            &learn,
+            budget,
+            a.width,
+            a.height,
+            a.seed,
+            a.max_depth,
+            &reference_image,
+            reference_noise,
+            &mut |sampler, spp, f| ui.progress(sampler.name(), spp, f),
+        )?;
+        ui.phase_done();
+        comparisons.push(c);
+    }
+
+    // Outputs: EXRs, metrics.json, convergence.csv, index.html, moved into place together.
+    let (w, h) = (a.width, a.height);
+    let mut out = crate::io::FileSet::default();
+    let mut exr = |name: String, img: &[[f32; 3]]| {
+        out.add_with(&a.out.join(name), |tmp| film::write_exr(tmp, w, h, img))
+    };
+    exr("reference.exr".into(), &reference_image)?;
+    for c in &comparisons {
+        let prefix = if c.budget_seconds.is_some() {
+            "time"
+        } else {
+            "spp"
+        };
+        for r in &c.runs {
+            exr(format!("{prefix}-{}.exr", r.sampler.name()), &r.image)?;
+        }
+    }
+    let metrics = json!({
+        "scene": scene.source,
+        "width": w,
+        "height": h,
+        "seed": a.seed,
+        "device": ctx.describe(),
+        "reference": reference_note,
+        "comparisons": comparisons,
+    });
+    out.add(
+        &a.out.join("metrics.json"),
+        (serde_json::to_string_pretty(&metrics)? + "\n").as_bytes(),
+    )?;
+    out.add(
+        &a.out.join("convergence.csv"),
+        report::convergence_csv(&comparisons).as_bytes(),
+    )?;
+    let page = report::html(&report::ReportInput {
+        scene: &scene.source,
+        width: w,
+        height: h,
+        device: &ctx.describe(),
+        reference: &reference_image,
+        reference_note: &reference_note,
+        comparisons: &comparisons,
+    })?;
+    out.add(&a.out.join("index.html"), page.as_bytes())?;
+    out.commit()?;
+    Ok(CompareOutcome {
+        comparisons,
+        report: a.out.join("index.html"),
+    })
+}

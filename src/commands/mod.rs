@@ -1,0 +1,76 @@
+//! The bodies of the commands (`render`, `compare`, `reference`, `scene`): plain requests in,
+//! files out, progress and messages through a [`Ui`]. The binary only parses arguments into
+//! these requests and prints; anything else (a farm task, a test) can run them the same way.
+
+pub mod compare;
+pub mod reference;
+pub mod render;
+pub mod scene;
+
+use std::path::Path;
+use std::sync::Arc;
+
+use anyhow::{bail, Result};
+
+use crate::accel::Bvh;
+use crate::gpu::{Context, ContextOptions};
+use crate::render::GpuScene;
+use crate::scene::{gltf_load, Scene};
+
+/// Where a command's progress and messages go (the binary: a progress bar and stderr).
+pub trait Ui {
+    /// `fraction` (0..1) of the phase `label` is done, at `spp` samples per pixel.
+    fn progress(&mut self, label: &str, spp: u32, fraction: f64);
+    /// The current phase is over (a progress bar is cleared).
+    fn phase_done(&mut self) {}
+    /// A line for the user (warnings are prefixed `warning:`).
+    fn message(&mut self, line: &str);
+}
+
+/// A [`Ui`] that shows nothing.
+pub struct Silent;
+
+impl Ui for Silent {
+    fn progress(&mut self, _: &str, _: u32, _: f64) {}
+    fn message(&mut self, _: &str) {}
+}
+
+/// Path tracing depth: 1 (direct light) to [`MAX_DEPTH`] vertices.
+pub const MAX_DEPTH: u32 = 100;
+
+pub fn check_depth(d: u32) -> Result<()> {
+    if !(1..=MAX_DEPTH).contains(&d) {
+        bail!("--max-depth {d} is out of range: use 1 (direct light) to {MAX_DEPTH} (Russian roulette ends most paths long before)");
+    }
+    Ok(())
+}
+
+/// The scene at `path`, or the built-in default scene; warnings go to `ui`.
+pub fn load_scene(path: Option<&Path>, ui: &mut dyn Ui) -> Result<Scene> {
+    let mut warn = |w: String| ui.message(&format!("warning: {w}"));
+    match path {
+        Some(p) => gltf_load::load(p, &mut warn),
+        None => gltf_load::load_bytes(
+            crate::DEFAULT_SCENE,
+            crate::DEFAULT_SCENE_NAME,
+            Path::new("."),
+            &mut warn,
+        ),
+    }
+}
+
+/// Loads the scene, opens the device and uploads the scene: what every rendering command
+/// does. Also returns the BVH build's seconds.
+pub fn prepare(
+    scene: Option<&Path>,
+    device: &ContextOptions,
+    ui: &mut dyn Ui,
+) -> Result<(Scene, Arc<Context>, GpuScene, f64)> {
+    let scene = load_scene(scene, ui)?;
+    let ctx = Context::new(device)?;
+    let t0 = std::time::Instant::now();
+    let bvh = Bvh::build(&scene.triangles);
+    let build_seconds = t0.elapsed().as_secs_f64();
+    let gpu = GpuScene::upload(&ctx, &scene, &bvh)?;
+    Ok((scene, ctx, gpu, build_seconds))
+}

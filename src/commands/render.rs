@@ -1,0 +1,147 @@
+//! `lightlearn render`: one image of a scene, with its PNG, JSON report and, on request, the
+//! learned statistics, all checked before any rendering and written together.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{bail, Result};
+use serde_json::json;
+
+use super::{check_depth, prepare, Ui};
+use crate::film::{self, OutputPaths};
+use crate::gpu::ContextOptions;
+use crate::learning::stats_file::{self, SavedStats};
+use crate::learning::LearnSettings;
+use crate::lights::regions::RegionSettings;
+use crate::render::{self, Budget, LightSampler, RenderSettings};
+
+/// What `render` is asked for.
+#[derive(Clone, Debug)]
+pub struct RenderRequest {
+    /// None: the built-in default scene.
+    pub scene: Option<PathBuf>,
+    pub sampler: LightSampler,
+    pub spp: Option<u32>,
+    pub seconds: Option<f64>,
+    pub width: u32,
+    pub height: u32,
+    pub seed: u32,
+    pub out: PathBuf,
+    pub max_depth: u32,
+    pub regions: RegionSettings,
+    pub learn: LearnSettings,
+    pub save_stats: Option<PathBuf>,
+    pub load_stats: Option<PathBuf>,
+    /// `--save-stats` may replace a file that is not a statistics file.
+    pub force: bool,
+    pub device: ContextOptions,
+}
+
+/// What a finished (or interrupted) render wrote.
+#[derive(Clone, Debug)]
+pub struct RenderOutcome {
+    pub exr: PathBuf,
+    pub spp: u32,
+    pub render_seconds: f64,
+    pub msamples_per_second: f64,
+    pub invalid_samples: u32,
+    pub interrupted: bool,
+    pub wrote_stats: bool,
+}
+
+/// Checks the request, renders and writes the outputs. An interrupted render (Ctrl-C)
+/// writes what it has and says so in the outcome.
+pub fn run(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
+    let started = Instant::now();
+    let budget = match (req.spp, req.seconds) {
+        (Some(0), _) => bail!("--spp must be at least 1"),
+        (Some(n), _) => Budget::Samples(n),
+        (None, Some(t)) if !(t.is_finite() && t > 0.0) => {
+            bail!("--time must be a positive number of seconds")
+        }
+        (None, Some(t)) => Budget::Seconds(t),
+        (None, None) => Budget::Samples(64),
+    };
+    if req.width == 0 || req.height == 0 || req.width > 16384 || req.height > 16384 {
+        bail!("--width/--height must be between 1 and 16384");
+    }
+    check_depth(req.max_depth)?;
+    req.regions.check()?;
+    req.learn.check()?;
+    if req.learn.control_variates && req.sampler != LightSampler::Bayes {
+        bail!("--control-variates needs the learned model: add --sampler bayes");
+    }
+    if (req.save_stats.is_some() || req.load_stats.is_some()) && !req.sampler.learned() {
+        bail!(
+            "--save-stats/--load-stats need a learning sampler: add --sampler bayes or --sampler donikian"
+        );
+    }
+    // The output locations and the statistics file, before any time is spent rendering.
+    let paths = OutputPaths::new(&req.out)?;
+    if let Some(p) = &req.save_stats {
+        let inputs: Vec<&std::path::Path> = req.scene.iter().map(PathBuf::as_path).collect();
+        stats_file::check_save_target(p, &inputs, &paths.all(), req.force)?;
+    }
+    let loaded = match &req.load_stats {
+        Some(p) => Some(SavedStats::load(p)?),
+        None => None,
+    };
+    let (scene, ctx, gpu, build_seconds) = prepare(req.scene.as_deref(), &req.device, ui)?;
+    ui.message(&format!(
+        "{}: {} triangles, {} lights; device {}",
+        scene.source,
+        scene.triangles.len(),
+        scene.lights.len(),
+        ctx.describe()
+    ));
+    let mut settings = RenderSettings {
+        width: req.width,
+        height: req.height,
+        budget,
+        seed: req.seed,
+        sampler: req.sampler,
+        regions: req.regions,
+        learn: req.learn,
+        resume: None,
+        stratified: true,
+        max_depth: req.max_depth,
+    };
+    if let (Some(saved), Some(p)) = (loaded, &req.load_stats) {
+        render::check_resume(&scene, &gpu, &settings, &saved, p)?;
+        settings.resume = Some(Arc::new(saved));
+    }
+    let result = render::render(&ctx, &scene, &gpu, &settings, &mut |spp, f| {
+        ui.progress("render", spp, f)
+    })?;
+    ui.phase_done();
+
+    let image = result.mean();
+    let mut report = render::report_json(&scene, &settings, &result, &ctx.describe());
+    report["bvh_build_seconds"] = json!(build_seconds);
+    report["light_tree_build_seconds"] = json!(gpu.light_tree_seconds);
+    report["total_seconds"] = json!(started.elapsed().as_secs_f64());
+    let stats = match (&req.save_stats, &result.learned) {
+        (Some(p), Some(l)) => vec![(p.as_path(), l.saved.to_bytes())],
+        _ => Vec::new(),
+    };
+    let extra: Vec<(&std::path::Path, &[u8])> =
+        stats.iter().map(|(p, b)| (*p, b.as_slice())).collect();
+    film::write_outputs_with(&paths, req.width, req.height, &image, &report, &extra)?;
+    if result.invalid_samples > 0 {
+        ui.message(&format!(
+            "warning: {} samples were NaN/Inf and were dropped; please report this scene",
+            result.invalid_samples
+        ));
+    }
+    let samples = result.spp as f64 * req.width as f64 * req.height as f64;
+    Ok(RenderOutcome {
+        exr: paths.exr.clone(),
+        spp: result.spp,
+        render_seconds: result.render_seconds,
+        msamples_per_second: samples / result.render_seconds.max(1e-9) / 1e6,
+        invalid_samples: result.invalid_samples,
+        interrupted: result.interrupted,
+        wrote_stats: !extra.is_empty(),
+    })
+}
