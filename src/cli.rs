@@ -130,12 +130,12 @@ pub struct LearnArgs {
     /// bayes: multiply each cluster's learned weight by the BRDF at the shading point towards
     /// the cluster (its direction nearest the mirror direction, plus a floor of 0.1 × albedo/π
     /// so no cluster drops to 0); observations stay BRDF-free. Only glossy materials change
-    /// (measured 2.0× and 3.5× better than off at equal time on two glossy scenes; README).
+    /// (measured 2.0× and 3.5× better than off at equal time on two glossy scenes; docs/results.md).
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     pub brdf_select: String,
     /// bayes: subtract the model's predicted mean of every cluster as a control variate
     /// (unbiased; measured 1.4× better on rooms16, no gain on city, so off by default; see
-    /// README).
+    /// docs/results.md).
     #[arg(long)]
     pub control_variates: bool,
     /// bayes: Beta prior pseudo-count of zero observations (n̄_o).

@@ -1,5 +1,5 @@
 //! lightlearn: a GPU many-light renderer (Vulkan compute) built around Bayesian online
-//! learning of light selection. See README.md and shared design notes for the method.
+//! learning of light selection. See README.md and docs/ (docs/method.md for the method).
 
 pub mod abi;
 pub mod accel;
