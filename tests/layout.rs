@@ -1,5 +1,12 @@
 //! Host/shader struct layouts: every `#[repr(C)]` struct in src/abi.rs must have the
-//! same member names, offsets and size as its GLSL mirror in the compiled SPIR-V.
+//! same member names, offsets and size as its GLSL mirror in the compiled SPIR-V; and the
+//! storage blocks of `render.comp` and `fold.comp` must sit at the bindings the session binds
+//! them to (by name).
+//!
+//! A small SPIR-V reader rather than naga: naga 30.0.2's SPIR-V front end parses none of our
+//! kernels as compiled (`OpSpecConstantOp` in render.comp and light_sample.comp, the
+//! specialization-constant expressions of the sampler switch; `OpCopyLogical`, SPIR-V 1.4,
+//! in trace.comp, fold.comp and bsdf.comp).
 
 use std::collections::HashMap;
 use std::mem::{offset_of, size_of};
@@ -293,4 +300,127 @@ fn layout_checker_detects_mismatch() {
     ];
     assert_ne!(ray.members, wrong);
     assert_eq!(ray.members[1], ("tmin".to_string(), 12));
+    // And the binding check sees a swap.
+    let mut swapped = lightlearn::render::FOLD_BINDINGS;
+    swapped.swap(0, 1);
+    assert_ne!(bindings(kernels::FOLD), named(&swapped));
+}
+
+/// (set, binding) → the block (struct type) name of every storage buffer of a module.
+fn bindings(spv: &[u8]) -> Vec<((u32, u32), String)> {
+    let words: Vec<u32> = spv
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    let string = |ws: &[u32]| -> String {
+        let bytes: Vec<u8> = ws.iter().flat_map(|w| w.to_le_bytes()).collect();
+        let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
+        String::from_utf8_lossy(&bytes[..end]).into_owned()
+    };
+    let (mut names, mut set, mut binding) = (HashMap::new(), HashMap::new(), HashMap::new());
+    let (mut pointee, mut vars) = (HashMap::new(), Vec::new());
+    let mut i = 5;
+    while i < words.len() {
+        let (count, op) = ((words[i] >> 16) as usize, words[i] & 0xffff);
+        let ins = &words[i..i + count];
+        match op {
+            5 => {
+                names.insert(ins[1], string(&ins[2..]));
+            }
+            71 if ins[2] == 34 => {
+                set.insert(ins[1], ins[3]); // DescriptorSet
+            }
+            71 if ins[2] == 33 => {
+                binding.insert(ins[1], ins[3]); // Binding
+            }
+            32 => {
+                pointee.insert(ins[1], ins[3]); // OpTypePointer: id, storage class, type
+            }
+            59 => vars.push((ins[2], ins[1])), // OpVariable: result id, pointer type
+            _ => {}
+        }
+        i += count.max(1);
+    }
+    let mut out: Vec<((u32, u32), String)> = vars
+        .iter()
+        .filter_map(|(v, ptr)| {
+            let b = *binding.get(v)?;
+            let block = names.get(pointee.get(ptr)?)?.clone();
+            Some(((set.get(v).copied().unwrap_or(0), b), block))
+        })
+        .collect();
+    out.sort();
+    out
+}
+
+fn named(blocks: &[&str]) -> Vec<((u32, u32), String)> {
+    blocks
+        .iter()
+        .enumerate()
+        .map(|(i, n)| ((0, i as u32), n.to_string()))
+        .collect()
+}
+
+#[test]
+fn kernels_bind_what_the_session_binds() {
+    assert_eq!(
+        bindings(kernels::RENDER),
+        named(&lightlearn::render::RENDER_BINDINGS),
+        "render.comp's storage blocks and the session's binding list differ"
+    );
+    assert_eq!(
+        bindings(kernels::FOLD),
+        named(&lightlearn::render::FOLD_BINDINGS),
+        "fold.comp's storage blocks and the session's binding list differ"
+    );
+}
+
+/// Every `#define NAME VALUE` of shaders/shared/types.glsl that mirrors a Rust constant has
+/// its value, and the sampler ids are the specialization constants the host passes.
+#[test]
+fn glsl_defines_match_the_rust_constants() {
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders/shared/types.glsl"),
+    )
+    .unwrap();
+    let defines: HashMap<String, u32> = text
+        .lines()
+        .filter_map(|l| {
+            let mut w = l.strip_prefix("#define ")?.split_whitespace();
+            let (name, value) = (w.next()?, w.next()?.trim_end_matches('u'));
+            let v = match value.strip_prefix("0x") {
+                Some(hex) => u32::from_str_radix(hex, 16).ok()?,
+                None => value.parse().ok()?,
+            };
+            Some((name.to_string(), v))
+        })
+        .collect();
+    let mut want: Vec<(String, u32)> = vec![
+        ("BVH_LEAF_BIT".into(), BVH_LEAF_BIT),
+        ("LIGHT_POINT".into(), LIGHT_POINT),
+        ("LIGHT_SPOT".into(), LIGHT_SPOT),
+        ("LIGHT_TRIANGLE".into(), LIGHT_TRIANGLE),
+        ("LIGHT_TWO_SIDED".into(), LIGHT_TWO_SIDED),
+        ("LIGHT_NODE_TWO_SIDED".into(), LIGHT_NODE_TWO_SIDED),
+        ("LEARN_REGRESSION".into(), LEARN_REGRESSION),
+        ("LEARN_TARGET_MEAN".into(), LEARN_TARGET_MEAN),
+        ("LEARN_PRIORS".into(), LEARN_PRIORS),
+        ("LEARN_BRDF".into(), LEARN_BRDF),
+        ("LEARN_CONTROL_VARIATES".into(), LEARN_CONTROL_VARIATES),
+        ("LEARN_BRDF_SELECT".into(), LEARN_BRDF_SELECT),
+        ("MATERIAL_TWO_SIDED".into(), MATERIAL_TWO_SIDED),
+    ];
+    for s in lightlearn::render::LightSampler::ALL {
+        want.push((
+            format!("SAMPLER_{}", s.name().to_uppercase()),
+            s.shader_id(),
+        ));
+    }
+    for (name, value) in want {
+        assert_eq!(
+            defines.get(&name),
+            Some(&value),
+            "{name}: types.glsl and the Rust constant differ"
+        );
+    }
 }

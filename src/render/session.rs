@@ -31,8 +31,49 @@ use crate::learning::stats_file::{SavedStats, StatsHeader};
 use crate::lights::regions::{Cuts, Grid};
 use crate::scene::{Camera, Scene};
 
-/// Bindings of `render.comp` (set 0), in order.
-const RENDER_BINDINGS: u32 = 22;
+/// The storage blocks of `render.comp` by binding number (set 0), as the kernel names them;
+/// `tests/layout.rs` reads the names and numbers from the compiled SPIR-V and checks them.
+pub const RENDER_BINDINGS: [&str; 22] = [
+    "Nodes",
+    "Tris",
+    "TriMaterial",
+    "Materials",
+    "Lights",
+    "Alias",
+    "Accum",
+    "Counters",
+    "LightNodes",
+    "LightOrder",
+    "Grid",
+    "RegionIndex",
+    "Cuts",
+    "Stats",
+    "Delta",
+    "Learn",
+    "LightPosition",
+    "TriLight",
+    "Textures",
+    "Texels",
+    "TriUv",
+    "MissingRegions",
+];
+
+/// The storage blocks of `fold.comp` by binding number (set 0).
+pub const FOLD_BINDINGS: [&str; 3] = ["Stats", "Delta", "Learn"];
+
+/// The buffers of `named` in the order of `bindings` (each name once).
+fn in_binding_order<'b>(named: &[(&str, &'b Buffer)], bindings: &[&str]) -> Vec<&'b Buffer> {
+    bindings
+        .iter()
+        .map(|b| {
+            named
+                .iter()
+                .find(|(n, _)| n == b)
+                .map(|(_, buf)| *buf)
+                .expect("every binding has a buffer")
+        })
+        .collect()
+}
 
 /// The learned state: regions, cuts and statistics (GPU buffers and the host's copy of the
 /// cuts), and the learning pass counter.
@@ -138,14 +179,21 @@ impl<'a> Session<'a> {
             ctx,
             "render",
             kernels::RENDER,
-            RENDER_BINDINGS,
+            RENDER_BINDINGS.len() as u32,
             std::mem::size_of::<RenderParams>() as u32,
             &[
                 settings.sampler.shader_id(),
                 settings.regions.in_cluster_importance as u32,
             ],
         )?;
-        let fold = ComputePipeline::new(ctx, "fold", kernels::FOLD, 3, 8, &[])?;
+        let fold = ComputePipeline::new(
+            ctx,
+            "fold",
+            kernels::FOLD,
+            FOLD_BINDINGS.len() as u32,
+            8,
+            &[],
+        )?;
         let session = Session {
             ctx: ctx.clone(),
             scene,
@@ -170,33 +218,41 @@ impl<'a> Session<'a> {
         self.settings.sampler.learned()
     }
 
+    /// Binds every buffer to the binding of its name ([`RENDER_BINDINGS`], [`FOLD_BINDINGS`]).
     fn bind(&self) -> Result<()> {
         let (g, l, f) = (self.gpu, &self.learned, &self.film);
-        self.render.bind(&[
-            &g.nodes,
-            &g.tris,
-            &g.tri_material,
-            &g.materials,
-            &g.lights,
-            &g.alias,
-            &f.accum,
-            &f.counters,
-            &g.light_nodes,
-            &g.light_order,
-            &l.grid,
-            &l.index,
-            &l.cuts_buf,
-            &l.stats,
-            &l.delta,
-            &l.params,
-            &g.light_position,
-            &g.tri_light,
-            &g.textures,
-            &g.texels,
-            &g.tri_uv,
-            &l.missing,
-        ])?;
-        self.fold.bind(&[&l.stats, &l.delta, &l.params])
+        let render: [(&str, &Buffer); 22] = [
+            ("Nodes", &g.nodes),
+            ("Tris", &g.tris),
+            ("TriMaterial", &g.tri_material),
+            ("Materials", &g.materials),
+            ("Lights", &g.lights),
+            ("Alias", &g.alias),
+            ("Accum", &f.accum),
+            ("Counters", &f.counters),
+            ("LightNodes", &g.light_nodes),
+            ("LightOrder", &g.light_order),
+            ("Grid", &l.grid),
+            ("RegionIndex", &l.index),
+            ("Cuts", &l.cuts_buf),
+            ("Stats", &l.stats),
+            ("Delta", &l.delta),
+            ("Learn", &l.params),
+            ("LightPosition", &g.light_position),
+            ("TriLight", &g.tri_light),
+            ("Textures", &g.textures),
+            ("Texels", &g.texels),
+            ("TriUv", &g.tri_uv),
+            ("MissingRegions", &l.missing),
+        ];
+        self.render
+            .bind(&in_binding_order(&render, &RENDER_BINDINGS))?;
+        let fold: [(&str, &Buffer); 3] = [
+            ("Stats", &l.stats),
+            ("Delta", &l.delta),
+            ("Learn", &l.params),
+        ];
+        self.fold.bind(&in_binding_order(&fold, &FOLD_BINDINGS))
     }
 
     /// Folds the window into the totals: every slot (`force`: also recomputes the
