@@ -17,6 +17,10 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
+// Descriptor sets by lifetime (src/render/session.rs binds each when it changes): set 0 the
+// scene (uploaded once), set 1 the learned state (rebound when cuts are added), set 2 the
+// film (rebound on resize).
+
 // The light sampler, a closed set (src/render/mod.rs LightSampler): 0 uniform, 1 power,
 // 2 lightbvh, 3 wang, 4 donikian, 5 bayes.
 layout(constant_id = 0) const uint SAMPLER = 0u;
@@ -29,30 +33,30 @@ layout(std430, set = 0, binding = 2) readonly buffer TriMaterial { uint tri_mate
 layout(std430, set = 0, binding = 3) readonly buffer Materials { GpuMaterial materials[]; };
 layout(std430, set = 0, binding = 4) readonly buffer Lights { GpuLight lights[]; };
 layout(std430, set = 0, binding = 5) readonly buffer Alias { AliasEntry alias_table[]; };
-layout(std430, set = 0, binding = 6) buffer Accum { PixelAccum accum[]; };
+layout(std430, set = 2, binding = 0) buffer Accum { PixelAccum accum[]; };
 // [0]: samples dropped because they were NaN or Inf (reported, never averaged in).
 // [1]: learned-sampler samples taken in a region without its own cut (the shared fallback).
-layout(std430, set = 0, binding = 7) buffer Counters { uint counters[]; };
-layout(std430, set = 0, binding = 8) readonly buffer LightNodes { LightNode light_nodes[]; };
-layout(std430, set = 0, binding = 9) readonly buffer LightOrder { uint light_order[]; };
-layout(std430, set = 0, binding = 10) readonly buffer Grid { GridParams grid[]; };
-layout(std430, set = 0, binding = 11) readonly buffer RegionIndex { uint region_index[]; };
-layout(std430, set = 0, binding = 12) readonly buffer Cuts { uint cuts[]; };
-layout(std430, set = 0, binding = 13) readonly buffer Stats { SlotStats slot_stats[]; };
-layout(std430, set = 0, binding = 14) buffer Delta { SlotDelta slot_delta[]; };
-layout(std430, set = 0, binding = 15) readonly buffer Learn { LearnParams learn[]; };
+layout(std430, set = 2, binding = 1) buffer Counters { uint counters[]; };
+layout(std430, set = 0, binding = 6) readonly buffer LightNodes { LightNode light_nodes[]; };
+layout(std430, set = 0, binding = 7) readonly buffer LightOrder { uint light_order[]; };
+layout(std430, set = 1, binding = 0) readonly buffer Grid { GridParams grid[]; };
+layout(std430, set = 1, binding = 1) readonly buffer RegionIndex { uint region_index[]; };
+layout(std430, set = 1, binding = 2) readonly buffer Cuts { uint cuts[]; };
+layout(std430, set = 1, binding = 3) readonly buffer Stats { SlotStats slot_stats[]; };
+layout(std430, set = 1, binding = 4) buffer Delta { SlotDelta slot_delta[]; };
+layout(std430, set = 1, binding = 5) readonly buffer Learn { LearnParams learn[]; };
 // A light's position in the tree order (the inverse of light_order), for light_pmf.
-layout(std430, set = 0, binding = 16) readonly buffer LightPosition { uint light_position[]; };
+layout(std430, set = 0, binding = 8) readonly buffer LightPosition { uint light_position[]; };
 // The light of an emissive triangle (by `prim`), NO_LIGHT for the others.
-layout(std430, set = 0, binding = 17) readonly buffer TriLight { uint tri_light[]; };
+layout(std430, set = 0, binding = 9) readonly buffer TriLight { uint tri_light[]; };
 // Base-colour textures (texture.glsl).
-layout(std430, set = 0, binding = 18) readonly buffer Textures { GpuTexture textures[]; };
-layout(std430, set = 0, binding = 19) readonly buffer Texels { uint texels[]; };
-layout(std430, set = 0, binding = 20) readonly buffer TriUv { float tri_uv[]; };
+layout(std430, set = 0, binding = 10) readonly buffer Textures { GpuTexture textures[]; };
+layout(std430, set = 0, binding = 11) readonly buffer Texels { uint texels[]; };
+layout(std430, set = 0, binding = 12) readonly buffer TriUv { float tri_uv[]; };
 
 // Regions without a cut of their own that samples reached, for the host to build cuts for
 // between frames: [0] counts newly set bits, then one bit per region.
-layout(std430, set = 0, binding = 21) buffer MissingRegions { uint missing_regions[]; };
+layout(std430, set = 1, binding = 6) buffer MissingRegions { uint missing_regions[]; };
 
 layout(push_constant) uniform Push { RenderParams params; };
 

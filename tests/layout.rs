@@ -354,18 +354,29 @@ fn bindings(spv: &[u8]) -> Vec<((u32, u32), String)> {
 }
 
 fn named(blocks: &[&str]) -> Vec<((u32, u32), String)> {
-    blocks
+    named_sets(&[blocks])
+}
+
+fn named_sets(sets: &[&[&str]]) -> Vec<((u32, u32), String)> {
+    let mut out: Vec<((u32, u32), String)> = sets
         .iter()
         .enumerate()
-        .map(|(i, n)| ((0, i as u32), n.to_string()))
-        .collect()
+        .flat_map(|(s, blocks)| {
+            blocks
+                .iter()
+                .enumerate()
+                .map(move |(i, n)| ((s as u32, i as u32), n.to_string()))
+        })
+        .collect();
+    out.sort();
+    out
 }
 
 #[test]
 fn kernels_bind_what_the_session_binds() {
     assert_eq!(
         bindings(kernels::RENDER),
-        named(&lightlearn::render::RENDER_BINDINGS),
+        named_sets(&lightlearn::render::RENDER_BINDINGS),
         "render.comp's storage blocks and the session's binding list differ"
     );
     assert_eq!(

@@ -1,5 +1,6 @@
-//! A compute pipeline whose descriptor set is N storage buffers (bindings 0..N in set 0),
-//! with push constants and u32 specialization constants (constant_id = index).
+//! A compute pipeline whose descriptor sets hold storage buffers (set k: bindings 0..N_k),
+//! with push constants and u32 specialization constants (constant_id = index). Each set is
+//! bound on its own, so a caller rebinds only the set whose buffers changed.
 
 use std::sync::Arc;
 
@@ -12,20 +13,34 @@ use super::context::Context;
 pub struct ComputePipeline {
     ctx: Arc<Context>,
     module: vk::ShaderModule,
-    set_layout: vk::DescriptorSetLayout,
+    set_layouts: Vec<vk::DescriptorSetLayout>,
     layout: vk::PipelineLayout,
     pipeline: vk::Pipeline,
     pool: vk::DescriptorPool,
-    set: vk::DescriptorSet,
-    bindings: u32,
+    sets: Vec<vk::DescriptorSet>,
+    /// Bindings of each set.
+    bindings: Vec<u32>,
 }
 
 impl ComputePipeline {
+    /// One set of `bindings` storage buffers.
     pub fn new(
         ctx: &Arc<Context>,
         name: &str,
         spirv: &[u8],
         bindings: u32,
+        push_size: u32,
+        specialization: &[u32],
+    ) -> Result<ComputePipeline> {
+        Self::with_sets(ctx, name, spirv, &[bindings], push_size, specialization)
+    }
+
+    /// Set k holds `bindings[k]` storage buffers.
+    pub fn with_sets(
+        ctx: &Arc<Context>,
+        name: &str,
+        spirv: &[u8],
+        bindings: &[u32],
         push_size: u32,
         specialization: &[u32],
     ) -> Result<ComputePipeline> {
@@ -35,23 +50,25 @@ impl ComputePipeline {
         unsafe {
             let module =
                 d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&code), None)?;
-            let binding_info: Vec<_> = (0..bindings)
-                .map(|b| {
-                    vk::DescriptorSetLayoutBinding::default()
-                        .binding(b)
-                        .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                        .descriptor_count(1)
-                        .stage_flags(vk::ShaderStageFlags::COMPUTE)
-                })
-                .collect();
-            let set_layout = d.create_descriptor_set_layout(
-                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&binding_info),
-                None,
-            )?;
+            let mut set_layouts = Vec::new();
+            for &n in bindings {
+                let binding_info: Vec<_> = (0..n)
+                    .map(|b| {
+                        vk::DescriptorSetLayoutBinding::default()
+                            .binding(b)
+                            .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                            .descriptor_count(1)
+                            .stage_flags(vk::ShaderStageFlags::COMPUTE)
+                    })
+                    .collect();
+                set_layouts.push(d.create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&binding_info),
+                    None,
+                )?);
+            }
             let push = [vk::PushConstantRange::default()
                 .stage_flags(vk::ShaderStageFlags::COMPUTE)
                 .size(push_size)];
-            let set_layouts = [set_layout];
             let layout = d.create_pipeline_layout(
                 &vk::PipelineLayoutCreateInfo::default()
                     .set_layouts(&set_layouts)
@@ -84,38 +101,43 @@ impl ComputePipeline {
                 .with_context(|| format!("cannot create the '{name}' compute pipeline"))?[0];
             let sizes = [vk::DescriptorPoolSize::default()
                 .ty(vk::DescriptorType::STORAGE_BUFFER)
-                .descriptor_count(bindings.max(1))];
+                .descriptor_count(bindings.iter().sum::<u32>().max(1))];
             let pool = d.create_descriptor_pool(
                 &vk::DescriptorPoolCreateInfo::default()
-                    .max_sets(1)
+                    .max_sets(bindings.len() as u32)
                     .pool_sizes(&sizes),
                 None,
             )?;
-            let set = d.allocate_descriptor_sets(
+            let sets = d.allocate_descriptor_sets(
                 &vk::DescriptorSetAllocateInfo::default()
                     .descriptor_pool(pool)
                     .set_layouts(&set_layouts),
-            )?[0];
+            )?;
             let p = ComputePipeline {
                 ctx: ctx.clone(),
                 module,
-                set_layout,
+                set_layouts,
                 layout,
                 pipeline,
                 pool,
-                set,
-                bindings,
+                sets,
+                bindings: bindings.to_vec(),
             };
             ctx.check_validation()?;
             Ok(p)
         }
     }
 
-    /// Points bindings 0..N at `buffers` (in order).
+    /// Points bindings 0..N of set 0 at `buffers` (in order).
     pub fn bind(&self, buffers: &[&Buffer]) -> Result<()> {
+        self.bind_set(0, buffers)
+    }
+
+    /// Points bindings 0..N of `set` at `buffers` (in order).
+    pub fn bind_set(&self, set: usize, buffers: &[&Buffer]) -> Result<()> {
         assert_eq!(
             buffers.len() as u32,
-            self.bindings,
+            self.bindings[set],
             "one buffer per binding"
         );
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
@@ -132,7 +154,7 @@ impl ComputePipeline {
             .enumerate()
             .map(|(i, info)| {
                 vk::WriteDescriptorSet::default()
-                    .dst_set(self.set)
+                    .dst_set(self.sets[set])
                     .dst_binding(i as u32)
                     .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
                     .buffer_info(info)
@@ -152,7 +174,7 @@ impl ComputePipeline {
                 vk::PipelineBindPoint::COMPUTE,
                 self.layout,
                 0,
-                &[self.set],
+                &self.sets,
                 &[],
             );
             if !push.is_empty() {
@@ -170,7 +192,9 @@ impl Drop for ComputePipeline {
             d.destroy_descriptor_pool(self.pool, None);
             d.destroy_pipeline(self.pipeline, None);
             d.destroy_pipeline_layout(self.layout, None);
-            d.destroy_descriptor_set_layout(self.set_layout, None);
+            for l in &self.set_layouts {
+                d.destroy_descriptor_set_layout(*l, None);
+            }
             d.destroy_shader_module(self.module, None);
         }
     }

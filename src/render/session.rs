@@ -31,32 +31,39 @@ use crate::learning::stats_file::{SavedStats, StatsHeader};
 use crate::lights::regions::{Cuts, Grid};
 use crate::scene::{Camera, Scene};
 
-/// The storage blocks of `render.comp` by binding number (set 0), as the kernel names them;
+/// The storage blocks of `render.comp` by descriptor set and binding number, as the kernel
+/// names them; sets follow the lifetimes: the scene, the learned state, the film.
 /// `tests/layout.rs` reads the names and numbers from the compiled SPIR-V and checks them.
-pub const RENDER_BINDINGS: [&str; 22] = [
-    "Nodes",
-    "Tris",
-    "TriMaterial",
-    "Materials",
-    "Lights",
-    "Alias",
-    "Accum",
-    "Counters",
-    "LightNodes",
-    "LightOrder",
-    "Grid",
-    "RegionIndex",
-    "Cuts",
-    "Stats",
-    "Delta",
-    "Learn",
-    "LightPosition",
-    "TriLight",
-    "Textures",
-    "Texels",
-    "TriUv",
-    "MissingRegions",
+pub const RENDER_BINDINGS: [&[&str]; 3] = [
+    &[
+        "Nodes",
+        "Tris",
+        "TriMaterial",
+        "Materials",
+        "Lights",
+        "Alias",
+        "LightNodes",
+        "LightOrder",
+        "LightPosition",
+        "TriLight",
+        "Textures",
+        "Texels",
+        "TriUv",
+    ],
+    &[
+        "Grid",
+        "RegionIndex",
+        "Cuts",
+        "Stats",
+        "Delta",
+        "Learn",
+        "MissingRegions",
+    ],
+    &["Accum", "Counters"],
 ];
+const SCENE_SET: usize = 0;
+const LEARNED_SET: usize = 1;
+const FILM_SET: usize = 2;
 
 /// The storage blocks of `fold.comp` by binding number (set 0).
 pub const FOLD_BINDINGS: [&str; 3] = ["Stats", "Delta", "Learn"];
@@ -175,11 +182,11 @@ impl<'a> Session<'a> {
             )?;
         }
         let learned = LearnedState::new(ctx, scene, gpu, settings, &scene.camera)?;
-        let render = ComputePipeline::new(
+        let render = ComputePipeline::with_sets(
             ctx,
             "render",
             kernels::RENDER,
-            RENDER_BINDINGS.len() as u32,
+            &RENDER_BINDINGS.map(|set| set.len() as u32),
             std::mem::size_of::<RenderParams>() as u32,
             &[
                 settings.sampler.shader_id(),
@@ -206,7 +213,9 @@ impl<'a> Session<'a> {
             fold,
             moved: false,
         };
-        session.bind()?;
+        session.bind_scene()?;
+        session.bind_learned()?;
+        session.bind_film()?;
         if session.is_learning() {
             // The weight coefficients of fresh or loaded statistics (under these settings).
             session.fold_all(true)?;
@@ -218,41 +227,56 @@ impl<'a> Session<'a> {
         self.settings.sampler.learned()
     }
 
-    /// Binds every buffer to the binding of its name ([`RENDER_BINDINGS`], [`FOLD_BINDINGS`]).
-    fn bind(&self) -> Result<()> {
-        let (g, l, f) = (self.gpu, &self.learned, &self.film);
-        let render: [(&str, &Buffer); 22] = [
+    /// Binds the scene's buffers (once).
+    fn bind_scene(&self) -> Result<()> {
+        let g = self.gpu;
+        let scene: [(&str, &Buffer); 13] = [
             ("Nodes", &g.nodes),
             ("Tris", &g.tris),
             ("TriMaterial", &g.tri_material),
             ("Materials", &g.materials),
             ("Lights", &g.lights),
             ("Alias", &g.alias),
-            ("Accum", &f.accum),
-            ("Counters", &f.counters),
             ("LightNodes", &g.light_nodes),
             ("LightOrder", &g.light_order),
+            ("LightPosition", &g.light_position),
+            ("TriLight", &g.tri_light),
+            ("Textures", &g.textures),
+            ("Texels", &g.texels),
+            ("TriUv", &g.tri_uv),
+        ];
+        let set = in_binding_order(&scene, RENDER_BINDINGS[SCENE_SET]);
+        self.render.bind_set(SCENE_SET, &set)
+    }
+
+    /// Binds the learned state's buffers (again when cuts were added).
+    fn bind_learned(&self) -> Result<()> {
+        let l = &self.learned;
+        let learned: [(&str, &Buffer); 7] = [
             ("Grid", &l.grid),
             ("RegionIndex", &l.index),
             ("Cuts", &l.cuts_buf),
             ("Stats", &l.stats),
             ("Delta", &l.delta),
             ("Learn", &l.params),
-            ("LightPosition", &g.light_position),
-            ("TriLight", &g.tri_light),
-            ("Textures", &g.textures),
-            ("Texels", &g.texels),
-            ("TriUv", &g.tri_uv),
             ("MissingRegions", &l.missing),
         ];
-        self.render
-            .bind(&in_binding_order(&render, &RENDER_BINDINGS))?;
+        let set = in_binding_order(&learned, RENDER_BINDINGS[LEARNED_SET]);
+        self.render.bind_set(LEARNED_SET, &set)?;
         let fold: [(&str, &Buffer); 3] = [
             ("Stats", &l.stats),
             ("Delta", &l.delta),
             ("Learn", &l.params),
         ];
         self.fold.bind(&in_binding_order(&fold, &FOLD_BINDINGS))
+    }
+
+    /// Binds the film's buffers (again after a resize).
+    fn bind_film(&self) -> Result<()> {
+        let f = &self.film;
+        let film: [(&str, &Buffer); 2] = [("Accum", &f.accum), ("Counters", &f.counters)];
+        let set = in_binding_order(&film, RENDER_BINDINGS[FILM_SET]);
+        self.render.bind_set(FILM_SET, &set)
     }
 
     /// Folds the window into the totals: every slot (`force`: also recomputes the
@@ -404,7 +428,7 @@ impl<'a> Session<'a> {
         }
         l.regions_added += added.len();
         l.cut_seconds += t0.elapsed().as_secs_f64();
-        self.bind()?;
+        self.bind_learned()?;
         if learning {
             // The new slots' coefficients; the others are recomputed from unchanged totals.
             self.fold_all(true)?;
@@ -463,7 +487,7 @@ impl<'a> Session<'a> {
         self.moved = true;
         self.settings.width = width;
         self.settings.height = height;
-        self.bind()
+        self.bind_film()
     }
 
     /// The learned statistics with their regions and cuts, as a file would hold them
