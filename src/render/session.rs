@@ -436,6 +436,37 @@ impl<'a> Session<'a> {
         Ok(added.len())
     }
 
+    /// What reducing the statistics on the host between frames would cost now, measured by
+    /// doing it: read the totals and window sums back, fold every slot with the CPU mirror
+    /// of `fold.comp` (`learning::fold`, coefficients included) and upload the totals again
+    /// (the same values, so the state does not change). The GPU fold stays the one in use
+    /// (docs/features.md has the measurement).
+    pub fn measure_host_reduction(&self) -> Result<HostReduction> {
+        let t0 = Instant::now();
+        let stats: Vec<SlotStats> = self.learned.stats.read()?;
+        let delta: Vec<SlotDelta> = self.learned.delta.read()?;
+        let read = t0.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        let folded: Vec<SlotStats> = stats
+            .iter()
+            .zip(&delta)
+            .map(|(s, d)| crate::learning::fold(s, d, &self.settings.learn))
+            .collect();
+        let reduce = t1.elapsed().as_secs_f64();
+        std::hint::black_box(&folded);
+        let t2 = Instant::now();
+        self.learned.stats.write(bytemuck::cast_slice(&stats))?;
+        let upload = t2.elapsed().as_secs_f64();
+        Ok(HostReduction {
+            slots: stats.len(),
+            bytes: stats.len()
+                * (std::mem::size_of::<SlotStats>() * 2 + std::mem::size_of::<SlotDelta>()),
+            read_seconds: read,
+            reduce_seconds: reduce,
+            upload_seconds: upload,
+        })
+    }
+
     /// Samples per pixel in the film.
     pub fn spp(&self) -> u32 {
         self.film.spp
@@ -554,6 +585,17 @@ impl<'a> Session<'a> {
             learned,
         })
     }
+}
+
+/// The cost of one host-side reduction of the statistics ([`Session::measure_host_reduction`]).
+#[derive(Clone, Copy, Debug)]
+pub struct HostReduction {
+    pub slots: usize,
+    /// Read back (totals and window sums) plus uploaded (totals).
+    pub bytes: usize,
+    pub read_seconds: f64,
+    pub reduce_seconds: f64,
+    pub upload_seconds: f64,
 }
 
 /// Whether regions reached without a cut get one after `n` passes: 1, 2, 4, 8, 16, 32,
