@@ -3,10 +3,11 @@
 //! storage blocks of `render.comp` and `fold.comp` must sit at the bindings the session binds
 //! them to (by name).
 //!
-//! A small SPIR-V reader rather than naga: naga 30.0.2's SPIR-V front end parses none of our
-//! kernels as compiled (`OpSpecConstantOp` in render.comp and light_sample.comp, the
-//! specialization-constant expressions of the sampler switch; `OpCopyLogical`, SPIR-V 1.4,
-//! in trace.comp, fold.comp and bsdf.comp).
+//! A small SPIR-V reader, cross-checked by naga where naga can read a kernel: naga 30.0.2's
+//! SPIR-V front end parses none of our kernels as compiled (`OpSpecConstantOp` in
+//! render.comp and light_sample.comp, the specialization-constant expressions of the
+//! sampler switch; `OpCopyLogical`, SPIR-V 1.4, in trace.comp, fold.comp and bsdf.comp), so
+//! `naga_agrees_with_our_reader` compiles the last three for SPIR-V 1.0 and compares.
 
 use std::collections::HashMap;
 use std::mem::{offset_of, size_of};
@@ -434,4 +435,64 @@ fn glsl_defines_match_the_rust_constants() {
             "{name}: types.glsl and the Rust constant differ"
         );
     }
+}
+
+/// naga (an independent SPIR-V reader) agrees with ours on every struct of the kernels it
+/// can parse. naga 30 rejects OpCopyLogical (SPIR-V 1.4), which glslang emits for our
+/// vulkan1.2 builds, so those kernels are compiled here once more for SPIR-V 1.0 (the same
+/// source, so the same layouts); render.comp and light_sample.comp use OpSpecConstantOp,
+/// which naga rejects at any version, and stay with our reader alone.
+#[test]
+fn naga_agrees_with_our_reader() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let mut checked = 0;
+    for (name, shipped) in [
+        ("fold", kernels::FOLD),
+        ("trace", kernels::TRACE),
+        ("bsdf", kernels::BSDF),
+    ] {
+        let out = dir.path().join(format!("{name}.spv"));
+        let status = std::process::Command::new("glslangValidator")
+            .args(["-V", "--target-env", "vulkan1.0"])
+            .arg(format!("-I{}", root.join("shaders/shared").display()))
+            .arg(root.join(format!("shaders/{name}.comp")))
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .expect("glslangValidator (ci/setup.sh installs it; build.rs needs it too)");
+        assert!(status.status.success(), "{name}: {status:?}");
+        let module = naga::front::spv::parse_u8_slice(
+            &std::fs::read(&out).unwrap(),
+            &naga::front::spv::Options::default(),
+        )
+        .unwrap_or_else(|e| panic!("naga cannot parse {name}.comp for SPIR-V 1.0: {e:?}"));
+        // Every explicitly laid-out struct our reader finds in the shipped module: naga has a
+        // struct of that name with the same member names and offsets, and its size.
+        for (tname, mine) in reflect(shipped) {
+            let agrees = module
+                .types
+                .iter()
+                .any(|(_, ty)| match (&ty.name, &ty.inner) {
+                    (Some(n), naga::TypeInner::Struct { members, span }) if *n == tname => {
+                        let theirs: Vec<(String, u32)> = members
+                            .iter()
+                            .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+                            .collect();
+                        theirs == mine.members
+                            && mine
+                                .size
+                                .is_none_or(|z| *span == z || *span == z.next_multiple_of(16))
+                    }
+                    _ => false,
+                });
+            assert!(
+                agrees,
+                "{name}: naga and our reader differ on {tname} ({mine:?})"
+            );
+            checked += 1;
+        }
+    }
+    eprintln!("naga and our reader agree on {checked} structs");
+    assert!(checked >= 6, "only {checked} structs compared");
 }
