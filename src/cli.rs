@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use clap::builder::{PossibleValuesParser, TypedValueParser};
+use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
 
 use lightlearn::commands::compare::CompareRequest;
@@ -17,12 +17,17 @@ use lightlearn::render::LightSampler;
 use lightlearn::scene::families::{Family, FamilyParams};
 
 fn sampler_parser() -> impl TypedValueParser<Value = LightSampler> {
-    PossibleValuesParser::new(LightSampler::ALL.map(LightSampler::name))
-        .map(|s| LightSampler::from_name(&s).expect("one of the possible values"))
+    PossibleValuesParser::new(
+        LightSampler::ALL.map(|s| PossibleValue::new(s.name()).help(s.description())),
+    )
+    .map(|s| LightSampler::from_name(&s).expect("one of the possible values"))
 }
 
 fn family_parser() -> impl TypedValueParser<Value = Family> {
-    PossibleValuesParser::new(Family::ALL.map(Family::name)).map(|s| {
+    PossibleValuesParser::new(
+        Family::ALL.map(|f| PossibleValue::new(f.name()).help(f.description())),
+    )
+    .map(|s| {
         *Family::ALL
             .iter()
             .find(|f| f.name() == s)

@@ -25,14 +25,6 @@ const SCENES: &[&str] = &[
     "rooms16-glossy",
     "strings",
 ];
-const SAMPLERS: &[LightSampler] = &[
-    LightSampler::Uniform,
-    LightSampler::Power,
-    LightSampler::Lightbvh,
-    LightSampler::Wang,
-    LightSampler::Donikian,
-    LightSampler::Bayes,
-];
 
 /// MD5 of the pixels as little-endian f32 RGB, row by row (what `md5(pixels.tobytes())` of
 /// the EXR read with numpy gives).
@@ -111,7 +103,7 @@ fn small_renders_keep_their_pixels() {
             .join(format!("{name}.glb"));
         let scene = gltf_load::load(&path, &mut |_| {}).unwrap();
         let gpu = GpuScene::upload(&ctx, &scene, &Bvh::build(&scene.triangles)).unwrap();
-        for &sampler in SAMPLERS {
+        for sampler in LightSampler::ALL {
             for depth in [1, 3] {
                 let settings = RenderSettings {
                     width: 24,

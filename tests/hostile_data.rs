@@ -264,6 +264,20 @@ fn damaged_statistics_files_are_refused() {
             }),
         ),
     ];
+    // A sample count a continuation cannot go on from (it would overflow the streams).
+    let mut late = saved.clone();
+    late.header.samples_done = u32::MAX - 5;
+    let late = SavedStats::from_bytes(&late.to_bytes(), "a.stats").unwrap();
+    let err = render::check_resume(
+        &scene,
+        &gpu,
+        &settings(LightSampler::Bayes, 4, 1),
+        &late,
+        Path::new("a.stats"),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("fresh statistics"), "{err}");
     for (what, s) in bad {
         let err = render::check_resume(
             &scene,

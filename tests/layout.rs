@@ -23,17 +23,25 @@ struct SpvStruct {
 }
 
 /// A minimal SPIR-V reader: names, member offsets, array strides and scalar/vector sizes.
-fn reflect(spv: &[u8]) -> HashMap<String, SpvStruct> {
+/// The module's words, after checking its magic number.
+fn spv_words(spv: &[u8]) -> Vec<u32> {
     let words: Vec<u32> = spv
         .chunks_exact(4)
         .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
         .collect();
     assert_eq!(words[0], 0x0723_0203, "SPIR-V magic");
-    let string = |ws: &[u32]| -> String {
-        let bytes: Vec<u8> = ws.iter().flat_map(|w| w.to_le_bytes()).collect();
-        let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
-        String::from_utf8_lossy(&bytes[..end]).into_owned()
-    };
+    words
+}
+
+/// A literal string operand.
+fn string(ws: &[u32]) -> String {
+    let bytes: Vec<u8> = ws.iter().flat_map(|w| w.to_le_bytes()).collect();
+    let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
+    String::from_utf8_lossy(&bytes[..end]).into_owned()
+}
+
+fn reflect(spv: &[u8]) -> HashMap<String, SpvStruct> {
+    let words = spv_words(spv);
     let mut names: HashMap<u32, String> = HashMap::new();
     let mut member_names: HashMap<(u32, u32), String> = HashMap::new();
     let mut offsets: HashMap<(u32, u32), u32> = HashMap::new();
@@ -309,15 +317,7 @@ fn layout_checker_detects_mismatch() {
 
 /// (set, binding) → the block (struct type) name of every storage buffer of a module.
 fn bindings(spv: &[u8]) -> Vec<((u32, u32), String)> {
-    let words: Vec<u32> = spv
-        .chunks_exact(4)
-        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect();
-    let string = |ws: &[u32]| -> String {
-        let bytes: Vec<u8> = ws.iter().flat_map(|w| w.to_le_bytes()).collect();
-        let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
-        String::from_utf8_lossy(&bytes[..end]).into_owned()
-    };
+    let words = spv_words(spv);
     let (mut names, mut set, mut binding) = (HashMap::new(), HashMap::new(), HashMap::new());
     let (mut pointee, mut vars) = (HashMap::new(), Vec::new());
     let mut i = 5;

@@ -269,3 +269,39 @@ fn resize_gives_a_new_film_and_keeps_the_learning() {
     assert!(r.mean().iter().flatten().any(|&v| v > 0.0));
     assert!(x.resize(0, 10).is_err());
 }
+
+/// With `--update-every` above 1 the cuts still grow, at the first fold boundary after each
+/// growth point (before, growth was skipped unless the two coincided: with 3, not before
+/// pass 192).
+#[test]
+fn regions_grow_at_fold_boundaries_with_update_every() {
+    let ctx = common::ctx();
+    let s = scene("rooms16.glb");
+    let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
+    // 7: no growth point (learning passes 1, 2, 4, 8, 16; after the move at 8 the film's
+    // 1, 2, 4, 8, 16, i.e. passes 9, 10, 12, 16, 24) is a multiple of it before pass 28.
+    let mut set = settings(LightSampler::Bayes, 3);
+    set.learn.update_every = 7;
+    let mut x = Session::new(&ctx, &s, &gpu, &set).unwrap();
+    x.run_passes(8).unwrap();
+    x.set_camera(camera_b(&s)).unwrap();
+    x.run_passes(16).unwrap();
+    x.reset_film().unwrap();
+    x.run_passes(2).unwrap();
+    let r = x.result().unwrap();
+    let share = fallback_share(&r);
+    eprintln!(
+        "update-every 7: fallback share {share:.4}, {} regions added",
+        r.regions.regions_added_between_frames
+    );
+    assert!(share < 0.01, "fallback share {share}");
+    // A snapshot in the middle of a window leaves what later passes sample by unchanged.
+    let mut y = Session::new(&ctx, &s, &gpu, &set).unwrap();
+    let mut z = Session::new(&ctx, &s, &gpu, &set).unwrap();
+    y.run_passes(7).unwrap();
+    z.run_passes(7).unwrap();
+    let _ = y.snapshot().unwrap();
+    y.run_passes(5).unwrap();
+    z.run_passes(5).unwrap();
+    assert_eq!(y.image().unwrap(), z.image().unwrap());
+}

@@ -138,19 +138,17 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
             (px, format!("{} (given); {note}", p.display()), noise)
         }
         None => {
-            let mut log = Vec::new();
+            // Progress and messages both go to the one Ui, as they happen.
+            let shared = std::cell::RefCell::new(&mut *ui);
             let r = reference::cached(
                 &ctx,
                 &scene,
                 &gpu,
                 &ref_settings,
-                &mut |spp, f| ui.progress("reference", spp, f),
-                &mut |m| log.push(m),
+                &mut |spp, f| shared.borrow_mut().progress("reference", spp, f),
+                &mut |m| shared.borrow_mut().message(&m),
             );
             ui.phase_done();
-            for m in log {
-                ui.message(&m);
-            }
             r?
         }
     };

@@ -169,14 +169,25 @@ impl Buffer {
     pub fn read_first<T: Pod>(&self, count: usize) -> Result<Vec<T>> {
         let bytes = (count * std::mem::size_of::<T>()) as u64;
         assert!(bytes <= self.size, "read past the end of a buffer");
+        self.read_bytes(bytes.max(4), count)
+    }
+
+    /// Reads the whole buffer back as `T`s.
+    pub fn read<T: Pod>(&self) -> Result<Vec<T>> {
+        self.read_bytes(self.size, self.size as usize / std::mem::size_of::<T>())
+    }
+
+    /// Copies the first `bytes` bytes to a host-visible staging buffer and returns the
+    /// first `count` `T`s of them.
+    fn read_bytes<T: Pod>(&self, bytes: u64, count: usize) -> Result<Vec<T>> {
         let staging = Buffer::new(
             &self.ctx,
             "staging readback",
-            bytes.max(4),
+            bytes,
             vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuToCpu,
         )?;
-        let region = [vk::BufferCopy::default().size(bytes.max(4))];
+        let region = [vk::BufferCopy::default().size(bytes)];
         self.ctx.submit(|cmd| unsafe {
             self.ctx
                 .device
@@ -184,35 +195,9 @@ impl Buffer {
         })?;
         let mapped = staging.mapped()?;
         let n = std::mem::size_of::<T>();
+        // The mapping may not be aligned for T: copy element-wise through pod_read_unaligned.
         Ok((0..count)
             .map(|i| bytemuck::pod_read_unaligned(&mapped[i * n..(i + 1) * n]))
-            .collect())
-    }
-
-    /// Reads the whole buffer back as `T`s.
-    pub fn read<T: Pod>(&self) -> Result<Vec<T>> {
-        let staging = Buffer::new(
-            &self.ctx,
-            "staging readback",
-            self.size,
-            vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuToCpu,
-        )?;
-        let region = [vk::BufferCopy::default().size(self.size)];
-        self.ctx.submit(|cmd| unsafe {
-            self.ctx
-                .device
-                .cmd_copy_buffer(cmd, self.raw, staging.raw, &region)
-        })?;
-        let bytes = staging.mapped()?;
-        let n = bytes.len() / std::mem::size_of::<T>();
-        // The mapping may not be aligned for T: copy element-wise through pod_read_unaligned.
-        Ok((0..n)
-            .map(|i| {
-                bytemuck::pod_read_unaligned(
-                    &bytes[i * std::mem::size_of::<T>()..(i + 1) * std::mem::size_of::<T>()],
-                )
-            })
             .collect())
     }
 

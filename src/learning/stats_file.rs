@@ -294,9 +294,10 @@ impl SavedStats {
                 continue;
             };
             let cut = cut_of(h, h.index[r]);
+            let holder = &holders[0].1;
             for (p, name) in others {
                 if cut_of(p, p.index[r]) != cut {
-                    bail!("'{name}' has another cut for region {r} than '{first_name}': other cut settings; they cannot be merged");
+                    bail!("'{name}' has another cut for region {r} than '{holder}': other cut settings; they cannot be merged");
                 }
             }
             *slot = cuts.len() as u32;
@@ -310,7 +311,10 @@ impl SavedStats {
             cuts.extend_from_slice(&cut);
         }
         let mut header = first.header.clone();
-        header.samples_done = parts.iter().map(|(p, _)| p.header.samples_done).sum();
+        header.samples_done = parts
+            .iter()
+            .try_fold(0u32, |a, (p, _)| a.checked_add(p.header.samples_done))
+            .ok_or_else(|| anyhow::anyhow!("the parts have learned from more passes together than a statistics file counts (2^32)"))?;
         header.regions = index.len() as u32;
         header.cuts_len = cuts.len() as u32;
         Ok(SavedStats {

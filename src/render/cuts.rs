@@ -25,6 +25,13 @@ pub fn check_resume(
     path: &std::path::Path,
 ) -> Result<()> {
     saved.check_matches(&stats_header(scene, gpu, settings), path)?;
+    if saved.header.samples_done > super::session::MAX_PASSES / 2 {
+        bail!(
+            "'{}' has learned from {} passes, more than a continuation can go on from; start from fresh statistics",
+            path.display(),
+            saved.header.samples_done
+        );
+    }
     let (lo, hi) = scene.bounds();
     let regions = Grid::new(lo, hi, &settings.regions).region_count();
     saved.check_cuts(&gpu.tree, regions, path)

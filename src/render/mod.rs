@@ -71,6 +71,18 @@ impl LightSampler {
         LightSampler::Bayes,
     ];
 
+    /// One line for `--help`.
+    pub fn description(self) -> &'static str {
+        match self {
+            LightSampler::Uniform => "every light equally likely",
+            LightSampler::Power => "lights in proportion to their power",
+            LightSampler::Lightbvh => "one descent of the light tree by unoccluded importance (pbrt-v4)",
+            LightSampler::Wang => "the region's cut of the light tree, clusters by unoccluded importance (Wang & Åkerlund 2009)",
+            LightSampler::Donikian => "the region's cut, clusters by their running mean mixed with the unoccluded estimate (Donikian et al. 2006)",
+            LightSampler::Bayes => "the region's cut, clusters by Bayesian online regression of their contributions (Vévoda et al. 2018)",
+        }
+    }
+
     /// The sampler a user typed (any case).
     pub fn from_name(name: &str) -> anyhow::Result<LightSampler> {
         LightSampler::ALL

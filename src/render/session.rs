@@ -98,6 +98,8 @@ struct LearnedState {
     slots: u32,
     /// Regions whose cuts were built between frames (not before the first pass).
     regions_added: usize,
+    /// Growing stopped: more cuts would not fit the device's storage buffers.
+    full: bool,
     /// Passes learned from, including a loaded file's (the next pass's sample index).
     passes: u32,
     cut_seconds: f64,
@@ -154,6 +156,8 @@ pub struct Session<'a> {
     /// The camera or size changed since the session began (cuts grow on the film's schedule
     /// too).
     moved: bool,
+    /// A growth point has passed and the cuts grow at the next fold boundary.
+    growth_due: bool,
 }
 
 impl<'a> Session<'a> {
@@ -212,6 +216,7 @@ impl<'a> Session<'a> {
             render,
             fold,
             moved: false,
+            growth_due: false,
         };
         session.bind_scene()?;
         session.bind_learned()?;
@@ -309,6 +314,17 @@ impl<'a> Session<'a> {
     /// image does not depend on how passes are batched, and a `--load-stats` continuation
     /// of a render saved at a growth point grows where the uninterrupted render grew.
     pub fn run_passes(&mut self, k: u32) -> Result<f64> {
+        if self
+            .learned
+            .passes
+            .checked_add(k)
+            .is_none_or(|p| p > MAX_PASSES)
+        {
+            bail!(
+                "{} passes learned already: at most {MAX_PASSES} fit the random streams; start from fresh statistics",
+                self.learned.passes
+            );
+        }
         let mut seconds = 0.0;
         let mut left = k;
         while left > 0 {
@@ -317,14 +333,24 @@ impl<'a> Session<'a> {
             if self.moved && spp < 32 {
                 n = n.min(next_growth_point(spp) - spp);
             }
+            if self.growth_due {
+                // Growth waits for the next fold boundary (--update-every): stop there.
+                let every = self.settings.learn.update_every;
+                n = n.min(every - passes % every);
+            }
+            debug_assert!(n > 0);
             seconds += self.submit_passes(n)?;
             left -= n;
             // After the chunk, so a render saved at a growth point has grown what its last
             // passes reached, as the uninterrupted render has at that point.
             let (passes, spp) = (self.learned.passes, self.film.spp);
             if growth_point(passes) || self.moved && spp <= 32 && growth_point(spp) {
+                self.growth_due = true;
+            }
+            if self.growth_due && self.at_fold_boundary() {
                 let t0 = Instant::now();
                 self.grow_regions()?;
+                self.growth_due = false;
                 seconds += t0.elapsed().as_secs_f64();
             }
         }
@@ -365,15 +391,18 @@ impl<'a> Session<'a> {
     /// the regions a moved camera reaches then learn instead of using the shared fallback
     /// cut. Only at a fold boundary (the window is empty), so the statistics grow by
     /// appending totals alone. Returns how many regions got a cut.
+    /// Whether the window is empty (samplers that do not learn: always).
+    fn at_fold_boundary(&self) -> bool {
+        !self.is_learning()
+            || self
+                .learned
+                .passes
+                .is_multiple_of(self.settings.learn.update_every)
+    }
+
     fn grow_regions(&mut self) -> Result<usize> {
         let learning = self.is_learning();
-        if !self.settings.sampler.uses_cuts()
-            || learning
-                && !self
-                    .learned
-                    .passes
-                    .is_multiple_of(self.settings.learn.update_every)
-        {
+        if !self.settings.sampler.uses_cuts() || !self.at_fold_boundary() || self.learned.full {
             return Ok(0);
         }
         let l = &mut self.learned;
@@ -392,6 +421,19 @@ impl<'a> Session<'a> {
             }
         }
         regions.retain(|&r| (r as usize) < l.cuts.index.len());
+        // Stop growing (the fallback cut serves the rest, unbiased) before the cuts or the
+        // statistics would outgrow one storage buffer of this device.
+        let max_bytes = self.ctx.properties.limits.max_storage_buffer_range as usize;
+        let most_new = regions.len() * (self.settings.regions.k_max as usize + 1);
+        let slot_bytes = if learning {
+            std::mem::size_of::<SlotStats>()
+        } else {
+            4
+        };
+        if (l.cuts.cuts.len() + most_new) * slot_bytes > max_bytes {
+            l.full = true;
+            return Ok(0);
+        }
         // Ascending region order: the same cuts at the same offsets on every run.
         let added = l
             .cuts
@@ -507,6 +549,13 @@ impl<'a> Session<'a> {
 
     /// A new camera: the film is reset, the learning stays.
     pub fn set_camera(&mut self, camera: Camera) -> Result<()> {
+        let v = [camera.position, camera.forward, camera.up];
+        if !v.iter().all(|x| x.is_finite())
+            || camera.forward.cross(camera.up).length_squared() < 1e-12
+            || !(camera.yfov > 0.0 && camera.yfov < std::f32::consts::PI)
+        {
+            bail!("a camera needs a finite position, forward and up directions that are not parallel, and 0 < yfov < π");
+        }
         self.camera = camera;
         self.moved = true;
         self.reset_film()
@@ -528,12 +577,16 @@ impl<'a> Session<'a> {
         if !self.is_learning() {
             return Ok(None);
         }
-        if !self
-            .learned
-            .passes
-            .is_multiple_of(self.settings.learn.update_every)
-        {
-            self.fold_all(false)?;
+        let mut stats: Vec<SlotStats> = self.learned.stats.read()?;
+        if !self.at_fold_boundary() {
+            // What is left of the window, folded here on the host (the CPU mirror of
+            // fold.comp): the GPU's state, and so what later passes sample by, stays as it is.
+            let delta: Vec<SlotDelta> = self.learned.delta.read()?;
+            for (s, d) in stats.iter_mut().zip(&delta) {
+                if d.n_zero + d.n_nonzero > 0 {
+                    *s = crate::learning::fold(s, d, &self.settings.learn);
+                }
+            }
         }
         let cuts = &self.learned.cuts;
         Ok(Some(SavedStats {
@@ -545,7 +598,7 @@ impl<'a> Session<'a> {
             },
             index: cuts.index.clone(),
             cuts: cuts.cuts.clone(),
-            stats: self.learned.stats.read()?,
+            stats,
         }))
     }
 
@@ -598,6 +651,10 @@ pub struct HostReduction {
     pub upload_seconds: f64,
 }
 
+/// Most passes a session takes (learned ones included): the random streams are indexed by
+/// a u32 and must never repeat.
+pub const MAX_PASSES: u32 = 1 << 31;
+
 /// Whether regions reached without a cut get one after `n` passes: 1, 2, 4, 8, 16, 32,
 /// then every 64th (soon after the start or a camera move, rarely once settled).
 pub fn growth_point(n: u32) -> bool {
@@ -646,6 +703,7 @@ impl LearnedState {
         Ok(LearnedState {
             missing: Buffer::zeroed(ctx, "missing regions", 4 * words as u64)?,
             regions_added: 0,
+            full: false,
             grid: Buffer::from_slice(ctx, "region grid", &[cuts.grid.params])?,
             index: Buffer::from_slice(ctx, "region index", &cuts.index)?,
             cuts_buf: Buffer::from_slice(ctx, "cuts", &cuts.cuts)?,

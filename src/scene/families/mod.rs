@@ -45,6 +45,21 @@ impl Family {
         Family::Cornell,
     ];
 
+    /// One line for `--help`.
+    pub fn description(self) -> &'static str {
+        match self {
+            Family::Rooms => {
+                "rows of rooms on corridors, doors between: most lights hidden from any point"
+            }
+            Family::Hall => {
+                "one open hall, a grid of ceiling panels, tables and partitions: little to learn"
+            }
+            Family::City => "blocks of buildings with lit windows and street lamps",
+            Family::Strings => "strands of tiny bulbs wound around a tree and balls",
+            Family::Cornell => "a Cornell box with a ceiling panel and a few bulbs",
+        }
+    }
+
     /// The name users type.
     pub fn name(self) -> &'static str {
         match self {
