@@ -33,6 +33,18 @@ fn spv_words(spv: &[u8]) -> Vec<u32> {
     words
 }
 
+/// The module's instructions (after the 5-word header), each with its opcode word first.
+fn instructions(words: &[u32]) -> Vec<&[u32]> {
+    let mut out = Vec::new();
+    let mut i = 5;
+    while i < words.len() {
+        let count = ((words[i] >> 16) as usize).max(1);
+        out.push(&words[i..(i + count).min(words.len())]);
+        i += count;
+    }
+    out
+}
+
 /// A literal string operand.
 fn string(ws: &[u32]) -> String {
     let bytes: Vec<u8> = ws.iter().flat_map(|w| w.to_le_bytes()).collect();
@@ -49,11 +61,8 @@ fn reflect(spv: &[u8]) -> HashMap<String, SpvStruct> {
     let mut structs: HashMap<u32, Vec<u32>> = HashMap::new();
     let mut arrays: HashMap<u32, u32> = HashMap::new(); // array type -> element type
     let mut sizes: HashMap<u32, u32> = HashMap::new(); // scalar/vector type -> bytes
-    let mut i = 5;
-    while i < words.len() {
-        let (count, op) = ((words[i] >> 16) as usize, words[i] & 0xffff);
-        let ins = &words[i..i + count];
-        match op {
+    for ins in instructions(&words) {
+        match ins[0] & 0xffff {
             5 => {
                 names.insert(ins[1], string(&ins[2..]));
             }
@@ -81,7 +90,6 @@ fn reflect(spv: &[u8]) -> HashMap<String, SpvStruct> {
             }
             _ => {}
         }
-        i += count.max(1);
     }
     let mut out = HashMap::new();
     for (id, members) in &structs {
@@ -320,11 +328,8 @@ fn bindings(spv: &[u8]) -> Vec<((u32, u32), String)> {
     let words = spv_words(spv);
     let (mut names, mut set, mut binding) = (HashMap::new(), HashMap::new(), HashMap::new());
     let (mut pointee, mut vars) = (HashMap::new(), Vec::new());
-    let mut i = 5;
-    while i < words.len() {
-        let (count, op) = ((words[i] >> 16) as usize, words[i] & 0xffff);
-        let ins = &words[i..i + count];
-        match op {
+    for ins in instructions(&words) {
+        match ins[0] & 0xffff {
             5 => {
                 names.insert(ins[1], string(&ins[2..]));
             }
@@ -340,7 +345,6 @@ fn bindings(spv: &[u8]) -> Vec<((u32, u32), String)> {
             59 => vars.push((ins[2], ins[1])), // OpVariable: result id, pointer type
             _ => {}
         }
-        i += count.max(1);
     }
     let mut out: Vec<((u32, u32), String)> = vars
         .iter()

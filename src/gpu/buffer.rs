@@ -116,20 +116,7 @@ impl Buffer {
 
     /// Copies `bytes` to the start of the buffer through a staging buffer.
     pub fn write(&self, bytes: &[u8]) -> Result<()> {
-        let mut staging = Buffer::new(
-            &self.ctx,
-            "staging upload",
-            bytes.len() as u64,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::CpuToGpu,
-        )?;
-        staging.mapped_mut()?[..bytes.len()].copy_from_slice(bytes);
-        let region = [vk::BufferCopy::default().size(bytes.len() as u64)];
-        self.ctx.submit(|cmd| unsafe {
-            self.ctx
-                .device
-                .cmd_copy_buffer(cmd, staging.raw, self.raw, &region)
-        })
+        self.write_at(0, bytes)
     }
 
     /// Copies the first `min(size)` bytes of `src` into this buffer (GPU to GPU).

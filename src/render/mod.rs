@@ -17,14 +17,16 @@ use crate::lights::regions::RegionSettings;
 use crate::scene::Scene;
 
 mod cuts;
+mod learned_state;
 mod result;
 mod session;
 
 pub use cuts::{
     build_cuts, check_region_index_fits, check_resume, initial_stats, stats_header, BOUNCE_RAYS,
 };
+pub use learned_state::HostReduction;
 pub use result::{Learned, RegionStats, RenderResult};
-pub use session::{HostReduction, Session, FOLD_BINDINGS, RENDER_BINDINGS};
+pub use session::{Session, FOLD_BINDINGS, RENDER_BINDINGS};
 
 /// The light samplers, a closed set: one value per `SAMPLER` case in `shaders/render.comp`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]

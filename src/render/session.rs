@@ -22,13 +22,13 @@ use std::time::Instant;
 
 use anyhow::{bail, Result};
 
-use super::cuts::{build_cuts, check_region_index_fits, fill_initial, initial_stats, stats_header};
+use super::cuts::{check_region_index_fits, stats_header};
+use super::learned_state::{HostReduction, LearnedState};
 use super::result::mean_of;
 use super::{camera_vectors, GpuScene, Learned, RegionStats, RenderResult, RenderSettings};
 use crate::gpu::layout::{PixelAccum, RenderParams, SlotDelta, SlotStats};
 use crate::gpu::{kernels, Buffer, ComputePipeline, Context};
 use crate::learning::stats_file::{SavedStats, StatsHeader};
-use crate::lights::regions::{Cuts, Grid};
 use crate::scene::{Camera, Scene};
 
 /// The storage blocks of `render.comp` by descriptor set and binding number, as the kernel
@@ -80,29 +80,6 @@ fn in_binding_order<'b>(named: &[(&str, &'b Buffer)], bindings: &[&str]) -> Vec<
                 .expect("every binding has a buffer")
         })
         .collect()
-}
-
-/// The learned state: regions, cuts and statistics (GPU buffers and the host's copy of the
-/// cuts), and the learning pass counter.
-struct LearnedState {
-    cuts: Cuts,
-    grid: Buffer,
-    index: Buffer,
-    cuts_buf: Buffer,
-    stats: Buffer,
-    delta: Buffer,
-    params: Buffer,
-    /// Regions without a cut that samples reached (render.comp `missing_regions`): a count
-    /// of newly set bits, then one bit per region.
-    missing: Buffer,
-    slots: u32,
-    /// Regions whose cuts were built between frames (not before the first pass).
-    regions_added: usize,
-    /// Growing stopped: more cuts would not fit the device's storage buffers.
-    full: bool,
-    /// Passes learned from, including a loaded file's (the next pass's sample index).
-    passes: u32,
-    cut_seconds: f64,
 }
 
 /// The film: per-pixel sums and counters since the last reset.
@@ -400,113 +377,30 @@ impl<'a> Session<'a> {
                 .is_multiple_of(self.settings.learn.update_every)
     }
 
+    /// Builds cuts for the regions that samples reached without one and rebinds the learned
+    /// state; the new slots get their coefficients. Returns how many regions got a cut.
     fn grow_regions(&mut self) -> Result<usize> {
-        let learning = self.is_learning();
-        if !self.settings.sampler.uses_cuts() || !self.at_fold_boundary() || self.learned.full {
+        if !self.settings.sampler.uses_cuts() || !self.at_fold_boundary() {
             return Ok(0);
         }
-        let l = &mut self.learned;
-        if l.missing.read_first::<u32>(1)?[0] == 0 {
-            return Ok(0);
-        }
-        let t0 = Instant::now();
-        let words: Vec<u32> = l.missing.read()?;
-        l.missing.clear()?;
-        let mut regions = Vec::new();
-        for (w, &bits) in words[1..].iter().enumerate() {
-            let mut b = bits;
-            while b != 0 {
-                regions.push(w as u32 * 32 + b.trailing_zeros());
-                b &= b - 1;
+        let added = self
+            .learned
+            .grow(&self.ctx, &self.gpu.tree, &self.settings)?;
+        if added > 0 {
+            self.bind_learned()?;
+            if self.is_learning() {
+                // The new slots' coefficients; the others are recomputed from unchanged
+                // totals.
+                self.fold_all(true)?;
             }
         }
-        regions.retain(|&r| (r as usize) < l.cuts.index.len());
-        // Stop growing (the fallback cut serves the rest, unbiased) before the cuts or the
-        // statistics would outgrow one storage buffer of this device.
-        let max_bytes = self.ctx.properties.limits.max_storage_buffer_range as usize;
-        let most_new = regions.len() * (self.settings.regions.k_max as usize + 1);
-        let slot_bytes = if learning {
-            std::mem::size_of::<SlotStats>()
-        } else {
-            4
-        };
-        if (l.cuts.cuts.len() + most_new) * slot_bytes > max_bytes {
-            l.full = true;
-            return Ok(0);
-        }
-        // Ascending region order: the same cuts at the same offsets on every run.
-        let added = l
-            .cuts
-            .append(&self.gpu.tree, &regions, &self.settings.regions);
-        if added.is_empty() {
-            return Ok(0);
-        }
-        l.index.write(bytemuck::cast_slice(&l.cuts.index))?;
-        l.cuts_buf = Buffer::from_slice(&self.ctx, "cuts", &l.cuts.cuts)?;
-        if learning {
-            let (old, new) = (l.slots as usize, l.cuts.cuts.len());
-            let mut fresh = vec![SlotStats::default(); new];
-            for &(r, o) in &added {
-                fill_initial(
-                    &mut fresh,
-                    &self.gpu.tree,
-                    &l.cuts,
-                    o,
-                    Some(r),
-                    &self.settings.learn,
-                );
-            }
-            let slot = std::mem::size_of::<SlotStats>() as u64;
-            let stats = Buffer::zeroed(&self.ctx, "learned statistics", new as u64 * slot)?;
-            stats.copy_from(&l.stats)?;
-            stats.write_at(old as u64 * slot, bytemuck::cast_slice(&fresh[old..]))?;
-            let delta = Buffer::zeroed(
-                &self.ctx,
-                "learning window sums",
-                new as u64 * std::mem::size_of::<SlotDelta>() as u64,
-            )?;
-            delta.copy_from(&l.delta)?;
-            (l.stats, l.delta, l.slots) = (stats, delta, new as u32);
-        }
-        l.regions_added += added.len();
-        l.cut_seconds += t0.elapsed().as_secs_f64();
-        self.bind_learned()?;
-        if learning {
-            // The new slots' coefficients; the others are recomputed from unchanged totals.
-            self.fold_all(true)?;
-        }
-        Ok(added.len())
+        Ok(added)
     }
 
-    /// What reducing the statistics on the host between frames would cost now, measured by
-    /// doing it: read the totals and window sums back, fold every slot with the CPU mirror
-    /// of `fold.comp` (`learning::fold`, coefficients included) and upload the totals again
-    /// (the same values, so the state does not change). The GPU fold stays the one in use
-    /// (docs/features.md has the measurement).
+    /// What reducing the statistics on the host between frames would cost now
+    /// ([`LearnedState::measure_host_reduction`]).
     pub fn measure_host_reduction(&self) -> Result<HostReduction> {
-        let t0 = Instant::now();
-        let stats: Vec<SlotStats> = self.learned.stats.read()?;
-        let delta: Vec<SlotDelta> = self.learned.delta.read()?;
-        let read = t0.elapsed().as_secs_f64();
-        let t1 = Instant::now();
-        let folded: Vec<SlotStats> = stats
-            .iter()
-            .zip(&delta)
-            .map(|(s, d)| crate::learning::fold(s, d, &self.settings.learn))
-            .collect();
-        let reduce = t1.elapsed().as_secs_f64();
-        std::hint::black_box(&folded);
-        let t2 = Instant::now();
-        self.learned.stats.write(bytemuck::cast_slice(&stats))?;
-        let upload = t2.elapsed().as_secs_f64();
-        Ok(HostReduction {
-            slots: stats.len(),
-            bytes: stats.len()
-                * (std::mem::size_of::<SlotStats>() * 2 + std::mem::size_of::<SlotDelta>()),
-            read_seconds: read,
-            reduce_seconds: reduce,
-            upload_seconds: upload,
-        })
+        self.learned.measure_host_reduction(&self.settings.learn)
     }
 
     /// Samples per pixel in the film.
@@ -640,17 +534,6 @@ impl<'a> Session<'a> {
     }
 }
 
-/// The cost of one host-side reduction of the statistics ([`Session::measure_host_reduction`]).
-#[derive(Clone, Copy, Debug)]
-pub struct HostReduction {
-    pub slots: usize,
-    /// Read back (totals and window sums) plus uploaded (totals).
-    pub bytes: usize,
-    pub read_seconds: f64,
-    pub reduce_seconds: f64,
-    pub upload_seconds: f64,
-}
-
 /// Most passes a session takes (learned ones included): the random streams are indexed by
 /// a u32 and must never repeat.
 pub const MAX_PASSES: u32 = 1 << 31;
@@ -667,60 +550,5 @@ fn next_growth_point(spp: u32) -> u32 {
         (spp + 1).next_power_of_two()
     } else {
         (spp / 64 + 1).saturating_mul(64)
-    }
-}
-
-impl LearnedState {
-    fn new(
-        ctx: &Arc<Context>,
-        scene: &Scene,
-        gpu: &GpuScene,
-        settings: &RenderSettings,
-        camera: &Camera,
-    ) -> Result<LearnedState> {
-        let t0 = Instant::now();
-        let cuts = match &settings.resume {
-            Some(saved) => {
-                let (lo, hi) = scene.bounds();
-                Cuts::from_parts(
-                    Grid::new(lo, hi, &settings.regions),
-                    saved.index.clone(),
-                    saved.cuts.clone(),
-                    settings.regions.in_cluster_importance,
-                )
-            }
-            None => build_cuts(scene, gpu, settings, camera),
-        };
-        let cut_seconds = t0.elapsed().as_secs_f64();
-        // One entry per cuts entry (1 dummy entry for the samplers that do not learn).
-        let stats: Vec<SlotStats> = match (&settings.resume, settings.sampler.learned()) {
-            (Some(saved), true) => saved.stats.clone(),
-            (None, true) => initial_stats(&gpu.tree, &cuts, &settings.learn),
-            (_, false) => vec![SlotStats::default()],
-        };
-        let slots = stats.len() as u32;
-        let words = 1 + cuts.index.len().div_ceil(32);
-        Ok(LearnedState {
-            missing: Buffer::zeroed(ctx, "missing regions", 4 * words as u64)?,
-            regions_added: 0,
-            full: false,
-            grid: Buffer::from_slice(ctx, "region grid", &[cuts.grid.params])?,
-            index: Buffer::from_slice(ctx, "region index", &cuts.index)?,
-            cuts_buf: Buffer::from_slice(ctx, "cuts", &cuts.cuts)?,
-            stats: Buffer::from_slice(ctx, "learned statistics", &stats)?,
-            delta: Buffer::zeroed(
-                ctx,
-                "learning window sums",
-                slots as u64 * std::mem::size_of::<SlotDelta>() as u64,
-            )?,
-            params: Buffer::from_slice(ctx, "learning parameters", &[settings.learn.gpu_params()])?,
-            slots,
-            passes: settings
-                .resume
-                .as_ref()
-                .map_or(0, |s| s.header.samples_done),
-            cuts,
-            cut_seconds,
-        })
     }
 }

@@ -1,0 +1,211 @@
+//! The learned state of a render session: the region grid's index, the cuts, the
+//! statistics and window sums, the bitset of regions reached without a cut, and the
+//! learning pass counter; and how it grows between frames (src/render/session.rs).
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::Result;
+
+use super::cuts::{build_cuts, fill_initial, initial_stats};
+use super::{GpuScene, RenderSettings};
+use crate::gpu::layout::{SlotDelta, SlotStats};
+use crate::gpu::{Buffer, Context};
+use crate::learning::LearnSettings;
+use crate::lights::regions::{Cuts, Grid};
+use crate::lights::tree::LightTree;
+use crate::scene::{Camera, Scene};
+
+/// The learned state: regions, cuts and statistics (GPU buffers and the host's copy of the
+/// cuts), and the learning pass counter.
+pub struct LearnedState {
+    pub cuts: Cuts,
+    pub grid: Buffer,
+    pub index: Buffer,
+    pub cuts_buf: Buffer,
+    pub stats: Buffer,
+    pub delta: Buffer,
+    pub params: Buffer,
+    /// Regions without a cut that samples reached (render.comp `missing_regions`): a count
+    /// of newly set bits, then one bit per region.
+    pub missing: Buffer,
+    pub slots: u32,
+    /// Regions whose cuts were built between frames (not before the first pass).
+    pub regions_added: usize,
+    /// Growing stopped: more cuts would not fit the device's storage buffers.
+    pub full: bool,
+    /// Passes learned from, including a loaded file's (the next pass's sample index).
+    pub passes: u32,
+    pub cut_seconds: f64,
+}
+
+/// The cost of one host-side reduction of the statistics ([`super::Session::measure_host_reduction`]).
+#[derive(Clone, Copy, Debug)]
+pub struct HostReduction {
+    pub slots: usize,
+    /// Read back (totals and window sums) plus uploaded (totals).
+    pub bytes: usize,
+    pub read_seconds: f64,
+    pub reduce_seconds: f64,
+    pub upload_seconds: f64,
+}
+
+impl LearnedState {
+    pub fn new(
+        ctx: &Arc<Context>,
+        scene: &Scene,
+        gpu: &GpuScene,
+        settings: &RenderSettings,
+        camera: &Camera,
+    ) -> Result<LearnedState> {
+        let t0 = Instant::now();
+        let cuts = match &settings.resume {
+            Some(saved) => {
+                let (lo, hi) = scene.bounds();
+                Cuts::from_parts(
+                    Grid::new(lo, hi, &settings.regions),
+                    saved.index.clone(),
+                    saved.cuts.clone(),
+                    settings.regions.in_cluster_importance,
+                )
+            }
+            None => build_cuts(scene, gpu, settings, camera),
+        };
+        let cut_seconds = t0.elapsed().as_secs_f64();
+        // One entry per cuts entry (1 dummy entry for the samplers that do not learn).
+        let stats: Vec<SlotStats> = match (&settings.resume, settings.sampler.learned()) {
+            (Some(saved), true) => saved.stats.clone(),
+            (None, true) => initial_stats(&gpu.tree, &cuts, &settings.learn),
+            (_, false) => vec![SlotStats::default()],
+        };
+        let slots = stats.len() as u32;
+        let words = 1 + cuts.index.len().div_ceil(32);
+        Ok(LearnedState {
+            missing: Buffer::zeroed(ctx, "missing regions", 4 * words as u64)?,
+            regions_added: 0,
+            full: false,
+            grid: Buffer::from_slice(ctx, "region grid", &[cuts.grid.params])?,
+            index: Buffer::from_slice(ctx, "region index", &cuts.index)?,
+            cuts_buf: Buffer::from_slice(ctx, "cuts", &cuts.cuts)?,
+            stats: Buffer::from_slice(ctx, "learned statistics", &stats)?,
+            delta: Buffer::zeroed(
+                ctx,
+                "learning window sums",
+                slots as u64 * std::mem::size_of::<SlotDelta>() as u64,
+            )?,
+            params: Buffer::from_slice(ctx, "learning parameters", &[settings.learn.gpu_params()])?,
+            slots,
+            passes: settings
+                .resume
+                .as_ref()
+                .map_or(0, |s| s.header.samples_done),
+            cuts,
+            cut_seconds,
+        })
+    }
+
+    /// Builds and appends the cuts (and, for the learned samplers, the starting statistics)
+    /// of the regions flagged in `missing`, at a fold boundary (the window is empty, so the
+    /// statistics grow by appending totals alone). Stops growing, unbiased (the fallback
+    /// cut serves the rest), before the cuts or statistics would outgrow one storage buffer.
+    /// Returns how many regions got a cut; the caller rebinds.
+    pub fn grow(
+        &mut self,
+        ctx: &Arc<Context>,
+        tree: &LightTree,
+        settings: &RenderSettings,
+    ) -> Result<usize> {
+        let learning = settings.sampler.learned();
+        if self.full {
+            return Ok(0);
+        }
+        let l = self;
+        if l.missing.read_first::<u32>(1)?[0] == 0 {
+            return Ok(0);
+        }
+        let t0 = Instant::now();
+        let words: Vec<u32> = l.missing.read()?;
+        l.missing.clear()?;
+        let mut regions = Vec::new();
+        for (w, &bits) in words[1..].iter().enumerate() {
+            let mut b = bits;
+            while b != 0 {
+                regions.push(w as u32 * 32 + b.trailing_zeros());
+                b &= b - 1;
+            }
+        }
+        regions.retain(|&r| (r as usize) < l.cuts.index.len());
+        // Stop growing (the fallback cut serves the rest, unbiased) before the cuts or the
+        // statistics would outgrow one storage buffer of this device.
+        let max_bytes = ctx.properties.limits.max_storage_buffer_range as usize;
+        let most_new = regions.len() * (settings.regions.k_max as usize + 1);
+        let slot_bytes = if learning {
+            std::mem::size_of::<SlotStats>()
+        } else {
+            4
+        };
+        if (l.cuts.cuts.len() + most_new) * slot_bytes > max_bytes {
+            l.full = true;
+            return Ok(0);
+        }
+        // Ascending region order: the same cuts at the same offsets on every run.
+        let added = l.cuts.append(tree, &regions, &settings.regions);
+        if added.is_empty() {
+            return Ok(0);
+        }
+        l.index.write(bytemuck::cast_slice(&l.cuts.index))?;
+        l.cuts_buf = Buffer::from_slice(ctx, "cuts", &l.cuts.cuts)?;
+        if learning {
+            let (old, new) = (l.slots as usize, l.cuts.cuts.len());
+            let mut fresh = vec![SlotStats::default(); new];
+            for &(r, o) in &added {
+                fill_initial(&mut fresh, tree, &l.cuts, o, Some(r), &settings.learn);
+            }
+            let slot = std::mem::size_of::<SlotStats>() as u64;
+            let stats = Buffer::zeroed(ctx, "learned statistics", new as u64 * slot)?;
+            stats.copy_from(&l.stats)?;
+            stats.write_at(old as u64 * slot, bytemuck::cast_slice(&fresh[old..]))?;
+            let delta = Buffer::zeroed(
+                ctx,
+                "learning window sums",
+                new as u64 * std::mem::size_of::<SlotDelta>() as u64,
+            )?;
+            delta.copy_from(&l.delta)?;
+            (l.stats, l.delta, l.slots) = (stats, delta, new as u32);
+        }
+        l.regions_added += added.len();
+        l.cut_seconds += t0.elapsed().as_secs_f64();
+        Ok(added.len())
+    }
+
+    /// What reducing the statistics on the host between frames would cost now, measured by
+    /// doing it: read the totals and window sums back, fold every slot with the CPU mirror
+    /// of `fold.comp` (`learning::fold`, coefficients included) and upload the totals again
+    /// (the same values, so the state does not change). The GPU fold stays the one in use
+    /// (docs/features.md has the measurement).
+    pub fn measure_host_reduction(&self, learn: &LearnSettings) -> Result<HostReduction> {
+        let t0 = Instant::now();
+        let stats: Vec<SlotStats> = self.stats.read()?;
+        let delta: Vec<SlotDelta> = self.delta.read()?;
+        let read = t0.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        let folded: Vec<SlotStats> = stats
+            .iter()
+            .zip(&delta)
+            .map(|(s, d)| crate::learning::fold(s, d, learn))
+            .collect();
+        let reduce = t1.elapsed().as_secs_f64();
+        std::hint::black_box(&folded);
+        let t2 = Instant::now();
+        self.stats.write(bytemuck::cast_slice(&stats))?;
+        let upload = t2.elapsed().as_secs_f64();
+        Ok(HostReduction {
+            slots: stats.len(),
+            bytes: stats.len()
+                * (std::mem::size_of::<SlotStats>() * 2 + std::mem::size_of::<SlotDelta>()),
+            read_seconds: read,
+            reduce_seconds: reduce,
+            upload_seconds: upload,
+        })
+    }
+}
