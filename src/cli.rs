@@ -64,6 +64,32 @@ pub enum Command {
     /// Benchmark: rays/s of the GPU traversal kernel and of a multithreaded CPU traversal of
     /// the same BVH, side by side, for coherent and incoherent rays.
     BenchRays(BenchArgs),
+    /// Combine renders of one image made apart (other seeds: farm chunks) into the image
+    /// their summed samples give, weighted by each part's spp from its JSON.
+    Merge(MergeArgs),
+    /// Sum statistics files saved by --save-stats from renders of one scene with the same
+    /// settings (other seeds, cameras or machines); the result loads with --load-stats.
+    MergeStats(MergeStatsArgs),
+}
+
+#[derive(Args)]
+pub struct MergeArgs {
+    /// The parts (EXR files written by render, each with its .json beside it).
+    #[arg(required = true, value_name = "PART.exr")]
+    pub parts: Vec<PathBuf>,
+    /// The merged EXR (the PNG and JSON are written next to it).
+    #[arg(long, value_name = "FILE.exr")]
+    pub out: PathBuf,
+}
+
+#[derive(Args)]
+pub struct MergeStatsArgs {
+    /// The statistics files.
+    #[arg(required = true, value_name = "FILE.stats")]
+    pub parts: Vec<PathBuf>,
+    /// The merged statistics file.
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
 }
 
 #[derive(Args)]

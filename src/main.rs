@@ -31,6 +31,23 @@ fn main() -> ExitCode {
         Command::Reference(a) => cmd_reference(a),
         Command::Scene(a) => cmd_scene(a),
         Command::BenchRays(a) => cmd_bench_rays(a),
+        Command::Merge(a) => commands::merge::images(&a.parts, &a.out).map(|o| {
+            eprintln!(
+                "wrote {} (+ .png, .json): {} parts, {} spp",
+                o.exr.display(),
+                o.parts,
+                o.spp
+            )
+        }),
+        Command::MergeStats(a) => commands::merge::stats(&a.parts, &a.out).map(|m| {
+            eprintln!(
+                "wrote {}: {} files, {} passes learned, {} regions with cuts",
+                a.out.display(),
+                a.parts.len(),
+                m.header.samples_done,
+                m.index.iter().filter(|&&o| o != 0).count()
+            )
+        }),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

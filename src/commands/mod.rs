@@ -3,6 +3,7 @@
 //! these requests and prints; anything else (a farm task, a test) can run them the same way.
 
 pub mod compare;
+pub mod merge;
 pub mod reference;
 pub mod render;
 pub mod scene;

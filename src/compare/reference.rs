@@ -67,6 +67,31 @@ impl Fnv {
 pub fn key(scene: &Scene, width: u32, height: u32, spp: u32, seed: u32, max_depth: u32) -> String {
     let mut h = Fnv(0xcbf2_9ce4_8422_2325);
     h.bytes(INTEGRATOR_VERSION.as_bytes());
+    hash_content(&mut h, scene);
+    h.bytes(bytemuck::bytes_of(&camera_params(scene, width, height)));
+    h.bytes(format!("{spp}/{seed}/{:?}", REFERENCE_SAMPLER).as_bytes());
+    // Direct light (depth 1) keeps the key it had before the path tracer existed.
+    if max_depth != 1 {
+        h.bytes(format!("max depth {max_depth}").as_bytes());
+    }
+    format!("{:016x}-{width}x{height}-{spp}spp", h.0)
+}
+
+/// A hash of what a scene renders (geometry, materials, lights, textures and the camera),
+/// so renders of one scene made from other paths or machines can be recognised
+/// (`lightlearn merge`).
+pub fn scene_hash(scene: &Scene) -> String {
+    let mut h = Fnv(0xcbf2_9ce4_8422_2325);
+    hash_content(&mut h, scene);
+    let c = &scene.camera;
+    for v in [c.position, c.forward, c.up] {
+        h.bytes(bytemuck::bytes_of(&v.to_array()));
+    }
+    h.bytes(&c.yfov.to_le_bytes());
+    format!("{:016x}", h.0)
+}
+
+fn hash_content(h: &mut Fnv, scene: &Scene) {
     for t in &scene.triangles {
         for v in t {
             h.bytes(bytemuck::bytes_of(&v.to_array()));
@@ -98,13 +123,6 @@ pub fn key(scene: &Scene, width: u32, height: u32, spp: u32, seed: u32, max_dept
         }
         h.bytes(bytemuck::cast_slice(&scene.triangle_uv));
     }
-    h.bytes(bytemuck::bytes_of(&camera_params(scene, width, height)));
-    h.bytes(format!("{spp}/{seed}/{:?}", REFERENCE_SAMPLER).as_bytes());
-    // Direct light (depth 1) keeps the key it had before the path tracer existed.
-    if max_depth != 1 {
-        h.bytes(format!("max depth {max_depth}").as_bytes());
-    }
-    format!("{:016x}-{width}x{height}-{spp}spp", h.0)
 }
 
 /// Settings of a reference for renders with `seed` (own random stream, reference sampler).

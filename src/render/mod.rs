@@ -444,6 +444,13 @@ pub fn report_json(
     serde_json::json!({
         "lightlearn_version": env!("CARGO_PKG_VERSION"),
         "scene": scene.source,
+        "scene_hash": crate::compare::reference::scene_hash(scene),
+        // The random streams of the passes: `first_sample_index` .. + spp (a continuation of
+        // loaded statistics starts after theirs). Parts to merge must not share them.
+        "first_sample_index": result
+            .learned
+            .as_ref()
+            .map_or(0, |l| l.saved.header.samples_done - result.spp),
         "triangles": scene.triangles.len(),
         "lights": scene.lights.len(),
         "sampler": settings.sampler.name(),

@@ -1,0 +1,197 @@
+//! `lightlearn merge` and `lightlearn merge-stats`: the parts of one render made apart (farm
+//! chunks with other seeds, or on other machines) combined into what their summed samples
+//! give, and their learned statistics summed.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context as _, Result};
+use serde_json::{json, Value};
+
+use crate::film::{self, OutputPaths};
+use crate::learning::stats_file::SavedStats;
+
+/// Report fields that every part of one image must share: what was rendered, and how.
+const SAME: [&str; 7] = [
+    "scene_hash",
+    "width",
+    "height",
+    "max_depth",
+    "sampler",
+    "integrator",
+    "lightlearn_version",
+];
+
+/// The region settings of a report (its `regions` block without the per-run statistics).
+fn region_settings(r: &Value) -> Value {
+    let mut v = r["regions"].clone();
+    if let Some(m) = v.as_object_mut() {
+        m.remove("stats");
+    }
+    v
+}
+
+/// What a merge wrote.
+pub struct MergeOutcome {
+    pub exr: PathBuf,
+    pub parts: usize,
+    pub spp: u64,
+}
+
+/// Averages the parts' images weighted by their spp (their JSON reports, beside each EXR,
+/// say how many and how they were made) into `out` (+ .png, .json listing the parts).
+/// Parts of another scene, size, depth or sampler settings, and parts that drew the same
+/// random numbers (same seed and sample range), are refused naming the field.
+pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
+    if parts.len() < 2 {
+        bail!("merge needs at least two parts (PART.exr, each with its .json beside it)");
+    }
+    let paths = OutputPaths::new(out)?;
+    for p in parts {
+        if paths.all().iter().any(|o| {
+            crate::io::same_path(o, p) || crate::io::same_path(o, &p.with_extension("json"))
+        }) {
+            bail!(
+                "--out '{}' would replace the part '{}'; name another file",
+                out.display(),
+                p.display()
+            );
+        }
+    }
+    let mut reports = Vec::new();
+    for p in parts {
+        let j = p.with_extension("json");
+        let text = std::fs::read(&j).with_context(|| {
+            format!(
+                "part '{}' has no report '{}' beside it (render writes one)",
+                p.display(),
+                j.display()
+            )
+        })?;
+        let r: Value = serde_json::from_slice(&text)
+            .with_context(|| format!("the report '{}' is not valid JSON", j.display()))?;
+        reports.push(r);
+    }
+    let first = &reports[0];
+    for (r, p) in reports.iter().zip(parts).skip(1) {
+        for field in SAME {
+            if r[field] != first[field] {
+                bail!(
+                    "part '{}' has {field} {} but '{}' has {}; only parts of one render can be merged",
+                    p.display(),
+                    r[field],
+                    parts[0].display(),
+                    first[field]
+                );
+            }
+        }
+        if region_settings(r) != region_settings(first) {
+            bail!(
+                "part '{}' used other region settings (--grid, --tau, --k-max, …) than '{}'",
+                p.display(),
+                parts[0].display()
+            );
+        }
+        if r["learning"]["settings"] != first["learning"]["settings"] {
+            bail!(
+                "part '{}' was learned with other settings than '{}'",
+                p.display(),
+                parts[0].display()
+            );
+        }
+    }
+    // The same seed and sample range would be the same samples twice.
+    for (i, (a, pa)) in reports.iter().zip(parts).enumerate() {
+        for (b, pb) in reports.iter().zip(parts).skip(i + 1) {
+            let range = |r: &Value| {
+                let s = r["first_sample_index"].as_u64().unwrap_or(0);
+                (s, s + r["spp"].as_u64().unwrap_or(0))
+            };
+            let ((a0, a1), (b0, b1)) = (range(a), range(b));
+            if a["seed"] == b["seed"] && a0 < b1 && b0 < a1 {
+                bail!(
+                    "parts '{}' and '{}' share seed {} and samples {}..{}: they hold the same samples; render the chunks with different --seed",
+                    pa.display(),
+                    pb.display(),
+                    a["seed"],
+                    a0.max(b0),
+                    a1.min(b1)
+                );
+            }
+        }
+    }
+    let (w, h) = (
+        first["width"].as_u64().unwrap_or(0) as u32,
+        first["height"].as_u64().unwrap_or(0) as u32,
+    );
+    let mut sum = vec![[0f64; 3]; (w * h) as usize];
+    let mut total = 0u64;
+    let mut listed = Vec::new();
+    for (p, r) in parts.iter().zip(&reports) {
+        let (pw, ph, px) = film::read_exr(p)?;
+        if (pw, ph) != (w, h) {
+            bail!(
+                "part '{}' is {pw}×{ph} but its report says {w}×{h}; render it again",
+                p.display()
+            );
+        }
+        let spp = r["spp"].as_u64().filter(|&n| n > 0).ok_or_else(|| {
+            anyhow::anyhow!("the report of part '{}' has no sample count", p.display())
+        })?;
+        if let Some(i) = px.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
+            bail!(
+                "part '{}' has a NaN or Inf at pixel {i}; render it again",
+                p.display()
+            );
+        }
+        for (s, v) in sum.iter_mut().zip(&px) {
+            for k in 0..3 {
+                s[k] += spp as f64 * v[k] as f64;
+            }
+        }
+        total += spp;
+        listed.push(json!({"exr": p.display().to_string(), "spp": spp, "seed": r["seed"]}));
+    }
+    let image: Vec<[f32; 3]> = sum
+        .iter()
+        .map(|s| s.map(|c| (c / total as f64) as f32))
+        .collect();
+    let mut report = json!({
+        "merged_from": listed,
+        "spp": total,
+        "seconds_in_parts": reports.iter().filter_map(|r| r["render_seconds"].as_f64()).sum::<f64>(),
+    });
+    for field in SAME.iter().chain(&["scene"]) {
+        report[*field] = first[*field].clone();
+    }
+    report["learning_settings"] = first["learning"]["settings"].clone();
+    report["regions"] = region_settings(first);
+    film::write_outputs(&paths, w, h, &image, &report)?;
+    Ok(MergeOutcome {
+        exr: paths.exr,
+        parts: parts.len(),
+        spp: total,
+    })
+}
+
+/// Sums the statistics files `parts` ([`SavedStats::merge`]) into `out`, written atomically;
+/// `out` may not be one of the parts.
+pub fn stats(parts: &[PathBuf], out: &Path) -> Result<SavedStats> {
+    if parts.is_empty() {
+        bail!("merge-stats needs at least one statistics file");
+    }
+    if let Some(p) = parts.iter().find(|p| crate::io::same_path(p, out)) {
+        bail!(
+            "--out '{}' is one of the parts ('{}'); name another file",
+            out.display(),
+            p.display()
+        );
+    }
+    crate::io::check_writable(out)?;
+    let loaded: Vec<(SavedStats, String)> = parts
+        .iter()
+        .map(|p| Ok((SavedStats::load(p)?, p.display().to_string())))
+        .collect::<Result<_>>()?;
+    let merged = SavedStats::merge(&loaded)?;
+    merged.save(out)?;
+    Ok(merged)
+}

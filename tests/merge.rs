@@ -1,0 +1,154 @@
+//! `lightlearn merge` and `merge-stats` as a farm uses them: chunks of one image rendered
+//! apart combine into the image of their summed samples, and their statistics sum; parts
+//! that do not belong together are refused with one line and nothing written.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn run(args: &[&str], dir: &Path) -> Output {
+    Command::new(common::exe())
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap()
+}
+
+fn ok(o: &Output) {
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+fn refused(o: &Output, want: &str) {
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains(want), "'{want}' missing from: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+fn part(dir: &Path, name: &str, seed: &str, spp: &str, extra: &[&str]) {
+    let mut a = vec![
+        "render",
+        "--width",
+        "24",
+        "--height",
+        "16",
+        "--max-depth",
+        "2",
+        "-q",
+        "--seed",
+        seed,
+        "--spp",
+        spp,
+        "--out",
+        name,
+    ];
+    a.extend_from_slice(extra);
+    ok(&run(&a, dir));
+}
+
+#[test]
+fn chunks_merge_into_the_image_of_their_samples() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    part(d, "a.exr", "1", "4", &["--save-stats", "a.stats"]);
+    part(d, "b.exr", "2", "12", &["--save-stats", "b.stats"]);
+    ok(&run(&["merge", "a.exr", "b.exr", "--out", "m.exr"], d));
+    let img = |n: &str| lightlearn::film::read_exr(&d.join(n)).unwrap().2;
+    let (a, b, m) = (img("a.exr"), img("b.exr"), img("m.exr"));
+    for i in 0..m.len() {
+        for k in 0..3 {
+            let want = (4.0 * a[i][k] as f64 + 12.0 * b[i][k] as f64) / 16.0;
+            assert!(
+                (m[i][k] as f64 - want).abs() <= 1e-6 * want.abs() + 1e-9,
+                "pixel {i}: {} vs {want}",
+                m[i][k]
+            );
+        }
+    }
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("m.json")).unwrap()).unwrap();
+    assert_eq!(report["spp"], 16);
+    assert_eq!(report["merged_from"].as_array().unwrap().len(), 2);
+    assert!(d.join("m.png").exists());
+
+    // The statistics sum, and the sum loads for a continuation.
+    ok(&run(
+        &["merge-stats", "a.stats", "b.stats", "--out", "m.stats"],
+        d,
+    ));
+    let m = lightlearn::learning::stats_file::SavedStats::load(&d.join("m.stats")).unwrap();
+    assert_eq!(m.header.samples_done, 16);
+    part(d, "c.exr", "3", "2", &["--load-stats", "m.stats"]);
+}
+
+#[test]
+fn parts_that_do_not_belong_together_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    part(d, "a.exr", "1", "2", &["--save-stats", "a.stats"]);
+    part(d, "same.exr", "1", "2", &[]);
+    part(d, "wang.exr", "2", "2", &["--sampler", "wang"]);
+    part(
+        d,
+        "grid.exr",
+        "3",
+        "2",
+        &["--grid", "16", "--save-stats", "grid.stats"],
+    );
+    let mut args = vec![
+        "render",
+        "--width",
+        "32",
+        "--height",
+        "16",
+        "--max-depth",
+        "2",
+        "-q",
+    ];
+    args.extend_from_slice(&["--seed", "4", "--spp", "2", "--out", "wide.exr"]);
+    ok(&run(&args, d));
+    let before: Vec<_> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    for (other, want) in [
+        ("same.exr", "share seed 1"),
+        ("wang.exr", "has sampler"),
+        ("grid.exr", "region settings"),
+        ("wide.exr", "has width"),
+    ] {
+        refused(&run(&["merge", "a.exr", other, "--out", "m.exr"], d), want);
+    }
+    refused(
+        &run(&["merge", "a.exr", "--out", "m.exr"], d),
+        "at least two parts",
+    );
+    refused(
+        &run(&["merge", "a.exr", "wang.exr", "--out", "a.exr"], d),
+        "would replace the part",
+    );
+    refused(
+        &run(
+            &["merge-stats", "a.stats", "grid.stats", "--out", "m.stats"],
+            d,
+        ),
+        "--grid",
+    );
+    refused(
+        &run(
+            &["merge-stats", "a.stats", "grid.stats", "--out", "a.stats"],
+            d,
+        ),
+        "is one of the parts",
+    );
+    let after: Vec<_> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(
+        before.len(),
+        after.len(),
+        "something was written: {after:?}"
+    );
+}
