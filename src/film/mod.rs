@@ -6,8 +6,6 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
 
-use crate::io::temp_path;
-
 /// The output paths derived from `--out FILE.exr`.
 #[derive(Clone, Debug)]
 pub struct OutputPaths {
@@ -68,28 +66,19 @@ pub fn write_outputs_with(
     report: &serde_json::Value,
     extra: &[(&Path, &[u8])],
 ) -> Result<()> {
-    let mut files: Vec<(PathBuf, PathBuf)> = paths
-        .all()
-        .iter()
-        .chain(extra.iter().map(|(p, _)| p))
-        .map(|p| (p.to_path_buf(), temp_path(p)))
-        .collect();
     let result = (|| -> Result<()> {
-        write_exr(&files[0].1, width, height, rgb)?;
-        write_png(&files[1].1, width, height, rgb)?;
-        let text = serde_json::to_string_pretty(report)? + "\n";
-        std::fs::write(&files[2].1, text)?;
-        for ((_, tmp), (_, bytes)) in files[3..].iter().zip(extra) {
-            std::fs::write(tmp, bytes)?;
+        let mut set = crate::io::FileSet::default();
+        set.add_with(&paths.exr, |tmp| write_exr(tmp, width, height, rgb))?;
+        set.add_with(&paths.png, |tmp| write_png(tmp, width, height, rgb))?;
+        set.add(
+            &paths.json,
+            (serde_json::to_string_pretty(report)? + "\n").as_bytes(),
+        )?;
+        for (p, bytes) in extra {
+            set.add(p, bytes)?;
         }
-        Ok(())
-    })()
-    .and_then(|_| crate::io::commit_all(&files));
-    if result.is_err() {
-        for (_, t) in files.drain(..) {
-            let _ = std::fs::remove_file(t);
-        }
-    }
+        set.commit()
+    })();
     result.with_context(|| format!("cannot write the render to '{}'", paths.exr.display()))
 }
 

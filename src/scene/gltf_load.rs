@@ -353,8 +353,8 @@ pub fn load_bytes(
             "'{name}': {lights_with_range} lights set `range`; lightlearn ignores it (inverse-square falloff only)"
         ));
     }
-    let (origin, unit) = scene_frame(&triangles, &light_positions);
     let (lo0, hi0) = bounds64(&triangles, &light_positions);
+    let (origin, unit) = scene_frame(lo0, hi0);
     let to_f32 = |p: DVec3| ((p - origin) * unit).as_vec3();
     for (l, p) in scene.lights.iter_mut().zip(&light_positions) {
         if let Light::Point {
@@ -468,8 +468,8 @@ fn bounds64(triangles: &[[DVec3; 3]], points: &[DVec3]) -> (DVec3, DVec3) {
 /// (3.5 to 171 units) and real scenes in metres from a table top to a town.
 pub const NATIVE_SIZES: std::ops::RangeInclusive<f64> = 1.0..=16384.0;
 
-/// The frame the scene's f32 coordinates are taken in: (origin, unit), world = origin +
-/// local / unit.
+/// The frame the f32 coordinates of a scene with f64 bounds [lo, hi] are taken in:
+/// (origin, unit), world = origin + local / unit.
 /// - origin: the centre of the bounds when that lies farther from the file's origin than
 ///   the scene is large, so coordinates keep their precision relative to the scene's size
 ///   (measured: cornell moved by 1e7 lost most of its light before); else the file's own
@@ -480,8 +480,7 @@ pub const NATIVE_SIZES: std::ops::RangeInclusive<f64> = 1.0..=16384.0;
 ///   with lightbvh at 1024 spp.
 ///
 /// Scenes inside the range with their centre near the origin load bit for bit as written.
-fn scene_frame(triangles: &[[DVec3; 3]], points: &[DVec3]) -> (DVec3, f64) {
-    let (lo, hi) = bounds64(triangles, points);
+fn scene_frame(lo: DVec3, hi: DVec3) -> (DVec3, f64) {
     if !lo.is_finite() {
         return (DVec3::ZERO, 1.0);
     }
