@@ -85,13 +85,14 @@ pub fn alias_table(weights: &[f64]) -> Vec<AliasEntry> {
     table
 }
 
-/// The factor (a power of two, so scaling by it is exact) that the kernels' emission is
+/// The factor (a power of two, so scaling by it is exact), for lights of powers `weights`
+/// ([`power_weights`]), that the kernels' emission is
 /// multiplied by, and the images divided by: 1 for scenes whose lights emit 2^-20..2^40 W
 /// in total (every committed scene), else what brings the total to about 1 W. Without it
 /// the squared observations of `bayes` overflowed f32 from about 1e20 W (measured on
 /// cornell with emissiveStrength and point intensities × 1e20: 2416 of 12288 samples NaN).
-pub fn emission_scale(scene: &Scene) -> f32 {
-    let total: f64 = power_weights(scene).iter().sum();
+pub fn emission_scale(weights: &[f64]) -> f32 {
+    let total: f64 = weights.iter().sum();
     if !(total > 0.0 && total.is_finite()) || (2f64.powi(-20)..=2f64.powi(40)).contains(&total) {
         return 1.0;
     }

@@ -208,7 +208,8 @@ pub fn ray_epsilon(scene: &Scene) -> f32 {
 
 impl GpuScene {
     pub fn upload(ctx: &Arc<Context>, scene: &Scene, bvh: &Bvh) -> Result<GpuScene> {
-        let emission_scale = lights::emission_scale(scene);
+        let weights = lights::power_weights(scene);
+        let emission_scale = lights::emission_scale(&weights);
         let materials: Vec<GpuMaterial> = scene
             .materials
             .iter()
@@ -258,7 +259,7 @@ impl GpuScene {
         for l in &mut gpu_lights {
             l.radiance = l.radiance.map(|c| c * emission_scale);
         }
-        let alias = lights::alias_table(&lights::power_weights(scene));
+        let alias = lights::alias_table(&weights);
         let t0 = Instant::now();
         let mut tree = lights::tree::LightTree::build(scene);
         // Exact (a power of two): the tree's shape and every ratio stay as built.
