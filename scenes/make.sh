@@ -15,3 +15,6 @@ lightlearn scene strings --lights 1000 --seed 1 --resolution 24 --out strings.gl
 # Glossy variants (#7): cornell's tall box a white GGX metal, rooms16's floors rough metal.
 lightlearn scene cornell --lights 6 --seed 1 --glossy 0.3 --out cornell-glossy.glb
 lightlearn scene rooms --lights 400 --seed 1 --rooms 4x4 --glossy 0.3 --out rooms16-glossy.glb
+# Animated (#16): a camera walk through 3x2 rooms; cars with spot headlights in a 2x2 city.
+lightlearn scene rooms --lights 150 --seed 1 --rooms 3x2 --animate --out rooms-walk.glb
+lightlearn scene city --lights 300 --seed 1 --blocks 2 --animate --out city-cars.glb

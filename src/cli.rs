@@ -7,6 +7,7 @@ use anyhow::Result;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
 
+use lightlearn::commands::animate::AnimateRequest;
 use lightlearn::commands::compare::CompareRequest;
 use lightlearn::commands::reference::ReferenceRequest;
 use lightlearn::commands::render::RenderRequest;
@@ -58,6 +59,11 @@ pub enum Command {
     /// Render a converged reference image (sampler `lightbvh`, long budget); it is also
     /// cached so `compare` reuses it.
     Reference(ReferenceArgs),
+    /// Render a glTF animation frame by frame (node translation/rotation/scale channels on
+    /// cameras, meshes and lights) to DIR/frame-NNNN.{exr,png,json}, DIR/animation.json and,
+    /// with ffmpeg installed, DIR/animation.mp4; the learned statistics carry from frame to
+    /// frame (--carry on).
+    Animate(AnimateArgs),
     /// Generate a procedural many-light scene as glTF (.glb, or .gltf with embedded data).
     /// The same arguments always give a byte-identical file.
     Scene(SceneArgs),
@@ -70,6 +76,100 @@ pub enum Command {
     /// Sum statistics files saved by --save-stats from renders of one scene with the same
     /// settings (other seeds, cameras or machines); the result loads with --load-stats.
     MergeStats(MergeStatsArgs),
+}
+
+#[derive(Args)]
+pub struct AnimateArgs {
+    /// glTF 2.0 scene with animations (.gltf or .glb). Default: the built-in scene (still:
+    /// give --frames).
+    pub scene: Option<PathBuf>,
+    /// Output folder (created if missing).
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Frames to render, both ends included, e.g. 0..47 [default: the animation's whole
+    /// time span at --fps].
+    #[arg(long, value_name = "A..B", value_parser = parse_range, conflicts_with = "frame")]
+    pub frames: Option<(u32, u32)>,
+    /// Render only frame K (with --load-stats of frame K-1's .stats it equals frame K of the
+    /// whole sequence: a render farm's unit of work).
+    #[arg(long, value_name = "K")]
+    pub frame: Option<u32>,
+    /// Frames per second: frame k shows time t0 + k / fps (t0: the first keyframe).
+    #[arg(long, default_value_t = 24.0)]
+    pub fps: f64,
+    /// Samples per pixel per frame [default: 64 unless --time is given].
+    #[arg(long, value_name = "N", conflicts_with = "time")]
+    pub spp: Option<u32>,
+    /// Seconds per frame instead of a fixed sample count (not reproducible).
+    #[arg(long, value_name = "SECONDS")]
+    pub time: Option<f64>,
+    /// Carry the learned statistics from each frame to the next (off: every frame learns
+    /// from scratch, the comparison point).
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    pub carry: String,
+    /// When lights or geometry move between frames, the carried counts and sums are × G
+    /// (0 < G ≤ 1) before the next frame: old knowledge weighs less as it may be stale.
+    #[arg(long, default_value_t = 0.5, value_name = "G")]
+    pub forget: f32,
+    /// The statistics of the frame before the first (DIR/frame-NNNN.stats of an earlier run).
+    #[arg(long, value_name = "FILE")]
+    pub load_stats: Option<PathBuf>,
+    /// Do not encode DIR/animation.mp4 even when ffmpeg is installed.
+    #[arg(long)]
+    pub no_video: bool,
+    #[arg(long, default_value = "bayes", value_parser = sampler_parser())]
+    pub sampler: LightSampler,
+    #[arg(long, default_value_t = 320)]
+    pub width: u32,
+    #[arg(long, default_value_t = 240)]
+    pub height: u32,
+    /// Random seed (each frame mixes its index in).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Surface vertices of a path (1 = direct light).
+    #[arg(long, default_value_t = 8, value_name = "D")]
+    pub max_depth: u32,
+    /// No progress bar or summary.
+    #[arg(long, short)]
+    pub quiet: bool,
+    #[command(flatten)]
+    pub regions: RegionArgs,
+    #[command(flatten)]
+    pub learn: LearnArgs,
+    #[command(flatten)]
+    pub device: DeviceArgs,
+}
+
+pub fn parse_range(s: &str) -> std::result::Result<(u32, u32), String> {
+    let bad = || format!("'{s}' is not a frame range like 0..47");
+    let (a, b) = s.split_once("..").ok_or_else(bad)?;
+    let n = |t: &str| t.trim().parse::<u32>().map_err(|_| bad());
+    Ok((n(a)?, n(b)?))
+}
+
+impl AnimateArgs {
+    pub fn request(&self) -> Result<AnimateRequest> {
+        Ok(AnimateRequest {
+            scene: self.scene.clone(),
+            out: self.out.clone(),
+            frames: self.frame.map(|k| (k, k)).or(self.frames),
+            fps: self.fps,
+            spp: self.spp,
+            seconds: self.time,
+            carry: self.carry == "on",
+            forget: self.forget,
+            sampler: self.sampler,
+            width: self.width,
+            height: self.height,
+            seed: self.seed,
+            max_depth: self.max_depth,
+            regions: self.regions.settings()?,
+            learn: self.learn.settings()?,
+            load_stats: self.load_stats.clone(),
+            video: !self.no_video,
+            device: self.device.options(),
+        })
+    }
 }
 
 #[derive(Args)]
@@ -374,6 +474,11 @@ pub struct SceneArgs {
     /// (metallic 1, GGX) with this roughness in [0, 1]; all else stays Lambertian.
     #[arg(long, value_name = "ROUGHNESS")]
     pub glossy: Option<f32>,
+    /// Animated variant, 4 s (rooms: a camera walk from a room through its door along the
+    /// corridor into another room; city: cars with spot headlights driving the streets,
+    /// taken from the lamp budget so --lights stays exact).
+    #[arg(long)]
+    pub animate: bool,
 }
 
 pub fn parse_grid(s: &str) -> std::result::Result<(usize, usize), String> {
@@ -476,6 +581,7 @@ impl ReferenceArgs {
 impl SceneArgs {
     pub fn params(&self) -> FamilyParams {
         FamilyParams {
+            animate: self.animate,
             lights: self.lights,
             seed: self.seed,
             rooms: self.rooms,

@@ -10,7 +10,9 @@ use anyhow::{bail, Result};
 use clap::Parser;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use cli::{BenchArgs, Cli, Command, CompareArgs, ReferenceArgs, RenderArgs, SceneArgs};
+use cli::{
+    AnimateArgs, BenchArgs, Cli, Command, CompareArgs, ReferenceArgs, RenderArgs, SceneArgs,
+};
 use lightlearn::commands::{self, Ui};
 use lightlearn::gpu::Context;
 
@@ -27,6 +29,7 @@ fn main() -> ExitCode {
     });
     let result = match cli.command {
         Command::Render(a) => cmd_render(a),
+        Command::Animate(a) => cmd_animate(a),
         Command::Compare(a) => cmd_compare(a),
         Command::Reference(a) => cmd_reference(a),
         Command::Scene(a) => cmd_scene(a),
@@ -123,6 +126,28 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
         o.spp,
         o.render_seconds,
         o.msamples_per_second
+    ));
+    Ok(())
+}
+
+fn cmd_animate(a: AnimateArgs) -> Result<()> {
+    let mut ui = Terminal::new(a.quiet);
+    let o = commands::animate::run(&a.request()?, &mut ui)?;
+    let (frames, seconds) = (
+        o.frames.len(),
+        o.frames.iter().map(|f| f.render_seconds).sum::<f64>(),
+    );
+    if o.interrupted {
+        bail!(
+            "interrupted (Ctrl-C) in frame {}; wrote {frames} frames (the last one partial) and animation.json to {}",
+            o.frames.last().map_or(0, |f| f.frame),
+            a.out.display()
+        );
+    }
+    ui.message(&format!(
+        "wrote {frames} frames to {} (frame-NNNN.exr/.png/.json, animation.json{}) in {seconds:.1} s of rendering",
+        a.out.display(),
+        if o.video.is_some() { ", animation.mp4" } else { "" }
     ));
     Ok(())
 }

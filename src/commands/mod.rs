@@ -2,6 +2,7 @@
 //! files out, progress and messages through a [`Ui`]. The binary only parses arguments into
 //! these requests and prints; anything else (a farm task, a test) can run them the same way.
 
+pub mod animate;
 pub mod compare;
 pub mod merge;
 pub mod reference;

@@ -54,6 +54,20 @@ pub struct SavedStats {
     pub stats: Vec<SlotStats>,
 }
 
+impl SavedStats {
+    /// Tempers old knowledge (`animate --forget G`): counts and sums × `g`, so the posterior
+    /// keeps its means and loses confidence, and becomes the prior of the next frame (the
+    /// scale, Σy² / n, is unchanged). Coefficients are recomputed when a session loads it.
+    pub fn temper(&mut self, g: f32) {
+        for s in &mut self.stats {
+            s.n_zero *= g;
+            s.n_nonzero *= g;
+            s.sum *= g;
+            s.sum_sq *= g;
+        }
+    }
+}
+
 /// FNV-1a, 64 bit, of `bytes`.
 pub fn fnv1a(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
@@ -68,6 +82,20 @@ pub fn fnv1a(bytes: &[u8]) -> u64 {
 pub fn scene_fingerprint(tree: &LightTree) -> String {
     let h = fnv1a(bytemuck::cast_slice::<_, u8>(&tree.nodes));
     format!("{h:016x}-{}", tree.order.len())
+}
+
+/// FNV-1a over the light tree's shape alone (light order, node ranges and children), not
+/// its bounds: an animation's frames refit one tree as lights move, and what was learned for
+/// a node stays the node's. Marked `topology-` so it never equals a still scene's.
+pub fn topology_fingerprint(tree: &LightTree) -> String {
+    let shape: Vec<u32> = tree
+        .nodes
+        .iter()
+        .flat_map(|n| [n.begin, n.count, n.right])
+        .chain(tree.order.iter().copied())
+        .collect();
+    let h = fnv1a(bytemuck::cast_slice::<_, u8>(&shape));
+    format!("topology-{h:016x}-{}", tree.order.len())
 }
 
 /// Whether the file at `path` starts like a statistics file of ours (so `--save-stats` may
@@ -399,12 +427,13 @@ fn sum_slots(slots: &[&SlotStats]) -> SlotStats {
     s
 }
 
-/// Totals a render can have made: whole non-negative counts, finite non-negative sums with
+/// Totals a render can have made: non-negative counts (fractional once an animation has
+/// tempered them, `animate --forget`), finite non-negative sums with
 /// no sum without data, and a positive scale that keeps y / scale and (y / scale)² f32
 /// numbers (the kernels work with those; a tiny scale made the weights Inf). (Σy)² ≤ n Σy²
 /// is not required: the window's 24-bit fixed point rounds (y / scale)² ≪ 2^-24 to 0.
 fn possible_totals(s: &SlotStats) -> bool {
-    let count_ok = |n: f32| n >= 0.0 && n.is_finite() && n.fract() == 0.0;
+    let count_ok = |n: f32| n >= 0.0 && n.is_finite();
     let (s1, s2) = (s.sum / s.scale, s.sum_sq / (s.scale * s.scale));
     count_ok(s.n_zero)
         && count_ok(s.n_nonzero)

@@ -268,6 +268,54 @@ impl LightTree {
         }
     }
 
+    /// The same tree (topology and light order) with every node's bounds, cone and power
+    /// recomputed bottom-up from the lights as `scene` has them now: what an animation does
+    /// when lights move, so that cut nodes, and what was learned about them, keep their
+    /// meaning. `scene` must have the lights the tree was built over, in the same order.
+    pub fn refit(&self, scene: &Scene) -> LightTree {
+        assert_eq!(
+            scene.lights.len(),
+            self.order.len(),
+            "refit over other lights"
+        );
+        let mut nodes = self.nodes.clone();
+        // Depth-first order: both children of a node come after it.
+        for i in (0..nodes.len()).rev() {
+            let n = nodes[i];
+            let b = if n.count == 1 {
+                LightBounds::of(scene, &scene.lights[self.order[n.begin as usize] as usize])
+            } else {
+                Self::bounds(&nodes[i + 1]).union(&Self::bounds(&nodes[n.right as usize]))
+            };
+            nodes[i] = LightNode {
+                bmin: b.lo.to_array(),
+                phi: b.phi,
+                bmax: b.hi.to_array(),
+                cos_o: b.cos_o,
+                axis: b.axis.to_array(),
+                cos_e: b.cos_e,
+                flags: if b.two_sided { LIGHT_NODE_TWO_SIDED } else { 0 },
+                ..n
+            };
+        }
+        LightTree {
+            nodes,
+            order: self.order.clone(),
+            position: self.position.clone(),
+        }
+    }
+
+    /// The tree's quality as its build measures it: the SAOH cost (power × orientation ×
+    /// box area) summed over the internal nodes. A refitted tree whose cost grew well past
+    /// a fresh build's has degraded (lights moved far from where it grouped them).
+    pub fn cost(&self) -> f64 {
+        self.nodes
+            .iter()
+            .filter(|n| n.count > 1)
+            .map(|n| saoh_cost(&Self::bounds(n), 1.0, 1.0) as f64)
+            .sum()
+    }
+
     fn bounds(n: &LightNode) -> LightBounds {
         LightBounds {
             lo: Vec3::from(n.bmin),

@@ -32,7 +32,7 @@ pub fn check_resume(
             saved.header.samples_done
         );
     }
-    let (lo, hi) = scene.bounds();
+    let (lo, hi) = scene.grid_bounds();
     let regions = Grid::new(lo, hi, &settings.regions).region_count();
     saved.check_cuts(&gpu.tree, regions, path)
 }
@@ -44,7 +44,7 @@ pub fn check_region_index_fits(
     scene: &Scene,
     regions: &RegionSettings,
 ) -> Result<()> {
-    let (lo, hi) = scene.bounds();
+    let (lo, hi) = scene.grid_bounds();
     let count = Grid::new(lo, hi, regions).region_count_u64();
     let max_bytes = ctx.properties.limits.max_storage_buffer_range as u64;
     if 4 * count > max_bytes {
@@ -63,11 +63,11 @@ pub fn check_region_index_fits(
 /// The header of a statistics file of this scene and these settings with no cuts yet (what
 /// a loaded file must match); [`Cuts`] sizes and the sample count are filled in on saving.
 pub fn stats_header(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) -> StatsHeader {
-    let (lo, hi) = scene.bounds();
+    let (lo, hi) = scene.grid_bounds();
     let grid = Grid::new(lo, hi, &settings.regions);
     let (grid_params, grid_dims) = stats_file::grid_fields(&grid.params);
     StatsHeader {
-        scene: stats_file::scene_fingerprint(&gpu.tree),
+        scene: gpu.fingerprint.clone(),
         sampler: settings.sampler.name().to_string(),
         grid: settings.regions.grid,
         normal_bins: settings.regions.normal_bins,
@@ -148,7 +148,7 @@ pub fn build_cuts(
     settings: &RenderSettings,
     camera: &crate::scene::Camera,
 ) -> Cuts {
-    let (lo, hi) = scene.bounds();
+    let (lo, hi) = scene.grid_bounds();
     // Samplers without cuts never look a region up: one region, whatever --grid says (a
     // large grid once built a 3 GB index for `power`).
     let grid = if settings.sampler.uses_cuts() {

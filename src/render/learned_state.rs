@@ -61,7 +61,7 @@ impl LearnedState {
         let t0 = Instant::now();
         let cuts = match &settings.resume {
             Some(saved) => {
-                let (lo, hi) = scene.bounds();
+                let (lo, hi) = scene.grid_bounds();
                 Cuts::from_parts(
                     Grid::new(lo, hi, &settings.regions),
                     saved.index.clone(),

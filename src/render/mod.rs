@@ -10,7 +10,7 @@ use glam::Vec3;
 use crate::accel::Bvh;
 use crate::gpu::layout::{GpuMaterial, GpuTexture, RenderParams, MATERIAL_TWO_SIDED};
 use crate::gpu::{Buffer, Context};
-use crate::learning::stats_file::SavedStats;
+use crate::learning::stats_file::{self, SavedStats};
 use crate::learning::LearnSettings;
 use crate::lights;
 use crate::lights::regions::RegionSettings;
@@ -196,6 +196,10 @@ pub struct GpuScene {
     pub radiance_scale: f32,
     /// Seconds spent building the light tree (reported in the JSON).
     pub light_tree_seconds: f64,
+    /// What statistics learned on this scene are recorded against
+    /// ([`stats_file::scene_fingerprint`]; an animation frame's:
+    /// [`stats_file::topology_fingerprint`]).
+    pub fingerprint: String,
 }
 
 /// Offset for secondary-ray origins: 1e-4 of the scene's size (1.7 mm in the default 12 m
@@ -207,7 +211,29 @@ pub fn ray_epsilon(scene: &Scene) -> f32 {
 }
 
 impl GpuScene {
+    /// Uploads a scene with a light tree built for it.
     pub fn upload(ctx: &Arc<Context>, scene: &Scene, bvh: &Bvh) -> Result<GpuScene> {
+        Self::upload_with(ctx, scene, bvh, None)
+    }
+
+    /// Uploads a frame of an animation: `tree`'s topology refitted to the lights as they
+    /// are now ([`lights::tree::LightTree::refit`]), recorded by topology, so statistics
+    /// learned on earlier frames of the same tree carry over.
+    pub fn upload_refit(
+        ctx: &Arc<Context>,
+        scene: &Scene,
+        bvh: &Bvh,
+        tree: &lights::tree::LightTree,
+    ) -> Result<GpuScene> {
+        Self::upload_with(ctx, scene, bvh, Some(tree))
+    }
+
+    fn upload_with(
+        ctx: &Arc<Context>,
+        scene: &Scene,
+        bvh: &Bvh,
+        topology: Option<&lights::tree::LightTree>,
+    ) -> Result<GpuScene> {
         let weights = lights::power_weights(scene);
         let emission_scale = lights::emission_scale(&weights);
         let materials: Vec<GpuMaterial> = scene
@@ -261,11 +287,19 @@ impl GpuScene {
         }
         let alias = lights::alias_table(&weights);
         let t0 = Instant::now();
-        let mut tree = lights::tree::LightTree::build(scene);
+        let mut tree = match topology {
+            Some(t) => t.refit(scene),
+            None => lights::tree::LightTree::build(scene),
+        };
         // Exact (a power of two): the tree's shape and every ratio stay as built.
         for n in &mut tree.nodes {
             n.phi *= emission_scale;
         }
+        // Of the tree as the kernels use it (scaled).
+        let fingerprint = match topology {
+            Some(_) => stats_file::topology_fingerprint(&tree),
+            None => stats_file::scene_fingerprint(&tree),
+        };
         let light_tree_seconds = t0.elapsed().as_secs_f64();
         Ok(GpuScene {
             nodes: Buffer::from_slice(ctx, "bvh nodes", &bvh.nodes)?,
@@ -287,6 +321,7 @@ impl GpuScene {
             ray_eps: ray_epsilon(scene),
             radiance_scale: 1.0 / emission_scale,
             light_tree_seconds,
+            fingerprint,
         })
     }
 }
@@ -367,6 +402,25 @@ pub fn render_with_checkpoints(
     progress: &mut dyn FnMut(u32, f64),
 ) -> Result<RenderResult> {
     let mut session = Session::new(ctx, scene, gpu, settings)?;
+    run_session(
+        &mut session,
+        settings.budget,
+        checkpoints,
+        on_checkpoint,
+        progress,
+    )
+}
+
+/// Runs passes of `session` until `budget` (samples or seconds of its film) is reached or a
+/// stop is asked for (Ctrl-C: the batch in flight finishes, and the result says
+/// `interrupted`); checkpoints as [`render_with_checkpoints`].
+pub fn run_session(
+    session: &mut Session,
+    budget: Budget,
+    checkpoints: &Checkpoints,
+    on_checkpoint: &mut dyn FnMut(Checkpoint) -> Result<()>,
+    progress: &mut dyn FnMut(u32, f64),
+) -> Result<RenderResult> {
     let _active = crate::interrupt::Active::begin();
     // Checkpoints still ahead, as (seconds, spp) limits; one of the two is infinite.
     let mut pending: std::collections::VecDeque<(f64, u32)> = match checkpoints {
@@ -378,7 +432,7 @@ pub fn render_with_checkpoints(
     let mut interrupted = false;
     loop {
         let (done, elapsed) = (session.spp(), session.film_seconds());
-        let mut k = match settings.budget {
+        let mut k = match budget {
             Budget::Samples(n) => batch.min(n - done),
             Budget::Seconds(_) => batch,
         };
@@ -392,7 +446,7 @@ pub fn render_with_checkpoints(
         }
         let dt = session.run_passes(k)?;
         let (done, elapsed) = (session.spp(), elapsed + dt);
-        let fraction = match settings.budget {
+        let fraction = match budget {
             Budget::Samples(n) => done as f64 / n as f64,
             Budget::Seconds(s) => (elapsed / s).min(1.0),
         };
@@ -408,7 +462,7 @@ pub fn render_with_checkpoints(
                 mean: session.image()?,
             })?;
         }
-        if let Budget::Seconds(s) = settings.budget {
+        if let Budget::Seconds(s) = budget {
             if elapsed >= s {
                 break;
             }
@@ -421,7 +475,7 @@ pub fn render_with_checkpoints(
         // or a time budget's end.
         let per_pass = dt / k as f64;
         let mut target = PASS_BATCH_SECONDS;
-        if let Budget::Seconds(s) = settings.budget {
+        if let Budget::Seconds(s) = budget {
             target = target.min(s - elapsed);
         }
         if let Some(&(t, _)) = pending.front() {

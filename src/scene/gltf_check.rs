@@ -53,6 +53,7 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
             }
         }
     }
+    check_animations(root, name)?;
     check_node_cycles(root, name)?;
     let mut errors = Vec::new();
     root.validate(root, gltf::json::Path::new, &mut |path, e| {
@@ -63,6 +64,41 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
             "'{name}' is not a valid glTF 2.0 file: {}. Export it again or check it with the Khronos glTF validator.",
             errors.join("; ")
         );
+    }
+    Ok(())
+}
+
+/// Every animation channel names a sampler and a node that exist, and every sampler's
+/// input and output accessors exist (the crate indexes with them unchecked).
+fn check_animations(root: &Root, name: &str) -> Result<()> {
+    let accessors = root.accessors.len();
+    for (a, anim) in root.animations.iter().enumerate() {
+        let label = format!("animation {a} ('{}')", anim.name.as_deref().unwrap_or(""));
+        for (c, ch) in anim.channels.iter().enumerate() {
+            let at = format!("'{name}': {label} channel {c}");
+            if ch.sampler.value() >= anim.samplers.len() {
+                bail!(
+                    "{at} names sampler {}, but the animation has {}; fix the index",
+                    ch.sampler.value(),
+                    anim.samplers.len()
+                );
+            }
+            if ch.target.node.value() >= root.nodes.len() {
+                bail!("{at} targets node {}, but the file has {} nodes; fix the channel's target or drop the channel", ch.target.node.value(), root.nodes.len());
+            }
+        }
+        for (s, sampler) in anim.samplers.iter().enumerate() {
+            let at = format!("'{name}': {label} sampler {s}");
+            for (what, acc) in [
+                ("input", sampler.input.value()),
+                ("output", sampler.output.value()),
+            ] {
+                if acc >= accessors {
+                    bail!("{at}: its {what} names accessor {acc}, but the file has {accessors}; fix the index");
+                }
+                check_accessor(root, acc, &at)?;
+            }
+        }
     }
     Ok(())
 }

@@ -17,9 +17,10 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use anyhow::{anyhow, bail, Result};
-use glam::{DMat4, DVec3, DVec4, Vec3};
+use glam::{DMat4, DQuat, DVec3, DVec4, Quat, Vec3};
 use gltf::mesh::Mode;
 
+use super::animation::{Animations, Pose};
 use super::gltf_data::{load_buffers, Images};
 use super::{Camera, Light, Material, Scene, Texture};
 
@@ -27,8 +28,24 @@ use super::{Camera, Light, Material, Scene, Texture};
 /// light buffers must fit lavapipe's 128 MiB storage-buffer limit: 48 B per triangle.
 pub const MAX_TRIANGLES: usize = 2_500_000;
 
-/// Load a glTF/GLB file. Warnings (skipped primitives, unsupported lights) go to `warn`.
+/// Load a glTF/GLB file in its own pose (animations not applied). Warnings (skipped
+/// primitives, unsupported lights) go to `warn`.
 pub fn load(path: &Path, warn: &mut dyn FnMut(String)) -> Result<Scene> {
+    open(path, warn)?.scene(&Pose::default(), None, warn)
+}
+
+/// Load from bytes; `name` is used in messages and `base` resolves relative buffer URIs.
+pub fn load_bytes(
+    bytes: &[u8],
+    name: &str,
+    base: &Path,
+    warn: &mut dyn FnMut(String),
+) -> Result<Scene> {
+    open_bytes(bytes, name, base, warn)?.scene(&Pose::default(), None, warn)
+}
+
+/// Reads and parses a glTF/GLB file (and its buffers and animations).
+pub fn open(path: &Path, warn: &mut dyn FnMut(String)) -> Result<Document> {
     let bytes = std::fs::read(path).map_err(|e| {
         anyhow!(
             "cannot read scene file '{}': {e}. Check the path (run `lightlearn render --help` for usage).",
@@ -37,14 +54,42 @@ pub fn load(path: &Path, warn: &mut dyn FnMut(String)) -> Result<Scene> {
     })?;
     let name = path.display().to_string();
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    // The gltf crate indexes with unwrap in a few places; gltf_check catches the cases we
-    // know, and a malformed file that slips past it must still give one clear line, never a
-    // panic's text (the hook is silenced while the loader runs).
-    let result = silenced(|| {
-        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            load_bytes(&bytes, &name, &base, warn)
-        }))
-    });
+    open_bytes(&bytes, &name, &base, warn)
+}
+
+/// Parses a glTF/GLB file from bytes; `name` is used in messages and `base` resolves
+/// relative buffer URIs.
+pub fn open_bytes(
+    bytes: &[u8],
+    name: &str,
+    base: &Path,
+    warn: &mut dyn FnMut(String),
+) -> Result<Document> {
+    guarded(name, || {
+        let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| {
+            anyhow!(
+                "'{name}' is not a valid glTF 2.0 file (.gltf or .glb): {e}. \
+                 Export it again or check it with the Khronos glTF validator."
+            )
+        })?;
+        super::gltf_check::check(gltf.as_json(), name)?;
+        let buffers = load_buffers(&gltf, name, base)?;
+        let animations = Animations::read(&gltf.document, &buffers, name, warn)?;
+        Ok(Document {
+            gltf,
+            buffers,
+            name: name.to_string(),
+            base: base.to_path_buf(),
+            animations,
+        })
+    })
+}
+
+/// The gltf crate indexes with unwrap in a few places; gltf_check catches the cases we know,
+/// and a malformed file that slips past it must still give one clear line, never a panic's
+/// text (the hook is silenced while the loader runs).
+fn guarded<T>(name: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
+    let result = silenced(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)));
     match result {
         Ok(r) => r,
         Err(_) => bail!(
@@ -77,73 +122,190 @@ fn silenced<T>(f: impl FnOnce() -> T) -> T {
     out
 }
 
-/// Load from bytes; `name` is used in messages and `base` resolves relative buffer URIs.
-pub fn load_bytes(
-    bytes: &[u8],
-    name: &str,
-    base: &Path,
-    warn: &mut dyn FnMut(String),
-) -> Result<Scene> {
-    let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| {
-        anyhow!(
-            "'{name}' is not a valid glTF 2.0 file (.gltf or .glb): {e}. \
-             Export it again or check it with the Khronos glTF validator."
-        )
-    })?;
-    super::gltf_check::check(gltf.as_json(), name)?;
-    let buffers = load_buffers(&gltf, name, base)?;
-    let doc = &gltf.document;
+/// A parsed and checked glTF file: every pose of it is flattened from this.
+pub struct Document {
+    gltf: gltf::Gltf,
+    buffers: Vec<Vec<u8>>,
+    name: String,
+    base: std::path::PathBuf,
+    pub animations: Animations,
+}
 
-    let gltf_scene = doc
-        .default_scene()
-        .or_else(|| doc.scenes().next())
-        .ok_or_else(|| anyhow!("'{name}' has no scene (glTF `scenes` is empty); add a scene that lists the root nodes"))?;
+/// The frame the f32 coordinates of a scene are taken in: world = origin + local / unit
+/// ([`scene_frame`] says how it is chosen).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    pub origin: DVec3,
+    pub unit: f64,
+}
 
-    let mut materials: Vec<Material> = Vec::new();
-    let mut material_index: HashMap<Option<usize>, u32> = HashMap::new();
-    let mut scene = Scene {
-        triangles: Vec::new(),
-        triangle_material: Vec::new(),
-        materials: Vec::new(),
-        lights: Vec::new(),
-        camera: Camera::framing(Vec3::ZERO, Vec3::ONE),
-        textures: Vec::new(),
-        triangle_uv: Vec::new(),
-        source: name.to_string(),
-    };
-    // glTF texture index → our texture (None: could not be used, already warned about).
-    let mut texture_index: HashMap<usize, Option<u32>> = HashMap::new();
-    let images = Images {
-        buffers: &buffers,
-        base,
-        file: name,
-    };
-    let mut camera: Option<(DVec3, DVec3, DVec3, f32)> = None;
-    // World positions in f64 until the scene's origin is known (below): a scene far from its
-    // file's origin (a node translation of 1e7) keeps full f32 precision around itself.
-    let mut triangles: Vec<[DVec3; 3]> = Vec::new();
-    let mut light_positions: Vec<DVec3> = Vec::new();
-    let mut skipped_primitives = 0usize;
-    let mut lights_with_range = 0usize;
+impl Frame {
+    /// The frame for a scene with f64 bounds [lo, hi].
+    pub fn of(lo: DVec3, hi: DVec3) -> Frame {
+        let (origin, unit) = scene_frame(lo, hi);
+        Frame { origin, unit }
+    }
 
-    // Depth-first over the node hierarchy with accumulated world transforms, in document
-    // order (the stack is filled in reverse), so triangles and lights keep the file's order.
-    let mut stack: Vec<(gltf::Node, DMat4)> =
-        gltf_scene.nodes().map(|n| (n, DMat4::IDENTITY)).collect();
-    stack.reverse();
-    let mut visited = 0usize;
-    while let Some((node, parent)) = stack.pop() {
-        visited += 1;
-        if visited > 1_000_000 {
-            bail!("'{name}': the node hierarchy is too deep or cyclic");
+    pub fn to_local(&self, p: DVec3) -> Vec3 {
+        ((p - self.origin) * self.unit).as_vec3()
+    }
+}
+
+impl Document {
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The scene with the animated nodes in `pose`, in `frame` (None: the scene's own, from
+    /// its bounds in this pose). A sequence of poses renders in one frame, so that regions
+    /// and learned statistics stay where they were.
+    pub fn scene(
+        &self,
+        pose: &Pose,
+        frame: Option<Frame>,
+        warn: &mut dyn FnMut(String),
+    ) -> Result<Scene> {
+        guarded(&self.name, || self.flatten(pose, frame, warn))
+    }
+
+    /// World bounds (f64) of the scene in `pose`, from the meshes' POSITION bounds (glTF
+    /// requires min/max there; where absent, the vertices are read) transformed as boxes,
+    /// and the punctual lights: conservative, and cheap for a large scene.
+    pub fn pose_bounds(&self, pose: &Pose) -> Result<(DVec3, DVec3)> {
+        guarded(&self.name, || {
+            let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+            self.walk(pose, &mut |node, world| {
+                if let Some(mesh) = node.mesh() {
+                    for prim in mesh.primitives() {
+                        let (blo, bhi) = match accessor_box(&prim) {
+                            Some(b) => b,
+                            None => {
+                                let reader = prim
+                                    .reader(|b| self.buffers.get(b.index()).map(|v| v.as_slice()));
+                                let mut b = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+                                for p in reader.read_positions().into_iter().flatten() {
+                                    let p = Vec3::from(p).as_dvec3();
+                                    b = (b.0.min(p), b.1.max(p));
+                                }
+                                b
+                            }
+                        };
+                        if !blo.is_finite() || !bhi.is_finite() {
+                            continue;
+                        }
+                        for c in 0..8 {
+                            let corner = DVec3::new(
+                                if c & 1 == 0 { blo.x } else { bhi.x },
+                                if c & 2 == 0 { blo.y } else { bhi.y },
+                                if c & 4 == 0 { blo.z } else { bhi.z },
+                            );
+                            let p = world.transform_point3(corner);
+                            lo = lo.min(p);
+                            hi = hi.max(p);
+                        }
+                    }
+                }
+                if node.light().is_some() {
+                    let p = world.transform_point3(DVec3::ZERO);
+                    lo = lo.min(p);
+                    hi = hi.max(p);
+                }
+                Ok(())
+            })?;
+            Ok((lo, hi))
+        })
+    }
+
+    /// Depth-first over the node hierarchy with accumulated world transforms (the pose's
+    /// TRS for animated nodes), in document order.
+    fn walk(
+        &self,
+        pose: &Pose,
+        visit: &mut dyn FnMut(&gltf::Node, DMat4) -> Result<()>,
+    ) -> Result<()> {
+        let name = &self.name;
+        let doc = &self.gltf.document;
+        let gltf_scene = doc
+            .default_scene()
+            .or_else(|| doc.scenes().next())
+            .ok_or_else(|| anyhow!("'{name}' has no scene (glTF `scenes` is empty); add a scene that lists the root nodes"))?;
+        // The stack is filled in reverse, so triangles and lights keep the file's order.
+        let mut stack: Vec<(gltf::Node, DMat4)> =
+            gltf_scene.nodes().map(|n| (n, DMat4::IDENTITY)).collect();
+        stack.reverse();
+        let mut visited = 0usize;
+        while let Some((node, parent)) = stack.pop() {
+            visited += 1;
+            if visited > 1_000_000 {
+                bail!("'{name}': the node hierarchy is too deep or cyclic");
+            }
+            let local = match pose.nodes.get(&node.index()) {
+                Some(p) => {
+                    let (t, r, s) = node.transform().decomposed();
+                    let (t, r, s) = p.apply((Vec3::from(t), Quat::from_array(r), Vec3::from(s)));
+                    DMat4::from_scale_rotation_translation(
+                        s.as_dvec3(),
+                        DQuat::from_array(r.to_array().map(f64::from)).normalize(),
+                        t.as_dvec3(),
+                    )
+                }
+                None => {
+                    DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)))
+                }
+            };
+            let world = parent * local;
+            if !world.is_finite() {
+                bail!(
+                    "'{name}': {} has a non-finite transform (NaN or Inf); fix its matrix/TRS",
+                    node_label(&node)
+                );
+            }
+            visit(&node, world)?;
+            let first_child = stack.len();
+            stack.extend(node.children().map(|c| (c, world)));
+            stack[first_child..].reverse();
         }
-        let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
-        let world = parent * local;
-        let node_label = node_label(&node);
-        if !world.is_finite() {
-            bail!("'{name}': {node_label} has a non-finite transform (NaN or Inf); fix its matrix/TRS");
-        }
+        Ok(())
+    }
 
+    fn flatten(
+        &self,
+        pose: &Pose,
+        frame: Option<Frame>,
+        warn: &mut dyn FnMut(String),
+    ) -> Result<Scene> {
+        let name = self.name.as_str();
+        let buffers = &self.buffers;
+        let base = self.base.as_path();
+        let mut materials: Vec<Material> = Vec::new();
+        let mut material_index: HashMap<Option<usize>, u32> = HashMap::new();
+        let mut scene = Scene {
+            triangles: Vec::new(),
+            triangle_material: Vec::new(),
+            materials: Vec::new(),
+            lights: Vec::new(),
+            camera: Camera::framing(Vec3::ZERO, Vec3::ONE),
+            textures: Vec::new(),
+            triangle_uv: Vec::new(),
+            source: name.to_string(),
+            grid_box: None,
+        };
+        // glTF texture index → our texture (None: could not be used, already warned about).
+        let mut texture_index: HashMap<usize, Option<u32>> = HashMap::new();
+        let images = Images {
+            buffers,
+            base,
+            file: name,
+        };
+        let mut camera: Option<(DVec3, DVec3, DVec3, f32)> = None;
+        // World positions in f64 until the scene's origin is known (below): a scene far from its
+        // file's origin (a node translation of 1e7) keeps full f32 precision around itself.
+        let mut triangles: Vec<[DVec3; 3]> = Vec::new();
+        let mut light_positions: Vec<DVec3> = Vec::new();
+        let mut skipped_primitives = 0usize;
+        let mut lights_with_range = 0usize;
+
+        self.walk(pose, &mut |node, world| {
         if let Some(mesh) = node.mesh() {
             // Negative determinant mirrors the mesh and flips its winding (glTF 2.0 §3.7.4).
             let flip = world.determinant() < 0.0;
@@ -343,115 +505,128 @@ pub fn load_bytes(
             }
         }
 
-        let first_child = stack.len();
-        stack.extend(node.children().map(|c| (c, world)));
-        stack[first_child..].reverse();
-    }
+        Ok(())
+    })?;
 
-    if lights_with_range > 0 {
-        warn(format!(
+        if lights_with_range > 0 {
+            warn(format!(
             "'{name}': {lights_with_range} lights set `range`; lightlearn ignores it (inverse-square falloff only)"
         ));
-    }
-    let (lo0, hi0) = bounds64(&triangles, &light_positions);
-    let (origin, unit) = scene_frame(lo0, hi0);
-    let to_f32 = |p: DVec3| ((p - origin) * unit).as_vec3();
-    for (l, p) in scene.lights.iter_mut().zip(&light_positions) {
-        if let Light::Point {
-            position,
-            intensity,
         }
-        | Light::Spot {
-            position,
-            intensity,
-            ..
-        } = l
-        {
-            *position = to_f32(*p);
-            // Irradiance I / d² stays what it was when lengths are × unit.
-            *intensity *= (unit * unit) as f32;
+        let (lo0, hi0) = bounds64(&triangles, &light_positions);
+        let Frame { origin, unit } = frame.unwrap_or_else(|| Frame::of(lo0, hi0));
+        let to_f32 = |p: DVec3| ((p - origin) * unit).as_vec3();
+        for (l, p) in scene.lights.iter_mut().zip(&light_positions) {
+            if let Light::Point {
+                position,
+                intensity,
+            }
+            | Light::Spot {
+                position,
+                intensity,
+                ..
+            } = l
+            {
+                *position = to_f32(*p);
+                // Irradiance I / d² stays what it was when lengths are × unit.
+                *intensity *= (unit * unit) as f32;
+            }
         }
-    }
-    // Triangles in f32 about the origin; one that rounds to zero area is dropped with its
-    // material and texture coordinates.
-    let uv_kept = !scene.triangle_uv.is_empty();
-    let (mut kept_material, mut kept_uv) = (Vec::new(), Vec::new());
-    for (i, t) in triangles.iter().enumerate() {
-        let tri = t.map(to_f32);
-        if !tri.iter().all(|v| v.is_finite()) {
-            bail!("'{name}': triangle {i} lies beyond the range of 32-bit floats ({:?}); scale the scene down", t[0]);
+        // Triangles in f32 about the origin; one that rounds to zero area is dropped with its
+        // material and texture coordinates.
+        let uv_kept = !scene.triangle_uv.is_empty();
+        let (mut kept_material, mut kept_uv) = (Vec::new(), Vec::new());
+        for (i, t) in triangles.iter().enumerate() {
+            let tri = t.map(to_f32);
+            if !tri.iter().all(|v| v.is_finite()) {
+                bail!("'{name}': triangle {i} lies beyond the range of 32-bit floats ({:?}); scale the scene down", t[0]);
+            }
+            if (tri[1] - tri[0]).cross(tri[2] - tri[0]).length_squared() == 0.0 {
+                continue;
+            }
+            scene.triangles.push(tri);
+            kept_material.push(scene.triangle_material[i]);
+            if uv_kept {
+                kept_uv.push(scene.triangle_uv.get(i).copied().unwrap_or([[0.0; 2]; 3]));
+            }
         }
-        if (tri[1] - tri[0]).cross(tri[2] - tri[0]).length_squared() == 0.0 {
-            continue;
+        scene.triangle_material = kept_material;
+        scene.triangle_uv = kept_uv;
+        if scene.triangles.is_empty() {
+            let extra = if skipped_primitives > 0 {
+                format!(" ({skipped_primitives} point/line primitives were skipped)")
+            } else {
+                String::new()
+            };
+            bail!("'{name}' has no triangles{extra}; lightlearn needs triangle meshes to render");
         }
-        scene.triangles.push(tri);
-        kept_material.push(scene.triangle_material[i]);
-        if uv_kept {
-            kept_uv.push(scene.triangle_uv.get(i).copied().unwrap_or([[0.0; 2]; 3]));
-        }
-    }
-    scene.triangle_material = kept_material;
-    scene.triangle_uv = kept_uv;
-    if scene.triangles.is_empty() {
-        let extra = if skipped_primitives > 0 {
-            format!(" ({skipped_primitives} point/line primitives were skipped)")
-        } else {
-            String::new()
-        };
-        bail!("'{name}' has no triangles{extra}; lightlearn needs triangle meshes to render");
-    }
 
-    // Every emissive triangle is an area light.
-    for (i, &m) in scene.triangle_material.iter().enumerate() {
-        if materials[m as usize].emission.max_element() > 0.0 {
-            scene.lights.push(Light::Triangle { triangle: i as u32 });
+        // Every emissive triangle is an area light.
+        for (i, &m) in scene.triangle_material.iter().enumerate() {
+            if materials[m as usize].emission.max_element() > 0.0 {
+                scene.lights.push(Light::Triangle { triangle: i as u32 });
+            }
         }
-    }
-    scene.materials = materials;
-    if scene.textures.is_empty() {
-        scene.triangle_uv = Vec::new();
-    } else {
-        scene
-            .triangle_uv
-            .resize(scene.triangles.len(), [[0.0; 2]; 3]);
-    }
-    if scene.lights.is_empty() {
-        bail!(
+        scene.materials = materials;
+        if scene.textures.is_empty() {
+            scene.triangle_uv = Vec::new();
+        } else {
+            scene
+                .triangle_uv
+                .resize(scene.triangles.len(), [[0.0; 2]; 3]);
+        }
+        if scene.lights.is_empty() {
+            bail!(
             "'{name}' has no lights: add KHR_lights_punctual point/spot lights or give a material a non-zero emissiveFactor"
         );
-    }
-    // Emission of any size renders (the kernels work in normalised units, see
-    // lights::emission_scale), as long as each light's power and their sum are f32 numbers.
-    let mut total = 0f64;
-    for l in &scene.lights {
-        let p = scene.light_power(l);
-        total += p as f64;
-        if !p.is_finite() {
-            let what = match l {
-                Light::Triangle { triangle } => format!(
-                    "material {} of emissive triangle {triangle}",
-                    scene.triangle_material[*triangle as usize]
-                ),
-                _ => "a punctual light".to_string(),
-            };
-            bail!("'{name}': {what} emits more power than 32-bit floats hold; lower its emissiveStrength/intensity (the image scales with it)");
         }
-    }
-    // Rescaling (scene_frame) can take a punctual intensity below f32's range.
-    if total <= 0.0 || scene.lights.iter().any(|l| scene.light_power(l) == 0.0) {
-        bail!("'{name}': a light's power rounds to 0 in 32-bit floats once the scene is brought to the renderer's scale (it is {:.3e} units across); scale the scene or the light's intensity", (hi0 - lo0).length());
-    }
-    if total > f32::MAX as f64 / 16.0 {
-        bail!("'{name}': its lights emit {total:.3e} W in total, more than 32-bit floats can render; lower the emission (the image scales with it)");
-    }
-    let (lo, hi) = scene.bounds();
-    scene.camera = match camera {
-        Some((position, forward, up, yfov)) => {
-            Camera::looking(to_f32(position), forward.as_vec3(), up.as_vec3(), yfov)
+        // Emission of any size renders (the kernels work in normalised units, see
+        // lights::emission_scale), as long as each light's power and their sum are f32 numbers.
+        let mut total = 0f64;
+        for l in &scene.lights {
+            let p = scene.light_power(l);
+            total += p as f64;
+            if !p.is_finite() {
+                let what = match l {
+                    Light::Triangle { triangle } => format!(
+                        "material {} of emissive triangle {triangle}",
+                        scene.triangle_material[*triangle as usize]
+                    ),
+                    _ => "a punctual light".to_string(),
+                };
+                bail!("'{name}': {what} emits more power than 32-bit floats hold; lower its emissiveStrength/intensity (the image scales with it)");
+            }
         }
-        None => Camera::framing(lo, hi),
+        // Rescaling (scene_frame) can take a punctual intensity below f32's range.
+        if total <= 0.0 || scene.lights.iter().any(|l| scene.light_power(l) == 0.0) {
+            bail!("'{name}': a light's power rounds to 0 in 32-bit floats once the scene is brought to the renderer's scale (it is {:.3e} units across); scale the scene or the light's intensity", (hi0 - lo0).length());
+        }
+        if total > f32::MAX as f64 / 16.0 {
+            bail!("'{name}': its lights emit {total:.3e} W in total, more than 32-bit floats can render; lower the emission (the image scales with it)");
+        }
+        let (lo, hi) = scene.bounds();
+        scene.camera = match camera {
+            Some((position, forward, up, yfov)) => {
+                Camera::looking(to_f32(position), forward.as_vec3(), up.as_vec3(), yfov)
+            }
+            None => Camera::framing(lo, hi),
+        };
+        Ok(scene)
+    }
+}
+
+/// A primitive's POSITION bounds from its accessor's min/max, where given.
+fn accessor_box(prim: &gltf::Primitive) -> Option<(DVec3, DVec3)> {
+    let acc = prim.get(&gltf::Semantic::Positions)?;
+    let read = |v: Option<gltf::json::Value>| -> Option<DVec3> {
+        let a = v?;
+        let a = a.as_array()?;
+        if a.len() != 3 {
+            return None;
+        }
+        Some(DVec3::new(a[0].as_f64()?, a[1].as_f64()?, a[2].as_f64()?))
     };
-    Ok(scene)
+    Some((read(acc.min())?, read(acc.max())?))
 }
 
 /// The bounds of triangles and points in f64.

@@ -20,6 +20,9 @@ pub struct GltfBuilder {
     images: Vec<Value>,
     samplers: Vec<Value>,
     textures: Vec<Value>,
+    /// One animation's channels and samplers (written when any were added).
+    channels: Vec<Value>,
+    anim_samplers: Vec<Value>,
 }
 
 impl GltfBuilder {
@@ -215,10 +218,7 @@ impl GltfBuilder {
 
     /// A perspective camera at `position` looking at `target` (world up +Y).
     pub fn camera(&mut self, position: Vec3, target: Vec3, yfov: f32) {
-        let f = (target - position).normalize();
-        let r = f.cross(Vec3::Y).normalize();
-        let u = r.cross(f);
-        let rot = Quat::from_mat3(&Mat3::from_cols(r, u, -f)).normalize();
+        let rot = look_rotation(position, target);
         self.cameras.push(json!({
             "type": "perspective",
             "perspective": {"yfov": yfov, "znear": 0.01}
@@ -227,6 +227,57 @@ impl GltfBuilder {
             "name": "camera", "camera": self.cameras.len() - 1,
             "translation": position.to_array(), "rotation": rot.to_array()
         }));
+    }
+
+    /// The index of the node added last (a mesh, light or camera).
+    pub fn last_node(&self) -> usize {
+        self.nodes.len() - 1
+    }
+
+    /// Animates `node`'s `path` ("translation": xyz keys, "rotation": xyzw keys) with
+    /// LINEAR interpolation (rotations by slerp) at `times` (seconds, increasing). All
+    /// channels belong to one animation, "animation".
+    pub fn animate(&mut self, node: usize, path: &str, times: &[f32], values: &[Vec<f32>]) {
+        let width = values.first().map_or(0, Vec::len);
+        assert!(values.len() == times.len() && values.iter().all(|v| v.len() == width));
+        let t_bytes: Vec<u8> = times.iter().flat_map(|t| t.to_le_bytes()).collect();
+        let v_bytes: Vec<u8> = values
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let tv = self.push_view(&t_bytes, None);
+        let vv = self.push_view(&v_bytes, None);
+        let (lo, hi) = (times[0], times[times.len() - 1]);
+        self.accessors.push(json!({
+            "bufferView": tv, "componentType": 5126, "count": times.len(), "type": "SCALAR",
+            "min": [lo], "max": [hi]
+        }));
+        self.accessors.push(json!({
+            "bufferView": vv, "componentType": 5126, "count": values.len(),
+            "type": if width == 4 { "VEC4" } else { "VEC3" }
+        }));
+        let a = self.accessors.len();
+        self.anim_samplers
+            .push(json!({"input": a - 2, "output": a - 1, "interpolation": "LINEAR"}));
+        self.channels.push(json!({
+            "sampler": self.anim_samplers.len() - 1, "target": {"node": node, "path": path}
+        }));
+    }
+
+    /// A camera that moves through `keys` (time, position, target), LINEAR in position and
+    /// by slerp in orientation; it rests at the first key.
+    pub fn camera_path(&mut self, keys: &[(f32, Vec3, Vec3)], yfov: f32) {
+        self.camera(keys[0].1, keys[0].2, yfov);
+        let node = self.last_node();
+        let times: Vec<f32> = keys.iter().map(|k| k.0).collect();
+        let positions: Vec<Vec<f32>> = keys.iter().map(|k| k.1.to_array().to_vec()).collect();
+        let rotations: Vec<Vec<f32>> = keys
+            .iter()
+            .map(|k| look_rotation(k.1, k.2).to_array().to_vec())
+            .collect();
+        self.animate(node, "translation", &times, &positions);
+        self.animate(node, "rotation", &times, &rotations);
     }
 
     fn document(&self, buffer_uri: Option<String>) -> Value {
@@ -253,6 +304,11 @@ impl GltfBuilder {
             doc["images"] = json!(self.images);
             doc["samplers"] = json!(self.samplers);
             doc["textures"] = json!(self.textures);
+        }
+        if !self.channels.is_empty() {
+            doc["animations"] = json!([{
+                "name": "animation", "channels": self.channels, "samplers": self.anim_samplers
+            }]);
         }
         if !self.lights.is_empty() {
             doc["extensions"] = json!({"KHR_lights_punctual": {"lights": self.lights}});
@@ -345,4 +401,13 @@ pub fn box_mesh(lo: Vec3, hi: Vec3) -> (Vec<Vec3>, Vec<u32>) {
         .flat_map(|q| [q[0], q[1], q[2], q[0], q[2], q[3]])
         .collect();
     (p, idx)
+}
+
+/// The rotation of a glTF camera (looking down its −z, up +y) at `position` looking at
+/// `target`, world up +Y.
+fn look_rotation(position: Vec3, target: Vec3) -> Quat {
+    let f = (target - position).normalize();
+    let r = f.cross(Vec3::Y).normalize();
+    let u = r.cross(f);
+    Quat::from_mat3(&Mat3::from_cols(r, u, -f)).normalize()
 }

@@ -4,6 +4,8 @@
 //! counter-clockwise = front), so the BVH builder, the light list and the CPU reference all
 //! read the same plain arrays.
 
+pub mod animated;
+pub mod animation;
 pub mod families;
 pub mod gltf_check;
 mod gltf_data;
@@ -140,6 +142,10 @@ pub struct Scene {
     pub triangle_uv: Vec<[[f32; 2]; 3]>,
     /// Where the scene came from (file path or generator), for reports.
     pub source: String,
+    /// The box the region grid covers when it is not the scene's own bounds: an animation's
+    /// frames share one grid (the union over the animation), so that what a frame learned
+    /// about a place is where the next frame looks for it.
+    pub grid_box: Option<(Vec3, Vec3)>,
 }
 
 impl Scene {
@@ -160,6 +166,11 @@ impl Scene {
             }
         }
         (lo, hi)
+    }
+
+    /// The box the region grid covers: [`Scene::grid_box`], else the bounds.
+    pub fn grid_bounds(&self) -> (Vec3, Vec3) {
+        self.grid_box.unwrap_or_else(|| self.bounds())
     }
 
     /// Emitted radiance of a triangle light.

@@ -143,9 +143,42 @@ pub fn build(p: &FamilyParams) -> Result<GltfBuilder> {
         w.emit(&mut g, &format!("windows{k}"), window_m[k]);
     }
 
+    // Animated: cars (two spot headlights each) taken from the lamp budget.
+    let cars = if p.animate { lamps / 4 } else { 0 };
+    for c in 0..cars {
+        let line = (rng.next_u64() % (blocks as u64 + 1)) as f32 * PITCH - 0.5 * STREET;
+        let (along_x, reverse) = (rng.f32() < 0.5, rng.f32() < 0.5);
+        let (mut a, mut b) = (-STREET, size);
+        if reverse {
+            (a, b) = (b, a);
+        }
+        let at = |s: f32| {
+            if along_x {
+                Vec3::new(s, 0.7, line)
+            } else {
+                Vec3::new(line, 0.7, s)
+            }
+        };
+        let dir = (at(b) - at(a)).normalize();
+        let side = dir.cross(Vec3::Y) * 0.8;
+        for (h, off) in [side, -side].into_iter().enumerate() {
+            g.spot_light(
+                &format!("car{c}_light{h}"),
+                at(a) + off,
+                dir - 0.15 * Vec3::Y,
+                Vec3::new(1.0, 0.95, 0.85),
+                80.0,
+                15f32.to_radians(),
+                25f32.to_radians(),
+            );
+            let node = g.last_node();
+            let keys = [at(a) + off, at(b) + off].map(|v| v.to_array().to_vec());
+            g.animate(node, "translation", &[0.0, 4.0], &keys);
+        }
+    }
     // Street lamps on the street centre lines (x = const or z = const), alternating spot and
     // bulb.
-    for l in 0..lamps {
+    for l in 0..lamps - 2 * cars {
         let line = (rng.next_u64() % (blocks as u64 + 1)) as f32 * PITCH - 0.5 * STREET;
         let along = rng.range(-STREET, size);
         let pos = if rng.f32() < 0.5 {

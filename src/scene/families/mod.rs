@@ -90,6 +90,9 @@ pub struct FamilyParams {
     pub resolution: u32,
     /// Glossy variant: floors (the tall box in cornell) become a GGX metal of this roughness.
     pub glossy: Option<f32>,
+    /// Animated variant (4 s): rooms, a camera walking from a room through its door along
+    /// the corridor into another room; city, cars whose spot headlights drive the streets.
+    pub animate: bool,
 }
 
 /// A floor's material: Lambertian, or with `--glossy R` a metal of the same colour and
@@ -133,6 +136,9 @@ pub fn generate(family: Family, p: &FamilyParams) -> Result<GltfBuilder> {
     }
     if !(3..=512).contains(&p.resolution) {
         bail!("--resolution {} is out of range: use 3..=512", p.resolution);
+    }
+    if p.animate && !matches!(family, Family::Rooms | Family::City) {
+        bail!("--animate is supported for rooms (a camera walk) and city (moving headlights); {family:?} has no animated variant");
     }
     Ok(match family {
         Family::Rooms => rooms::build(p)?,
@@ -258,6 +264,7 @@ mod tests {
 
     fn params(lights: usize) -> FamilyParams {
         FamilyParams {
+            animate: false,
             lights,
             seed: 5,
             rooms: None,

@@ -204,12 +204,50 @@ pub fn build(p: &FamilyParams) -> Result<GltfBuilder> {
     tables.emit(&mut g, "tables", table_m);
     panels.emit(&mut g, "panels", panel_m);
 
-    // From the start of the first corridor, looking down it.
     let cz = corridors[0] + 0.5 * CORRIDOR;
-    g.camera(
-        Vec3::new(0.4, 1.6, cz - 0.3),
-        Vec3::new(width.min(4.0 * ROOM), 1.2, cz + 0.2),
-        60f32.to_radians(),
-    );
+    if p.animate {
+        // A walk (4 s): from inside the first room through its door (centred in the wall
+        // at z = 4), along the corridor past up to two rooms, and through the door of the
+        // room across the corridor (row 1) when there is one.
+        let door_x = 0.5 * ROOM;
+        let xj = door_x + ROOM * (rx.min(3) - 1) as f32;
+        let (z_door, eye) = (row_z[0] + ROOM, 1.6);
+        let mut keys = vec![
+            (0.0, Vec3::new(door_x, eye, 1.2), Vec3::new(door_x, 1.5, cz)),
+            (
+                1.0,
+                Vec3::new(door_x, eye, z_door),
+                Vec3::new(door_x + 0.5, 1.5, cz + 1.0),
+            ),
+            (
+                1.5,
+                Vec3::new(door_x + 0.3, eye, cz),
+                Vec3::new(xj + 2.0, 1.5, cz),
+            ),
+        ];
+        if rz >= 2 {
+            let z1 = row_z[1];
+            keys.push((
+                3.0,
+                Vec3::new(xj, eye, cz),
+                Vec3::new(xj + 0.3, 1.5, z1 + 1.0),
+            ));
+            keys.push((
+                4.0,
+                Vec3::new(xj, eye, z1 + 2.0),
+                Vec3::new(xj, 1.2, z1 + ROOM),
+            ));
+        } else {
+            keys.push((4.0, Vec3::new(xj, eye, cz), Vec3::new(xj + 4.0, 1.5, cz)));
+        }
+        g.camera_path(&keys, 60f32.to_radians());
+    } else {
+        // From the start of the first corridor, looking down it.
+        g.camera(
+            Vec3::new(0.4, 1.6, cz - 0.3),
+            Vec3::new(width.min(4.0 * ROOM), 1.2, cz + 0.2),
+            60f32.to_radians(),
+        );
+    }
     Ok(g)
 }

@@ -1,0 +1,416 @@
+//! `lightlearn animate`: a glTF animation rendered frame by frame, the learned state carried
+//! from each frame to the next (`--carry on`) or learned afresh (`--carry off`).
+//!
+//! Frame k is the scene at t0 + k / fps in one coordinate frame and one region grid
+//! ([`AnimatedScene`]). Its light tree is the tree built at frame 0 refitted to the lights
+//! as they are at frame k, so a cut node, and what was learned about it, keeps its meaning;
+//! when the refit's SAOH cost exceeds [`DEGRADED`] × a fresh build's, the frame builds its
+//! own tree and learns afresh. Its starting statistics are frame k−1's final ones (from
+//! memory, or from `--load-stats`: the same bytes, so `--frame k --load-stats
+//! frame-(k−1).stats` gives frame k of the sequence bit for bit), tempered by `--forget` when
+//! lights or geometry moved between the two frames. Every frame is unbiased whatever it
+//! carries: the statistics only shape the pmfs, which stay exact.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{bail, Context as _, Result};
+use serde_json::json;
+
+use super::Ui;
+use crate::accel::Bvh;
+use crate::film::{self, OutputPaths};
+use crate::gpu::{Context, ContextOptions};
+use crate::learning::stats_file::SavedStats;
+use crate::learning::LearnSettings;
+use crate::lights::regions::RegionSettings;
+use crate::lights::tree::LightTree;
+use crate::render::{self, Budget, Checkpoints, GpuScene, LightSampler, RenderSettings, Session};
+use crate::scene::animated::{AnimatedScene, Changes};
+use crate::scene::Scene;
+
+/// A refitted light tree whose SAOH cost is above this many times a fresh build's for the
+/// same frame is replaced by the fresh build (its statistics restart). The committed
+/// animated scenes stay far below it (their ratios are in each frame's record).
+pub const DEGRADED: f64 = 2.0;
+
+/// What `animate` is asked for.
+#[derive(Clone, Debug)]
+pub struct AnimateRequest {
+    /// None: the built-in default scene (not animated: give --frames).
+    pub scene: Option<PathBuf>,
+    /// The output folder.
+    pub out: PathBuf,
+    /// First and last frame, both included (None: the animation's whole span).
+    pub frames: Option<(u32, u32)>,
+    pub fps: f64,
+    pub spp: Option<u32>,
+    pub seconds: Option<f64>,
+    pub carry: bool,
+    pub forget: f32,
+    pub sampler: LightSampler,
+    pub width: u32,
+    pub height: u32,
+    pub seed: u32,
+    pub max_depth: u32,
+    pub regions: RegionSettings,
+    pub learn: LearnSettings,
+    /// The statistics of the frame before the first (`--frame k --load-stats`).
+    pub load_stats: Option<PathBuf>,
+    /// Encode DIR/animation.mp4 with ffmpeg when it is installed.
+    pub video: bool,
+    pub device: ContextOptions,
+}
+
+/// One frame's record in `animation.json`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct FrameRecord {
+    pub frame: u32,
+    pub time: f32,
+    pub spp: u32,
+    pub render_seconds: f64,
+    /// What changed since the previous frame.
+    pub moved: Changes,
+    /// "fresh", "carried", "carried, tempered" or "restarted (light tree rebuilt)".
+    pub learning: String,
+    /// The refitted light tree's SAOH cost ÷ a fresh build's at this frame.
+    pub tree_cost_ratio: f64,
+    pub regions_with_cuts: usize,
+    pub regions_added: usize,
+    /// The film's own estimate of the image's MSE (per-pixel variance of the mean).
+    pub estimated_mse: f64,
+    pub exr: PathBuf,
+}
+
+pub struct AnimateOutcome {
+    pub frames: Vec<FrameRecord>,
+    pub interrupted: bool,
+    pub video: Option<PathBuf>,
+}
+
+/// Frame `k`'s file stem in the output folder.
+pub fn frame_stem(out: &Path, k: u32) -> PathBuf {
+    out.join(format!("frame-{k:04}"))
+}
+
+/// The seed of frame `k`: every frame draws other random numbers, also with `--carry off`
+/// (whose frames all start at pass 0).
+pub fn frame_seed(seed: u32, k: u32) -> u32 {
+    seed ^ k.wrapping_mul(0x9E37_79B9)
+}
+
+pub fn check(req: &AnimateRequest) -> Result<()> {
+    if !(req.fps.is_finite() && req.fps > 0.0 && req.fps <= 1000.0) {
+        bail!("--fps must be a number of frames per second in (0, 1000]");
+    }
+    if !(req.forget > 0.0 && req.forget <= 1.0) {
+        bail!("--forget must be in (0, 1]: the weight old statistics keep when lights or geometry move (1 keeps all)");
+    }
+    match (req.spp, req.seconds) {
+        (Some(0), _) => bail!("--spp must be at least 1"),
+        (None, Some(t)) if !(t.is_finite() && t > 0.0) => {
+            bail!("--time must be a positive number of seconds")
+        }
+        _ => {}
+    }
+    if let Some((a, b)) = req.frames {
+        if b < a {
+            bail!("--frames {a}..{b}: the last frame comes before the first; use A..B with A ≤ B");
+        }
+    }
+    if req.load_stats.is_some() && !(req.sampler.learned() && req.carry) {
+        bail!("--load-stats needs a learning sampler (bayes, donikian) and --carry on");
+    }
+    if req.load_stats.is_some() && req.frames.is_some_and(|(a, _)| a == 0) {
+        bail!("--load-stats holds the statistics of the frame before the first; frame 0 has none (start at --frame 1 or later)");
+    }
+    super::check_depth(req.max_depth)?;
+    req.regions.check()?;
+    req.learn.check()
+}
+
+/// Renders the frames; writes DIR/frame-NNNN.{exr,png,json} (+ .stats for a learning
+/// sampler with --carry on), DIR/animation.json after every frame, and DIR/animation.mp4
+/// at the end when asked for and ffmpeg is present.
+pub fn run(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
+    check(req)?;
+    let started = Instant::now();
+    if req.out.exists() && !req.out.is_dir() {
+        bail!(
+            "--out '{}' is a file; animate writes a folder of frames (give a folder path)",
+            req.out.display()
+        );
+    }
+    let loaded = match &req.load_stats {
+        Some(p) => Some(SavedStats::load(p)?),
+        None => None,
+    };
+    let anim = AnimatedScene::open(req.scene.as_deref(), &mut warn_once(ui))?;
+    let (first, last) = match req.frames {
+        Some(r) => r,
+        None if anim.is_animated() => (0, anim.frame_count(req.fps) - 1),
+        None => bail!(
+            "'{}' has no animations; give --frames A..B to render a still scene as frames, or use `lightlearn render`",
+            anim.doc.name()
+        ),
+    };
+    if last - first >= crate::scene::animated::MAX_FRAMES {
+        bail!(
+            "--frames {first}..{last} is more than {} frames; render it in parts",
+            crate::scene::animated::MAX_FRAMES
+        );
+    }
+    std::fs::create_dir_all(&req.out)
+        .with_context(|| format!("cannot create the output folder '{}'", req.out.display()))?;
+    // Every file of the run, checked before the first frame's time is spent.
+    for k in first..=last {
+        let stem = frame_stem(&req.out, k);
+        for ext in ["exr", "png", "json", "stats"] {
+            crate::io::check_writable(&stem.with_extension(ext))?;
+        }
+    }
+    crate::io::check_writable(&req.out.join("animation.json"))?;
+
+    let ctx = Context::new(&req.device)?;
+    let mut quiet = |_: String| {};
+    // Frame 0's tree: the topology every frame refits.
+    let scene0 = anim.scene_at(anim.time(0, req.fps), &mut warn_once(ui))?;
+    let topology = LightTree::build(&scene0);
+    ui.message(&format!(
+        "{}: {} triangles, {} lights, {} animation channels; frames {first}..={last} at {} fps; device {}",
+        scene0.source,
+        scene0.triangles.len(),
+        scene0.lights.len(),
+        anim.doc.animations.channels.len(),
+        req.fps,
+        ctx.describe()
+    ));
+    let budget = match (req.spp, req.seconds) {
+        (Some(n), _) => Budget::Samples(n),
+        (None, Some(t)) => Budget::Seconds(t),
+        (None, None) => Budget::Samples(64),
+    };
+
+    let mut previous: Option<Scene> = if first == 0 {
+        None
+    } else {
+        Some(anim.scene_at(anim.time(first - 1, req.fps), &mut quiet)?)
+    };
+    let mut carried: Option<SavedStats> = loaded;
+    let mut prev_gpu: Option<GpuScene> = None;
+    let mut records = Vec::new();
+    let mut interrupted = false;
+    for k in first..=last {
+        let t = anim.time(k, req.fps);
+        let scene = if k == 0 {
+            scene0.clone()
+        } else {
+            anim.scene_at(t, &mut quiet)?
+        };
+        let moved = previous
+            .as_ref()
+            .map_or(Changes::default(), |p| Changes::between(p, &scene));
+        // The frame's light tree: frame 0's refitted, unless that degraded.
+        let fresh = LightTree::build(&scene);
+        let (refit_cost, fresh_cost) = (topology.refit(&scene).cost(), fresh.cost());
+        let ratio = if fresh_cost > 0.0 {
+            refit_cost / fresh_cost
+        } else {
+            1.0
+        };
+        let rebuilt = ratio > DEGRADED;
+        let gpu = match prev_gpu.take() {
+            Some(g) if !moved.scene_moved() && !rebuilt => g,
+            _ => {
+                let bvh = Bvh::build(&scene.triangles);
+                if rebuilt {
+                    GpuScene::upload(&ctx, &scene, &bvh)?
+                } else {
+                    GpuScene::upload_refit(&ctx, &scene, &bvh, &topology)?
+                }
+            }
+        };
+        let mut settings = RenderSettings {
+            width: req.width,
+            height: req.height,
+            budget,
+            seed: frame_seed(req.seed, k),
+            sampler: req.sampler,
+            regions: req.regions,
+            learn: req.learn,
+            resume: None,
+            stratified: true,
+            max_depth: req.max_depth,
+        };
+        let mut learning = "fresh".to_string();
+        if let (true, true, Some(mut saved)) = (req.carry, req.sampler.learned(), carried.take()) {
+            let what = req
+                .load_stats
+                .as_deref()
+                .filter(|_| k == first)
+                .unwrap_or(Path::new("the previous frame's statistics"));
+            if rebuilt {
+                learning = "restarted (light tree rebuilt)".into();
+            } else {
+                render::check_resume(&scene, &gpu, &settings, &saved, what)?;
+                if moved.scene_moved() && req.forget < 1.0 {
+                    saved.temper(req.forget);
+                    learning = "carried, tempered".into();
+                } else {
+                    learning = "carried".into();
+                }
+                settings.resume = Some(Arc::new(saved));
+            }
+        }
+        let mut session = Session::new(&ctx, &scene, &gpu, &settings)?;
+        if settings.resume.is_some() {
+            // A view the statistics were not learned from: regions it reaches grow on the
+            // film's schedule, as after a camera move.
+            session.set_camera(scene.camera)?;
+        }
+        let label = format!("frame {k}");
+        let result = render::run_session(
+            &mut session,
+            budget,
+            &Checkpoints::None,
+            &mut |_| Ok(()),
+            &mut |spp, f| ui.progress(&label, spp, f),
+        )?;
+        ui.phase_done();
+        drop(session);
+
+        let stem = frame_stem(&req.out, k);
+        let paths = OutputPaths::new(&stem.with_extension("exr"))?;
+        let mut report = render::report_json(&scene, &settings, &result, &ctx.describe());
+        report["animation"] = json!({
+            "frame": k, "time": t, "fps": req.fps, "carry": req.carry, "forget": req.forget,
+            "learning": learning, "moved": moved, "tree_cost_ratio": ratio,
+        });
+        let stats_bytes = match (&result.learned, req.carry) {
+            (Some(l), true) => Some(l.saved.to_bytes()),
+            _ => None,
+        };
+        let stats_path = stem.with_extension("stats");
+        let extra: Vec<(&Path, &[u8])> = stats_bytes
+            .iter()
+            .map(|b| (stats_path.as_path(), b.as_slice()))
+            .collect();
+        film::write_outputs_with(
+            &paths,
+            req.width,
+            req.height,
+            &result.mean(),
+            &report,
+            &extra,
+        )?;
+        records.push(FrameRecord {
+            frame: k,
+            time: t,
+            spp: result.spp,
+            render_seconds: result.render_seconds,
+            moved,
+            learning,
+            tree_cost_ratio: ratio,
+            regions_with_cuts: result.regions.regions_with_cuts,
+            regions_added: result.regions.regions_added_between_frames,
+            estimated_mse: result.estimated_error().0,
+            exr: paths.exr.clone(),
+        });
+        write_summary(req, &anim, &records, started.elapsed().as_secs_f64())?;
+        if result.interrupted {
+            interrupted = true;
+            break;
+        }
+        carried = result.learned.map(|l| l.saved);
+        previous = Some(scene);
+        prev_gpu = Some(gpu);
+    }
+    let video = if req.video && !interrupted {
+        encode_video(req, first, ui)?
+    } else {
+        None
+    };
+    Ok(AnimateOutcome {
+        frames: records,
+        interrupted,
+        video,
+    })
+}
+
+/// Warnings as messages (given for the file and frame 0's scene only: later frames repeat
+/// them).
+fn warn_once(ui: &mut dyn Ui) -> impl FnMut(String) + '_ {
+    move |w: String| ui.message(&format!("warning: {w}"))
+}
+
+fn write_summary(
+    req: &AnimateRequest,
+    anim: &AnimatedScene,
+    records: &[FrameRecord],
+    seconds: f64,
+) -> Result<()> {
+    let summary = json!({
+        "lightlearn_version": env!("CARGO_PKG_VERSION"),
+        "scene": anim.doc.name(),
+        "animations": anim.doc.animations.names,
+        "channels": anim.doc.animations.channels.len(),
+        "span_seconds": [anim.span.0, anim.span.1],
+        "fps": req.fps,
+        "sampler": req.sampler.name(),
+        "carry": req.carry,
+        "forget": req.forget,
+        "width": req.width,
+        "height": req.height,
+        "max_depth": req.max_depth,
+        "seed": req.seed,
+        "total_seconds": seconds,
+        "frames": records,
+    });
+    crate::io::write_atomic(
+        &req.out.join("animation.json"),
+        serde_json::to_string_pretty(&summary)?.as_bytes(),
+    )
+}
+
+/// DIR/animation.mp4 from the frames' PNGs with ffmpeg, when it is installed (else a
+/// message says why there is none).
+fn encode_video(req: &AnimateRequest, first: u32, ui: &mut dyn Ui) -> Result<Option<PathBuf>> {
+    let ffmpeg_found = std::process::Command::new("ffmpeg")
+        .arg("-version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !ffmpeg_found {
+        ui.message("ffmpeg is not installed, so no animation.mp4 was written (ci/setup.sh installs it); the frames are the PNG/EXR files");
+        return Ok(None);
+    }
+    let out = req.out.join("animation.mp4");
+    let tmp = crate::io::temp_path(&out).with_extension("tmp.mp4");
+    let status = std::process::Command::new("ffmpeg")
+        .args(["-loglevel", "error", "-y", "-framerate"])
+        .arg(format!("{}", req.fps))
+        .args(["-start_number", &first.to_string(), "-i"])
+        .arg(req.out.join("frame-%04d.png"))
+        // Even dimensions for yuv420p, which every player reads.
+        .args([
+            "-vf",
+            "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+            "-pix_fmt",
+            "yuv420p",
+            "-c:v",
+            "libx264",
+        ])
+        .arg(&tmp)
+        .status()
+        .context("cannot run ffmpeg")?;
+    if !status.success() {
+        let _ = std::fs::remove_file(&tmp);
+        ui.message(&format!(
+            "warning: ffmpeg failed ({status}); no animation.mp4 (the frames are written)"
+        ));
+        return Ok(None);
+    }
+    std::fs::rename(&tmp, &out)
+        .with_context(|| format!("cannot move the video into place at '{}'", out.display()))?;
+    Ok(Some(out))
+}

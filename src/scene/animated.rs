@@ -1,0 +1,114 @@
+//! A glTF file as a sequence of frames: frame k is the scene posed at t0 + k / fps (t0: the
+//! animations' first key), flattened in one coordinate frame and one region-grid box for the
+//! whole animation, so that what one frame learned about a place is where the next frame
+//! looks for it.
+
+use std::path::Path;
+
+use anyhow::{bail, Result};
+use glam::{DVec3, Vec3};
+
+use super::gltf_load::{self, Document, Frame};
+use super::Scene;
+
+/// Poses sampled over the animation's span for its bounds (ends included): enough for the
+/// committed scenes' paths (straight walks, car loops) to be inside the union.
+const BOUND_SAMPLES: usize = 33;
+
+/// Most frames one animation may have (a typo in --fps must not start a million renders).
+pub const MAX_FRAMES: u32 = 100_000;
+
+pub struct AnimatedScene {
+    pub doc: Document,
+    /// The animations' time span (seconds); (0, 0) for a file without animations.
+    pub span: (f32, f32),
+    /// The coordinate frame of every frame.
+    pub frame: Frame,
+    /// The region grid's box (in that frame): the union of the bounds over the span.
+    pub grid_box: (Vec3, Vec3),
+}
+
+impl AnimatedScene {
+    /// Opens the file (None: the built-in default scene) and bounds its animation.
+    pub fn open(path: Option<&Path>, warn: &mut dyn FnMut(String)) -> Result<AnimatedScene> {
+        let doc = match path {
+            Some(p) => gltf_load::open(p, warn)?,
+            None => gltf_load::open_bytes(
+                crate::DEFAULT_SCENE,
+                crate::DEFAULT_SCENE_NAME,
+                Path::new("."),
+                warn,
+            )?,
+        };
+        let span = doc.animations.span().unwrap_or((0.0, 0.0));
+        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        for i in 0..BOUND_SAMPLES {
+            let s = i as f32 / (BOUND_SAMPLES - 1) as f32;
+            let t = span.0 + s * (span.1 - span.0);
+            let (a, b) = doc.pose_bounds(&doc.animations.pose(t))?;
+            lo = lo.min(a);
+            hi = hi.max(b);
+        }
+        if !(lo.is_finite() && hi.is_finite()) {
+            bail!(
+                "'{}' has no geometry or lights to bound in any pose; check the file",
+                doc.name()
+            );
+        }
+        let frame = Frame::of(lo, hi);
+        let grid_box = (frame.to_local(lo), frame.to_local(hi));
+        Ok(AnimatedScene {
+            doc,
+            span,
+            frame,
+            grid_box,
+        })
+    }
+
+    pub fn is_animated(&self) -> bool {
+        !self.doc.animations.is_empty()
+    }
+
+    /// The time of frame `k` at `fps`.
+    pub fn time(&self, k: u32, fps: f64) -> f32 {
+        (self.span.0 as f64 + k as f64 / fps) as f32
+    }
+
+    /// Frames in the whole span at `fps`, both ends included (a tiny tolerance keeps an end
+    /// that is a whole number of frames away, as 2 s at 24 fps, from rounding below it).
+    pub fn frame_count(&self, fps: f64) -> u32 {
+        let n = ((self.span.1 - self.span.0) as f64 * fps + 1e-6).floor() + 1.0;
+        n.min(MAX_FRAMES as f64) as u32
+    }
+
+    /// The scene at time `t`, in the animation's frame and grid box. Warnings go to `warn`.
+    pub fn scene_at(&self, t: f32, warn: &mut dyn FnMut(String)) -> Result<Scene> {
+        let pose = self.doc.animations.pose(t);
+        let mut scene = self.doc.scene(&pose, Some(self.frame), warn)?;
+        scene.grid_box = Some(self.grid_box);
+        Ok(scene)
+    }
+}
+
+/// What changed from one frame to the next.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct Changes {
+    pub camera: bool,
+    pub lights: bool,
+    pub geometry: bool,
+}
+
+impl Changes {
+    pub fn between(a: &Scene, b: &Scene) -> Changes {
+        Changes {
+            camera: a.camera != b.camera,
+            lights: a.lights != b.lights,
+            geometry: a.triangles != b.triangles,
+        }
+    }
+
+    /// Lights or geometry moved: what was learned about visibility may be stale.
+    pub fn scene_moved(&self) -> bool {
+        self.lights || self.geometry
+    }
+}
