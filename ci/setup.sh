@@ -14,6 +14,7 @@ packages=(
   vulkan-tools            # vulkaninfo, to see which devices the loader finds
   chromium                # headless browser: tests/report_browser.rs checks the HTML report
   python3-pip             # pip for Mitsuba 3, the independent renderer of tests/mitsuba.rs
+  ffmpeg                  # animate writes DIR/animation.mp4 (tests/animate.rs checks it)
   pkg-config
 )
 
