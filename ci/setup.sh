@@ -63,6 +63,17 @@ else
     echo "ci/setup.sh: warning: pip install mitsuba failed; tests/mitsuba.rs will be skipped" >&2
 fi
 
+# openjd-cli (the Open Job Description reference runtime) for tests/farm.rs: `openjd check`
+# and `openjd run` of the job templates `lightlearn farm` writes; skipped, saying so, without.
+if python3 -m openjd --version >/dev/null 2>&1; then
+  echo "ci/setup.sh: openjd-cli present"
+else
+  echo "ci/setup.sh: installing openjd-cli (pip)"
+  python3 -m pip install --quiet openjd-cli 2>/dev/null ||
+    python3 -m pip install --quiet --break-system-packages openjd-cli ||
+    echo "ci/setup.sh: warning: pip install openjd-cli failed; tests/farm.rs will be skipped" >&2
+fi
+
 # The Khronos glTF validator (npm) for tests/gltf_validator.rs; skipped, with a note, without
 # Node.js — that test then says it was skipped.
 here="$(cd "$(dirname "$0")" && pwd)"

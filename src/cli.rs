@@ -9,6 +9,7 @@ use clap::{Args, Parser, Subcommand};
 
 use lightlearn::commands::animate::AnimateRequest;
 use lightlearn::commands::compare::CompareRequest;
+use lightlearn::commands::farm::FarmRequest;
 use lightlearn::commands::reference::ReferenceRequest;
 use lightlearn::commands::render::RenderRequest;
 use lightlearn::gpu::ContextOptions;
@@ -64,6 +65,10 @@ pub enum Command {
     /// with ffmpeg installed, DIR/animation.mp4; the learned statistics carry from frame to
     /// frame (--carry on).
     Animate(AnimateArgs),
+    /// Write an Open Job Description job (JOBDIR/template.yaml) that renders a still or an
+    /// animation in sample chunks on a render farm and merges them (`openjd run
+    /// JOBDIR/template.yaml` runs it here).
+    Farm(FarmArgs),
     /// Generate a procedural many-light scene as glTF (.glb, or .gltf with embedded data).
     /// The same arguments always give a byte-identical file.
     Scene(SceneArgs),
@@ -117,6 +122,10 @@ pub struct AnimateArgs {
     /// Do not encode DIR/animation.mp4 even when ffmpeg is installed.
     #[arg(long)]
     pub no_video: bool,
+    /// Render farm chunk K of one frame (--frame): the samples [K·spp, (K+1)·spp) after what
+    /// --load-stats learned; `lightlearn merge` combines the chunks.
+    #[arg(long, value_name = "K")]
+    pub chunk: Option<u32>,
     #[arg(long, default_value = "bayes", value_parser = sampler_parser())]
     pub sampler: LightSampler,
     #[arg(long, default_value_t = 320)]
@@ -167,7 +176,87 @@ impl AnimateArgs {
             learn: self.learn.settings()?,
             load_stats: self.load_stats.clone(),
             video: !self.no_video,
+            chunk: self.chunk,
             device: self.device.options(),
+        })
+    }
+}
+
+#[derive(Args)]
+pub struct FarmArgs {
+    /// The glTF scene the workers render (its absolute path becomes the SceneFile job
+    /// parameter's default).
+    pub scene: PathBuf,
+    /// The job bundle's folder (created; holds template.yaml).
+    #[arg(long, value_name = "JOBDIR")]
+    pub out: PathBuf,
+    /// Frames of the animation, both ends included [default: every frame of an animated
+    /// scene; a still otherwise].
+    #[arg(long, value_name = "A..B", value_parser = parse_range)]
+    pub frames: Option<(u32, u32)>,
+    /// Render a still (render) even when the scene is animated.
+    #[arg(long, conflicts_with = "frames")]
+    pub still: bool,
+    /// Sample chunks per image, each a task (chunk k renders the samples [k·spp, (k+1)·spp)).
+    #[arg(long, default_value_t = 4)]
+    pub chunks: u32,
+    /// Samples per pixel of each chunk (an image gets chunks × spp).
+    #[arg(long, default_value_t = 16)]
+    pub spp: u32,
+    #[arg(long, default_value_t = 24.0)]
+    pub fps: f64,
+    /// Carry learned statistics from each frame to the next: a frame's chunks start from the
+    /// previous frame's merged statistics, so frames run one after another (off: all frames'
+    /// chunks are independent tasks).
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    pub carry: String,
+    #[arg(long, default_value_t = 0.5, value_name = "G")]
+    pub forget: f32,
+    #[arg(long, default_value = "bayes", value_parser = sampler_parser())]
+    pub sampler: LightSampler,
+    #[arg(long, default_value_t = 320)]
+    pub width: u32,
+    #[arg(long, default_value_t = 240)]
+    pub height: u32,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    #[arg(long, default_value_t = 8, value_name = "D")]
+    pub max_depth: u32,
+    /// The lightlearn executable the workers run [default: this one] (the Lightlearn job
+    /// parameter).
+    #[arg(long, value_name = "PATH")]
+    pub lightlearn: Option<PathBuf>,
+    #[command(flatten)]
+    pub regions: RegionArgs,
+    #[command(flatten)]
+    pub learn: LearnArgs,
+}
+
+impl FarmArgs {
+    pub fn request(&self) -> Result<FarmRequest> {
+        self.regions.settings()?;
+        self.learn.settings()?;
+        let exe = match &self.lightlearn {
+            Some(p) => p.clone(),
+            None => std::env::current_exe()?,
+        };
+        Ok(FarmRequest {
+            scene: self.scene.clone(),
+            job_dir: self.out.clone(),
+            frames: self.frames,
+            still: self.still,
+            chunks: self.chunks,
+            spp: self.spp,
+            fps: self.fps,
+            carry: self.carry == "on",
+            forget: self.forget,
+            sampler: self.sampler,
+            width: self.width,
+            height: self.height,
+            seed: self.seed,
+            max_depth: self.max_depth,
+            lightlearn: exe,
+            options: [self.regions.to_args(), self.learn.to_args()].concat(),
         })
     }
 }
@@ -190,6 +279,10 @@ pub struct MergeStatsArgs {
     /// The merged statistics file.
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
+    /// The statistics every part started from (--load-stats of farm chunks): counted once,
+    /// not once per part.
+    #[arg(long, value_name = "FILE")]
+    pub base: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -294,7 +387,55 @@ pub struct LearnArgs {
     pub prior_scale: Option<f32>,
 }
 
+impl RegionArgs {
+    /// These options as a command line gives them (for the farm's task commands).
+    pub fn to_args(&self) -> Vec<String> {
+        [
+            ("--grid", self.grid.to_string()),
+            ("--normal-bins", self.normal_bins.clone()),
+            ("--tau", self.tau.to_string()),
+            ("--k-max", self.k_max.to_string()),
+            ("--in-cluster", self.in_cluster.clone()),
+        ]
+        .into_iter()
+        .flat_map(|(k, v)| [k.to_string(), v])
+        .collect()
+    }
+}
+
 impl LearnArgs {
+    /// These options as a command line gives them (for the farm's task commands).
+    pub fn to_args(&self) -> Vec<String> {
+        let mut a: Vec<String> = [
+            ("--update-every", self.update_every.to_string()),
+            ("--regression", self.regression.clone()),
+            ("--target", self.target.clone()),
+            ("--priors", self.priors.clone()),
+            ("--brdf-select", self.brdf_select.clone()),
+            ("--prior-zero", self.prior_zero.to_string()),
+            ("--prior-nonzero", self.prior_nonzero.to_string()),
+            ("--prior-n", self.prior_n.to_string()),
+            ("--prior-alpha", self.prior_alpha.to_string()),
+            ("--prior-cv", self.prior_cv.to_string()),
+            ("--lambda", self.lambda.to_string()),
+        ]
+        .into_iter()
+        .flat_map(|(k, v)| [k.to_string(), v])
+        .collect();
+        if let Some(s) = self.prior_scale {
+            a.extend(["--prior-scale".to_string(), s.to_string()]);
+        }
+        for (on, flag) in [
+            (self.brdf_aware, "--brdf-aware"),
+            (self.control_variates, "--control-variates"),
+        ] {
+            if on {
+                a.push(flag.to_string());
+            }
+        }
+        a
+    }
+
     pub fn settings(&self) -> Result<LearnSettings> {
         let s = LearnSettings {
             update_every: self.update_every,
@@ -369,6 +510,14 @@ pub struct RenderArgs {
     /// Let --save-stats replace an existing file that is not a statistics file.
     #[arg(long)]
     pub force: bool,
+    /// Render farm chunk K: the samples [K·spp, (K+1)·spp) (after what --load-stats
+    /// learned), so chunks never share random numbers; `lightlearn merge` combines them (for
+    /// uniform, power and lightbvh into the one-machine render, to float rounding).
+    #[arg(long, value_name = "K")]
+    pub chunk: Option<u32>,
+    /// Create the --out file's folder when it is missing (farm tasks write into new folders).
+    #[arg(long)]
+    pub mkdir: bool,
     #[command(flatten)]
     pub device: DeviceArgs,
 }
@@ -537,6 +686,8 @@ impl RenderArgs {
             save_stats: self.save_stats.clone(),
             load_stats: self.load_stats.clone(),
             force: self.force,
+            chunk: self.chunk,
+            mkdir: self.mkdir,
             device: self.device.options(),
         })
     }

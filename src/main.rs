@@ -30,6 +30,17 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(a) => cmd_render(a),
         Command::Animate(a) => cmd_animate(a),
+        Command::Farm(a) => a.request().and_then(|r| {
+            let o = commands::farm::write(&r)?;
+            eprintln!(
+                "wrote {}: {} steps, {} tasks; run it here with `openjd run {}`",
+                o.template.display(),
+                o.steps,
+                o.tasks,
+                o.template.display()
+            );
+            Ok(())
+        }),
         Command::Compare(a) => cmd_compare(a),
         Command::Reference(a) => cmd_reference(a),
         Command::Scene(a) => cmd_scene(a),
@@ -42,15 +53,17 @@ fn main() -> ExitCode {
                 o.spp
             )
         }),
-        Command::MergeStats(a) => commands::merge::stats(&a.parts, &a.out).map(|m| {
-            eprintln!(
-                "wrote {}: {} files, {} passes learned, {} regions with cuts",
-                a.out.display(),
-                a.parts.len(),
-                m.header.samples_done,
-                m.index.iter().filter(|&&o| o != 0).count()
-            )
-        }),
+        Command::MergeStats(a) => {
+            commands::merge::stats(&a.parts, a.base.as_deref(), &a.out).map(|m| {
+                eprintln!(
+                    "wrote {}: {} files, {} passes learned, {} regions with cuts",
+                    a.out.display(),
+                    a.parts.len(),
+                    m.header.samples_done,
+                    m.index.iter().filter(|&&o| o != 0).count()
+                )
+            })
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

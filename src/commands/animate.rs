@@ -60,6 +60,8 @@ pub struct AnimateRequest {
     pub load_stats: Option<PathBuf>,
     /// Encode DIR/animation.mp4 with ffmpeg when it is installed.
     pub video: bool,
+    /// A farm chunk of a single frame: samples [K·spp, (K+1)·spp) after what it loaded.
+    pub chunk: Option<u32>,
     pub device: ContextOptions,
 }
 
@@ -125,6 +127,10 @@ pub fn check(req: &AnimateRequest) -> Result<()> {
     if req.load_stats.is_some() && req.frames.is_some_and(|(a, _)| a == 0) {
         bail!("--load-stats holds the statistics of the frame before the first; frame 0 has none (start at --frame 1 or later)");
     }
+    if req.chunk.is_some() && req.frames.is_none_or(|(a, b)| a != b) {
+        bail!("--chunk renders a sample range of one frame: give --frame K");
+    }
+    super::render::chunk_offset(req.chunk, req.spp)?;
     super::check_depth(req.max_depth)?;
     req.regions.check()?;
     req.learn.check()
@@ -244,6 +250,7 @@ pub fn run(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
             max_depth: req.max_depth,
         };
         let mut learning = "fresh".to_string();
+        let mut start_forget = None;
         if let (true, true, Some(mut saved)) = (req.carry, req.sampler.learned(), carried.take()) {
             let what = req
                 .load_stats
@@ -256,6 +263,7 @@ pub fn run(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
                 render::check_resume(&scene, &gpu, &settings, &saved, what)?;
                 if moved.scene_moved() && req.forget < 1.0 {
                     saved.temper(req.forget);
+                    start_forget = Some(req.forget);
                     learning = "carried, tempered".into();
                 } else {
                     learning = "carried".into();
@@ -269,14 +277,18 @@ pub fn run(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
             // film's schedule, as after a camera move.
             session.set_camera(scene.camera)?;
         }
+        session.skip_passes(super::render::chunk_offset(req.chunk, req.spp)?)?;
         let label = format!("frame {k}");
-        let result = render::run_session(
+        let mut result = render::run_session(
             &mut session,
             budget,
             &Checkpoints::None,
             &mut |_| Ok(()),
             &mut |spp, f| ui.progress(&label, spp, f),
         )?;
+        if let Some(l) = &mut result.learned {
+            l.saved.header.start_forget = start_forget;
+        }
         ui.phase_done();
         drop(session);
 

@@ -173,9 +173,10 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
     })
 }
 
-/// Sums the statistics files `parts` ([`SavedStats::merge`]) into `out`, written atomically;
+/// Sums the statistics files `parts` ([`SavedStats::merge`], or with `base` the chunks
+/// that all started from it, [`SavedStats::merge_onto`]) into `out`, written atomically;
 /// `out` may not be one of the parts.
-pub fn stats(parts: &[PathBuf], out: &Path) -> Result<SavedStats> {
+pub fn stats(parts: &[PathBuf], base: Option<&Path>, out: &Path) -> Result<SavedStats> {
     if parts.is_empty() {
         bail!("merge-stats needs at least one statistics file");
     }
@@ -191,7 +192,16 @@ pub fn stats(parts: &[PathBuf], out: &Path) -> Result<SavedStats> {
         .iter()
         .map(|p| Ok((SavedStats::load(p)?, p.display().to_string())))
         .collect::<Result<_>>()?;
-    let merged = SavedStats::merge(&loaded)?;
+    if let Some(b) = base.filter(|b| crate::io::same_path(b, out)) {
+        bail!(
+            "--out '{}' is the --base file; name another file",
+            b.display()
+        );
+    }
+    let merged = match base {
+        Some(b) => SavedStats::merge_onto(&SavedStats::load(b)?, &loaded)?,
+        None => SavedStats::merge(&loaded)?,
+    };
     merged.save(out)?;
     Ok(merged)
 }

@@ -4,6 +4,7 @@
 
 pub mod animate;
 pub mod compare;
+pub mod farm;
 pub mod merge;
 pub mod reference;
 pub mod render;

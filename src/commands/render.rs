@@ -35,6 +35,11 @@ pub struct RenderRequest {
     pub load_stats: Option<PathBuf>,
     /// `--save-stats` may replace a file that is not a statistics file.
     pub force: bool,
+    /// A farm chunk: this render draws the samples [K·spp, (K+1)·spp) after what it loaded.
+    pub chunk: Option<u32>,
+    /// Create the output's folder when it is missing (farm tasks); otherwise a missing
+    /// folder is an error (a typo must not scatter files).
+    pub mkdir: bool,
     pub device: ContextOptions,
 }
 
@@ -67,6 +72,7 @@ pub fn run(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         bail!("--width/--height must be between 1 and 16384");
     }
     check_depth(req.max_depth)?;
+    let skip = chunk_offset(req.chunk, req.spp)?;
     req.regions.check()?;
     req.learn.check()?;
     if req.learn.control_variates && req.sampler != LightSampler::Bayes {
@@ -78,6 +84,14 @@ pub fn run(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         );
     }
     // The output locations and the statistics file, before any time is spent rendering.
+    if let Some(dir) = req
+        .out
+        .parent()
+        .filter(|d| req.mkdir && !d.as_os_str().is_empty())
+    {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| anyhow::anyhow!("cannot create the folder '{}': {e}", dir.display()))?;
+    }
     let paths = OutputPaths::new(&req.out)?;
     if let Some(p) = &req.save_stats {
         let inputs: Vec<&std::path::Path> = req.scene.iter().map(PathBuf::as_path).collect();
@@ -111,9 +125,16 @@ pub fn run(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         render::check_resume(&scene, &gpu, &settings, &saved, p)?;
         settings.resume = Some(Arc::new(saved));
     }
-    let result = render::render(&ctx, &scene, &gpu, &settings, &mut |spp, f| {
-        ui.progress("render", spp, f)
-    })?;
+    let mut session = render::Session::new(&ctx, &scene, &gpu, &settings)?;
+    session.skip_passes(skip)?;
+    let result = render::run_session(
+        &mut session,
+        settings.budget,
+        &render::Checkpoints::None,
+        &mut |_| Ok(()),
+        &mut |spp, f| ui.progress("render", spp, f),
+    )?;
+    drop(session);
     ui.phase_done();
 
     let image = result.mean();
@@ -144,4 +165,15 @@ pub fn run(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         interrupted: result.interrupted,
         wrote_stats: !extra.is_empty(),
     })
+}
+
+/// The passes a farm chunk skips: chunk K of N samples starts K·N passes on.
+pub fn chunk_offset(chunk: Option<u32>, spp: Option<u32>) -> Result<u32> {
+    match (chunk, spp) {
+        (None, _) => Ok(0),
+        (Some(_), None) => bail!("--chunk needs --spp (each chunk renders a fixed sample range)"),
+        (Some(k), Some(n)) => k.checked_mul(n).filter(|&o| o <= render::MAX_PASSES / 2).ok_or_else(|| {
+            anyhow::anyhow!("--chunk {k} × --spp {n} starts past the random streams (2^30 passes); use fewer or smaller chunks")
+        }),
+    }
 }

@@ -44,6 +44,10 @@ pub struct StatsHeader {
     pub tau: Option<f32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub k_max: Option<u32>,
+    /// The factor the statistics this render started from were tempered by (`animate
+    /// --forget`), so `merge-stats --base` can take out the shared start exactly.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_forget: Option<f32>,
 }
 
 #[derive(Clone, Debug)]
@@ -351,6 +355,69 @@ impl SavedStats {
             cuts,
             stats,
         })
+    }
+
+    /// The statistics of farm chunks that each started from `base` (tempered by the factor
+    /// each part records, `start_forget`) and learned apart: the base once plus every part's
+    /// own learning, Σ (part − start), so N chunks do not count the base N times.
+    /// `samples_done` is the largest part's (the chunks' sample ranges follow each other).
+    pub fn merge_onto(base: &SavedStats, parts: &[(SavedStats, String)]) -> Result<SavedStats> {
+        for (p, name) in parts {
+            base.check_matches(&p.header, Path::new(name))
+                .with_context(|| format!("'{name}' did not start from the --base file"))?;
+            if p.header.samples_done <= base.header.samples_done
+                || p.index.len() != base.index.len()
+            {
+                bail!("'{name}' did not start from the --base file (it has learned no more passes than the base, or over another region grid)");
+            }
+        }
+        let mut merged = SavedStats::merge(parts)?;
+        let cut_len = |s: &SavedStats, o: u32| 1 + s.cuts[o as usize] as usize;
+        // Regions with a cut in the base (the fallback cut, offset 0, is the first part's in
+        // `merge`, as for any merge).
+        for (r, &bo) in base.index.iter().enumerate() {
+            if bo == 0 {
+                continue;
+            }
+            let mo = merged.index[r];
+            if mo == 0 {
+                bail!("region {r} has a cut in the --base file but in none of the parts: they did not start from it");
+            }
+            let (bo, mo) = (bo as usize, mo as usize);
+            for k in 1..cut_len(base, bo as u32) {
+                // Every part started from the tempered base: take out all but one copy.
+                let mut start_total = SlotStats::default();
+                for (p, _) in parts {
+                    let g = p.header.start_forget.unwrap_or(1.0);
+                    let b = &base.stats[bo + k];
+                    start_total.n_zero += g * b.n_zero;
+                    start_total.n_nonzero += g * b.n_nonzero;
+                    start_total.sum += g * b.sum;
+                    start_total.sum_sq += g * b.sum_sq;
+                }
+                let g0 = parts[0].0.header.start_forget.unwrap_or(1.0);
+                let b = base.stats[bo + k];
+                let m = &mut merged.stats[mo + k];
+                let sub = |total: f32, all: f32, once: f32| (total - all + once).max(0.0);
+                m.n_zero = sub(m.n_zero, start_total.n_zero, g0 * b.n_zero);
+                m.n_nonzero = sub(m.n_nonzero, start_total.n_nonzero, g0 * b.n_nonzero);
+                m.sum = sub(m.sum, start_total.sum, g0 * b.sum);
+                m.sum_sq = sub(m.sum_sq, start_total.sum_sq, g0 * b.sum_sq);
+                if m.n_nonzero == 0.0 {
+                    (m.sum, m.sum_sq) = (0.0, 0.0);
+                }
+                if m.sum_sq > 0.0 && m.n_nonzero > 0.0 {
+                    m.scale = (m.sum_sq / m.n_nonzero).sqrt();
+                }
+            }
+        }
+        merged.header.samples_done = parts
+            .iter()
+            .map(|(p, _)| p.header.samples_done)
+            .max()
+            .unwrap_or(0);
+        merged.header.start_forget = None;
+        Ok(merged)
     }
 
     /// Errors unless these statistics can be used by a render with `want` (every field but the

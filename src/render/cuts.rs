@@ -80,6 +80,7 @@ pub fn stats_header(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) ->
         cuts_len: 0,
         tau: Some(settings.regions.tau),
         k_max: Some(settings.regions.k_max),
+        start_forget: None,
     }
 }
 

@@ -26,7 +26,7 @@ pub use cuts::{
 };
 pub use learned_state::HostReduction;
 pub use result::{Learned, RegionStats, RenderResult};
-pub use session::{Session, FOLD_BINDINGS, RENDER_BINDINGS};
+pub use session::{Session, FOLD_BINDINGS, MAX_PASSES, RENDER_BINDINGS};
 
 /// The light samplers, a closed set: one value per `SAMPLER` case in `shaders/render.comp`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -502,10 +502,7 @@ pub fn report_json(
         "scene_hash": crate::compare::reference::scene_hash(scene),
         // The random streams of the passes: `first_sample_index` .. + spp (a continuation of
         // loaded statistics starts after theirs). Parts to merge must not share them.
-        "first_sample_index": result
-            .learned
-            .as_ref()
-            .map_or(0, |l| l.saved.header.samples_done - result.spp),
+        "first_sample_index": result.first_sample_index,
         "triangles": scene.triangles.len(),
         "lights": scene.lights.len(),
         "sampler": settings.sampler.name(),

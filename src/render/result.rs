@@ -10,6 +10,9 @@ pub struct RenderResult {
     pub width: u32,
     pub height: u32,
     pub spp: u32,
+    /// The pass index (random stream) of the film's first sample: its samples drew the
+    /// streams [first_sample_index, first_sample_index + spp).
+    pub first_sample_index: u32,
     /// Sums in the kernels' units: × `radiance_scale` gives radiance ([`GpuScene`]).
     pub accum: Vec<PixelAccum>,
     pub radiance_scale: f32,

@@ -403,6 +403,26 @@ impl<'a> Session<'a> {
         self.learned.measure_host_reduction(&self.settings.learn)
     }
 
+    /// Moves the learning pass counter on by `k` passes without rendering them, before the
+    /// first pass: a farm chunk `c` of `n` samples draws the random streams of passes
+    /// [c·n, (c+1)·n) after what it loaded, so chunks never share samples and, for the
+    /// samplers that learn nothing, the merged chunks are the one-machine render. Regions
+    /// then grow on the film's schedule (as after a camera move), not the counter's.
+    pub fn skip_passes(&mut self, k: u32) -> Result<()> {
+        if self.film.spp > 0 {
+            bail!("passes can be skipped only before the first pass");
+        }
+        if k == 0 {
+            return Ok(());
+        }
+        match self.learned.passes.checked_add(k) {
+            Some(p) if p <= MAX_PASSES / 2 => self.learned.passes = p,
+            _ => bail!("--chunk starts past the {} passes the random streams hold; use fewer or smaller chunks", MAX_PASSES / 2),
+        }
+        self.moved = true;
+        Ok(())
+    }
+
     /// Samples per pixel in the film.
     pub fn spp(&self) -> u32 {
         self.film.spp
@@ -518,6 +538,7 @@ impl<'a> Session<'a> {
             width: self.film.width,
             height: self.film.height,
             spp: self.film.spp,
+            first_sample_index: self.learned.passes - self.film.spp,
             accum: accum[..self.film.pixels()].to_vec(),
             radiance_scale: self.gpu.radiance_scale,
             render_seconds: self.film.seconds,

@@ -1,0 +1,358 @@
+//! `lightlearn farm`: an Open Job Description job (specification jobtemplate-2023-09) that
+//! renders a still or an animation in sample chunks and merges them, for any OpenJD farm
+//! (AWS Deadline Cloud's format; `openjd run JOBDIR/template.yaml` runs it locally).
+//!
+//! Layout of a job's output (the OutputDir parameter):
+//! - still: `chunks/chunk-K.{exr,png,json}` per chunk, merged into `render.exr` (+ .png, .json);
+//! - animation: `chunks/frame-NNNN/chunk-K/frame-NNNN.*` per (frame, chunk), merged into
+//!   `frame-NNNN.exr` (+ .png, .json) and, for a learning sampler with carrying,
+//!   `frame-NNNN.stats` (`merge-stats --base` of the chunks' statistics and the previous
+//!   frame's, counted once).
+//!
+//! Chunk K renders the samples [K·spp, (K+1)·spp) (`--chunk`), so no two tasks draw the same
+//! random numbers. With carrying, frame F's chunks start from frame F−1's merged statistics,
+//! so the steps of frame F depend on frame F−1's statistics merge and the frames run one after
+//! another (each frame's chunks in parallel); without it every task is independent. The step
+//! names and file names are fixed when the job is written; the paths, image size, depth,
+//! sampler, seed, sample count per chunk and the executable are job parameters whose
+//! defaults are what `farm` was given.
+//!
+//! The file is JSON, which is YAML, so any YAML reader (and `openjd check`) takes it.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context as _, Result};
+use serde_json::{json, Value};
+
+use crate::render::LightSampler;
+use crate::scene::animated::AnimatedScene;
+
+/// What `farm` is asked for.
+#[derive(Clone, Debug)]
+pub struct FarmRequest {
+    pub scene: PathBuf,
+    pub job_dir: PathBuf,
+    pub frames: Option<(u32, u32)>,
+    pub still: bool,
+    pub chunks: u32,
+    pub spp: u32,
+    pub fps: f64,
+    pub carry: bool,
+    pub forget: f32,
+    pub sampler: LightSampler,
+    pub width: u32,
+    pub height: u32,
+    pub seed: u32,
+    pub max_depth: u32,
+    /// The executable the tasks run (the Lightlearn parameter's default).
+    pub lightlearn: PathBuf,
+    /// Region and learning options, as command-line arguments, given to every render task.
+    pub options: Vec<String>,
+}
+
+pub struct FarmOutcome {
+    pub template: PathBuf,
+    pub steps: usize,
+    pub tasks: usize,
+}
+
+/// Most steps a job may have (two or three per frame); OpenJD's own limit is far above.
+const MAX_FRAMES: u32 = 2000;
+
+/// Copies the scene (a .glb, or a .gltf with the buffers and images it names by relative
+/// URI) into JOBDIR/scene/, and returns its path relative to the job folder: OpenJD takes a
+/// PATH parameter's default relative to the template and never outside it, and a farm
+/// sends the bundle's files to its workers.
+fn bundle_scene(scene: &Path, job_dir: &Path) -> Result<String> {
+    let name = scene
+        .file_name()
+        .ok_or_else(|| anyhow::anyhow!("'{}' names no file", scene.display()))?;
+    let dir = job_dir.join("scene");
+    std::fs::create_dir_all(&dir)?;
+    let mut files = vec![PathBuf::from(name)];
+    let is_gltf = scene
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf"));
+    if is_gltf {
+        let doc: Value = serde_json::from_slice(&std::fs::read(scene)?)
+            .with_context(|| format!("'{}' is not a glTF JSON file", scene.display()))?;
+        for kind in ["buffers", "images"] {
+            for item in doc[kind].as_array().into_iter().flatten() {
+                let Some(uri) = item["uri"].as_str() else {
+                    continue;
+                };
+                if uri.starts_with("data:") {
+                    continue;
+                }
+                let rel = PathBuf::from(uri);
+                if rel.is_absolute()
+                    || rel
+                        .components()
+                        .any(|c| c == std::path::Component::ParentDir)
+                {
+                    bail!("'{}' refers to '{uri}' outside its folder; a job bundle holds only files beside the scene (embed the data or move the file next to it)", scene.display());
+                }
+                files.push(rel);
+            }
+        }
+    }
+    let from = scene.parent().unwrap_or(Path::new("."));
+    for f in &files {
+        let target = dir.join(f);
+        if let Some(parent) = target.parent() {
+            std::fs::create_dir_all(parent)?;
+        }
+        let bytes = std::fs::read(from.join(f)).with_context(|| {
+            format!(
+                "cannot read '{}' for the job bundle",
+                from.join(f).display()
+            )
+        })?;
+        crate::io::write_atomic(&target, &bytes)?;
+    }
+    path(&Path::new("scene").join(name))
+}
+
+fn path(p: &Path) -> Result<String> {
+    p.to_str().map(str::to_string).ok_or_else(|| {
+        anyhow::anyhow!(
+            "'{}' is not valid UTF-8; a job template needs text paths",
+            p.display()
+        )
+    })
+}
+
+fn param(name: &str) -> String {
+    format!("{{{{Param.{name}}}}}")
+}
+
+fn out(rel: &str) -> String {
+    format!("{}/{rel}", param("OutputDir"))
+}
+
+fn args(v: &[&str]) -> Vec<String> {
+    v.iter().map(|s| s.to_string()).collect()
+}
+
+/// The options every render task shares, as job parameters where they are ones.
+fn common_args(req: &FarmRequest) -> Vec<String> {
+    let mut a = args(&[
+        "--spp",
+        &param("ChunkSpp"),
+        "--width",
+        &param("Width"),
+        "--height",
+        &param("Height"),
+        "--max-depth",
+        &param("MaxDepth"),
+        "--sampler",
+        &param("Sampler"),
+        "--seed",
+        &param("Seed"),
+        "--chunk",
+        "{{Task.Param.Chunk}}",
+        "-q",
+    ]);
+    a.extend(req.options.iter().cloned());
+    a
+}
+
+fn chunk_space(chunks: u32) -> Value {
+    json!({"taskParameterDefinitions": [
+        {"name": "Chunk", "type": "INT", "range": format!("0-{}", chunks - 1)}
+    ]})
+}
+
+fn run_action(arguments: Vec<String>) -> Value {
+    json!({"actions": {"onRun": {"command": param("Lightlearn"), "args": arguments}}})
+}
+
+/// Writes JOBDIR/template.yaml.
+pub fn write(req: &FarmRequest) -> Result<FarmOutcome> {
+    if !(2..=10_000).contains(&req.chunks) {
+        bail!("--chunks must be 2..=10000 (for one chunk, run `lightlearn render` or `animate` directly)");
+    }
+    if req.spp == 0 {
+        bail!("--spp (samples per chunk) must be at least 1");
+    }
+    super::render::chunk_offset(Some(req.chunks - 1), Some(req.spp))?;
+    super::check_depth(req.max_depth)?;
+    if req.width == 0 || req.height == 0 || req.width > 16384 || req.height > 16384 {
+        bail!("--width/--height must be between 1 and 16384");
+    }
+    if !(req.fps.is_finite() && req.fps > 0.0 && req.fps <= 1000.0) {
+        bail!("--fps must be a number of frames per second in (0, 1000]");
+    }
+    if !(req.forget > 0.0 && req.forget <= 1.0) {
+        bail!("--forget must be in (0, 1]");
+    }
+    let scene = std::fs::canonicalize(&req.scene)
+        .with_context(|| format!("cannot find the scene '{}'", req.scene.display()))?;
+    let anim = AnimatedScene::open(Some(&scene), &mut |_| {})?;
+    let frames = match (req.frames, req.still) {
+        (_, true) => None,
+        (Some((a, b)), _) if b < a => {
+            bail!("--frames {a}..{b}: the last frame comes before the first")
+        }
+        (Some(r), _) => Some(r),
+        (None, _) if anim.is_animated() => Some((0, anim.frame_count(req.fps) - 1)),
+        (None, _) => None,
+    };
+    if let Some((a, b)) = frames {
+        if b - a >= MAX_FRAMES {
+            bail!("--frames {a}..{b}: at most {MAX_FRAMES} frames per job; write several jobs");
+        }
+    }
+    std::fs::create_dir_all(&req.job_dir)
+        .with_context(|| format!("cannot create the job folder '{}'", req.job_dir.display()))?;
+    let template_path = req.job_dir.join("template.yaml");
+    crate::io::check_writable(&template_path)?;
+    if std::fs::canonicalize(&req.job_dir)?
+        .starts_with(scene.parent().unwrap_or(Path::new("/")).join("scene"))
+    {
+        bail!(
+            "--out '{}' lies inside the scene's own folder's scene/; choose another job folder",
+            req.job_dir.display()
+        );
+    }
+    let bundled = bundle_scene(&scene, &req.job_dir)?;
+    let samplers: Vec<&str> = LightSampler::ALL.iter().map(|s| s.name()).collect();
+    let parameters = json!([
+        {"name": "SceneFile", "type": "PATH", "objectType": "FILE", "dataFlow": "IN",
+         "default": bundled,
+         "description": "The glTF scene to render (a relative path is taken from the template's folder)."},
+        {"name": "OutputDir", "type": "PATH", "objectType": "DIRECTORY", "dataFlow": "OUT",
+         "default": "output",
+         "description": "Where the chunks and the merged images go (relative: from the template's folder)."},
+        {"name": "Lightlearn", "type": "STRING", "minLength": 1,
+         "default": path(&req.lightlearn)?,
+         "description": "The lightlearn executable on the workers (a path, or `lightlearn` when it is on their PATH)."},
+        {"name": "ChunkSpp", "type": "INT", "minValue": 1, "default": req.spp,
+         "description": "Samples per pixel of each chunk; an image gets chunks × this."},
+        {"name": "Width", "type": "INT", "minValue": 1, "maxValue": 16384, "default": req.width},
+        {"name": "Height", "type": "INT", "minValue": 1, "maxValue": 16384, "default": req.height},
+        {"name": "MaxDepth", "type": "INT", "minValue": 1, "maxValue": super::MAX_DEPTH,
+         "default": req.max_depth, "description": "Surface vertices of a path (1 = direct light)."},
+        {"name": "Sampler", "type": "STRING", "allowedValues": samplers,
+         "default": req.sampler.name()},
+        {"name": "Seed", "type": "INT", "minValue": 0, "default": req.seed},
+    ]);
+    let chunk_list = |f: &dyn Fn(u32) -> String| (0..req.chunks).map(f).collect::<Vec<_>>();
+    let mut steps = Vec::new();
+    let mut tasks = 0usize;
+    match frames {
+        None => {
+            let mut a = args(&["render", &param("SceneFile"), "--mkdir", "--out"]);
+            a.push(out("chunks/chunk-{{Task.Param.Chunk}}.exr"));
+            a.extend(common_args(req));
+            steps.push(json!({
+                "name": "Render",
+                "parameterSpace": chunk_space(req.chunks),
+                "script": run_action(a),
+            }));
+            let mut m = vec!["merge".to_string()];
+            m.extend(chunk_list(&|k| out(&format!("chunks/chunk-{k}.exr"))));
+            m.extend(["--out".to_string(), out("render.exr")]);
+            steps.push(json!({
+                "name": "Merge",
+                "dependencies": [{"dependsOn": "Render"}],
+                "script": run_action(m),
+            }));
+            tasks += req.chunks as usize + 1;
+        }
+        Some((first, last)) => {
+            let stats = req.carry && req.sampler.learned();
+            for f in first..=last {
+                let dir = format!("chunks/frame-{f:04}");
+                let mut a = args(&[
+                    "animate",
+                    &param("SceneFile"),
+                    "--frame",
+                    &f.to_string(),
+                    "--fps",
+                    &req.fps.to_string(),
+                    "--carry",
+                    if req.carry { "on" } else { "off" },
+                    "--forget",
+                    &req.forget.to_string(),
+                    "--no-video",
+                    "--out",
+                ]);
+                a.push(out(&format!("{dir}/chunk-{{{{Task.Param.Chunk}}}}")));
+                a.extend(common_args(req));
+                let mut render = json!({
+                    "name": format!("Render frame {f}"),
+                    "parameterSpace": chunk_space(req.chunks),
+                });
+                if stats && f > first {
+                    a.extend([
+                        "--load-stats".to_string(),
+                        out(&format!("frame-{:04}.stats", f - 1)),
+                    ]);
+                    render["dependencies"] =
+                        json!([{"dependsOn": format!("Merge statistics {}", f - 1)}]);
+                }
+                render["script"] = run_action(a);
+                steps.push(render);
+                let part = |k: u32, ext: &str| out(&format!("{dir}/chunk-{k}/frame-{f:04}.{ext}"));
+                let mut m = vec!["merge".to_string()];
+                m.extend(chunk_list(&|k| part(k, "exr")));
+                m.extend(["--out".to_string(), out(&format!("frame-{f:04}.exr"))]);
+                steps.push(json!({
+                    "name": format!("Merge frame {f}"),
+                    "dependencies": [{"dependsOn": format!("Render frame {f}")}],
+                    "script": run_action(m),
+                }));
+                tasks += req.chunks as usize + 1;
+                if stats {
+                    let mut m = vec!["merge-stats".to_string()];
+                    m.extend(chunk_list(&|k| part(k, "stats")));
+                    m.extend(["--out".to_string(), out(&format!("frame-{f:04}.stats"))]);
+                    if f > first {
+                        m.extend([
+                            "--base".to_string(),
+                            out(&format!("frame-{:04}.stats", f - 1)),
+                        ]);
+                    }
+                    steps.push(json!({
+                        "name": format!("Merge statistics {f}"),
+                        "dependencies": [{"dependsOn": format!("Render frame {f}")}],
+                        "script": run_action(m),
+                    }));
+                    tasks += 1;
+                }
+            }
+        }
+    }
+    let name = scene
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
+    let what = match frames {
+        Some((a, b)) => format!("frames {a}..{b}"),
+        None => "still".to_string(),
+    };
+    let template = json!({
+        "specificationVersion": "jobtemplate-2023-09",
+        "name": format!("lightlearn {name} {what}, {} chunks", req.chunks),
+        "description": format!(
+            "Written by lightlearn {} farm. Each chunk renders ChunkSpp samples of its own \
+             sample range; Merge steps combine them.",
+            env!("CARGO_PKG_VERSION")
+        ),
+        "parameterDefinitions": parameters,
+        "steps": steps,
+    });
+    let text = format!(
+        "# Open Job Description job template written by `lightlearn farm` (JSON is YAML).\n\
+         # Run it here: openjd run {}\n{}\n",
+        template_path.display(),
+        serde_json::to_string_pretty(&template)?
+    );
+    crate::io::write_atomic(&template_path, text.as_bytes())?;
+    Ok(FarmOutcome {
+        template: template_path,
+        steps: steps.len(),
+        tasks,
+    })
+}

@@ -1,0 +1,275 @@
+//! `lightlearn farm`: the Open Job Description templates it writes pass `openjd check`, and
+//! `openjd run` of a written job leaves merged images that are what one machine renders:
+//! bit for bit to float rounding for a sampler that learns nothing (chunk k draws the
+//! samples [k·n, (k+1)·n)), within noise of a reference for the learned sampler carrying
+//! statistics from frame to frame. Skipped, saying so, without openjd-cli (ci/setup.sh
+//! installs it).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn lightlearn(args: &[&str]) -> Output {
+    Command::new(common::exe())
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn openjd(args: &[&str]) -> Option<Output> {
+    let o = Command::new("python3")
+        .args(["-m", "openjd"])
+        .args(args)
+        .output()
+        .ok()?;
+    Some(o)
+}
+
+fn have_openjd() -> bool {
+    let ok = openjd(&["--version"]).is_some_and(|o| o.status.success());
+    if !ok {
+        eprintln!("skipped: openjd-cli is not installed (ci/setup.sh installs it with pip)");
+    }
+    ok
+}
+
+fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn farm(scene: &Path, job: &Path, extra: &[&str]) {
+    let mut a = vec![
+        "farm",
+        scene.to_str().unwrap(),
+        "--out",
+        job.to_str().unwrap(),
+        "--width",
+        "24",
+        "--height",
+        "18",
+        "--max-depth",
+        "1",
+    ];
+    a.extend_from_slice(extra);
+    ok(&lightlearn(&a));
+}
+
+fn image(p: &Path) -> Vec<[f32; 3]> {
+    lightlearn::film::read_exr(p).unwrap().2
+}
+
+#[test]
+fn every_template_passes_openjd_check() {
+    if !have_openjd() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let cars = root().join("scenes/city-cars.glb");
+    let cases: [(&Path, &[&str]); 4] = [
+        (&cars, &["--frames", "0..3", "--chunks", "3"]),
+        (
+            &cars,
+            &["--frames", "2..4", "--carry", "off", "--sampler", "wang"],
+        ),
+        (
+            &cars,
+            &[
+                "--still",
+                "--chunks",
+                "5",
+                "--sampler",
+                "bayes",
+                "--grid",
+                "16",
+            ],
+        ),
+        (
+            &root().join("scenes/cornell.glb"),
+            &["--chunks", "2", "--seed", "9"],
+        ),
+    ];
+    for (i, (scene, extra)) in cases.iter().enumerate() {
+        let job = dir.path().join(format!("job{i}"));
+        farm(scene, &job, extra);
+        let o = openjd(&["check", job.join("template.yaml").to_str().unwrap()]).unwrap();
+        ok(&o);
+    }
+}
+
+#[test]
+fn a_still_in_chunks_merges_into_the_one_machine_render() {
+    if !have_openjd() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let scene = root().join("scenes/cornell.glb");
+    let job = dir.path().join("job");
+    farm(
+        &scene,
+        &job,
+        &[
+            "--chunks",
+            "3",
+            "--spp",
+            "4",
+            "--sampler",
+            "lightbvh",
+            "--seed",
+            "5",
+        ],
+    );
+    ok(&openjd(&["run", job.join("template.yaml").to_str().unwrap()]).unwrap());
+    let one = dir.path().join("one.exr");
+    ok(&lightlearn(&[
+        "render",
+        scene.to_str().unwrap(),
+        "--spp",
+        "12",
+        "--width",
+        "24",
+        "--height",
+        "18",
+        "--max-depth",
+        "1",
+        "--sampler",
+        "lightbvh",
+        "--seed",
+        "5",
+        "-q",
+        "--out",
+        one.to_str().unwrap(),
+    ]));
+    let (merged, single) = (image(&job.join("output/render.exr")), image(&one));
+    for (i, (a, b)) in merged.iter().zip(&single).enumerate() {
+        for c in 0..3 {
+            let tol = 1e-5 * b[c].abs().max(1e-3);
+            assert!(
+                (a[c] - b[c]).abs() <= tol,
+                "pixel {i}: merged {a:?} vs one render {b:?}"
+            );
+        }
+    }
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(job.join("output/render.json")).unwrap()).unwrap();
+    assert_eq!(report["spp"], 12);
+}
+
+#[test]
+fn an_animation_job_of_two_frames_in_two_chunks_runs_and_its_frames_are_unbiased() {
+    if !have_openjd() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let scene = root().join("scenes/city-cars.glb");
+    let job = dir.path().join("job");
+    // bayes, statistics carried: frame 1's chunks start from frame 0's merged statistics.
+    farm(
+        &scene,
+        &job,
+        &[
+            "--frames", "0..1", "--fps", "1", "--chunks", "2", "--spp", "32",
+        ],
+    );
+    let o = openjd(&["run", job.join("template.yaml").to_str().unwrap()]).unwrap();
+    ok(&o);
+    let out = job.join("output");
+    for k in 0..2 {
+        let exr = out.join(format!("frame-{k:04}.exr"));
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(exr.with_extension("json")).unwrap()).unwrap();
+        assert_eq!(report["spp"], 64, "frame {k}: two chunks of 32");
+        assert!(out.join(format!("frame-{k:04}.stats")).exists());
+        // Unbiased: the merged frame's mean against a lightbvh render of the same frame.
+        let reference = dir.path().join(format!("ref{k}"));
+        ok(&lightlearn(&[
+            "animate",
+            scene.to_str().unwrap(),
+            "--frame",
+            &k.to_string(),
+            "--fps",
+            "1",
+            "--sampler",
+            "lightbvh",
+            "--spp",
+            "1024",
+            "--width",
+            "24",
+            "--height",
+            "18",
+            "--max-depth",
+            "1",
+            "--no-video",
+            "-q",
+            "--out",
+            reference.to_str().unwrap(),
+        ]));
+        let mean = |p: &Path| {
+            let px = image(p);
+            px.iter()
+                .map(|c| (c[0] + c[1] + c[2]) as f64 / 3.0)
+                .sum::<f64>()
+                / px.len() as f64
+        };
+        let var = |p: &Path| {
+            let r: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(p.with_extension("json")).unwrap()).unwrap();
+            // Mean over pixels of the variance of each pixel's mean, over the pixel count.
+            r["estimated_mse_of_mean"].as_f64().unwrap_or(0.0) / (24.0 * 18.0)
+        };
+        let rexr = reference.join(format!("frame-{k:04}.exr"));
+        // The merged report carries no variance; a chunk's (half the samples) bounds it.
+        let chunk = out.join(format!("chunks/frame-{k:04}/chunk-0/frame-{k:04}.exr"));
+        let sigma = (var(&chunk) / 2.0 + var(&rexr)).sqrt();
+        let z = (mean(&exr) - mean(&rexr)) / sigma;
+        assert!(
+            z.abs() < 5.0,
+            "frame {k}: merged mean {} vs reference {} ({z:.1} σ)",
+            mean(&exr),
+            mean(&rexr)
+        );
+    }
+    // The second frame's statistics count frame 0's once: its passes are frame 0's plus one
+    // chunk's range past them, not the sum of both chunks' starts.
+    let s1 =
+        lightlearn::learning::stats_file::SavedStats::load(&out.join("frame-0001.stats")).unwrap();
+    let s0 =
+        lightlearn::learning::stats_file::SavedStats::load(&out.join("frame-0000.stats")).unwrap();
+    assert_eq!(s1.header.samples_done, s0.header.samples_done + 64);
+}
+
+#[test]
+fn bad_farm_requests_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = dir.path().join("job");
+    let cornell = root().join("scenes/cornell.glb");
+    for (args, want) in [
+        (vec!["--chunks", "1"], "--chunks must be 2"),
+        (vec!["--spp", "0"], "at least 1"),
+        (vec!["--forget", "0"], "--forget"),
+    ] {
+        let mut a = vec![
+            "farm",
+            cornell.to_str().unwrap(),
+            "--out",
+            job.to_str().unwrap(),
+        ];
+        a.extend(args);
+        let o = lightlearn(&a);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(err.contains(want), "{want}: {err}");
+    }
+    let o = lightlearn(&["farm", "/nonexistent/x.glb", "--out", job.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("cannot find the scene"));
+}
