@@ -152,3 +152,95 @@ fn parts_that_do_not_belong_together_are_refused() {
         "something was written: {after:?}"
     );
 }
+
+#[test]
+fn chunks_from_one_start_count_it_once() {
+    use lightlearn::learning::stats_file::SavedStats;
+    let d = tempfile::tempdir().unwrap();
+    let d = d.path();
+    part(d, "base.exr", "1", "8", &["--save-stats", "base.stats"]);
+    for k in ["0", "1"] {
+        let stats = format!("c{k}.stats");
+        part(
+            d,
+            &format!("c{k}.exr"),
+            "1",
+            "8",
+            &[
+                "--load-stats",
+                "base.stats",
+                "--chunk",
+                k,
+                "--save-stats",
+                &stats,
+            ],
+        );
+    }
+    ok(&run(
+        &[
+            "merge-stats",
+            "c0.stats",
+            "c1.stats",
+            "--base",
+            "base.stats",
+            "--out",
+            "m.stats",
+        ],
+        d,
+    ));
+    let load = |n: &str| SavedStats::load(&d.join(n)).unwrap();
+    let (base, c0, c1, m) = (
+        load("base.stats"),
+        load("c0.stats"),
+        load("c1.stats"),
+        load("m.stats"),
+    );
+    // Chunk k continues after the base's 8 passes at 8 + 8k.
+    assert_eq!((c0.header.samples_done, c1.header.samples_done), (16, 24));
+    assert_eq!(m.header.samples_done, 24);
+    let mut checked = 0;
+    for (r, &bo) in base.index.iter().enumerate() {
+        if bo == 0 {
+            continue;
+        }
+        let len = base.cuts[bo as usize] as usize;
+        for k in 1..=len {
+            let at = |s: &SavedStats| {
+                let x = s.stats[s.index[r] as usize + k];
+                x.n_zero + x.n_nonzero
+            };
+            let want = at(&base) + (at(&c0) - at(&base)) + (at(&c1) - at(&base));
+            assert!(
+                (at(&m) - want).abs() <= 1e-3 * want.max(1.0),
+                "region {r} slot {k}: {} vs {want}",
+                at(&m)
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 100, "{checked} slots checked");
+    // Without --base the start would be counted twice.
+    ok(&run(
+        &[
+            "merge-stats",
+            "c0.stats",
+            "c1.stats",
+            "--out",
+            "plain.stats",
+        ],
+        d,
+    ));
+    let plain = load("plain.stats");
+    let total = |s: &SavedStats| {
+        s.stats
+            .iter()
+            .map(|x| (x.n_zero + x.n_nonzero) as f64)
+            .sum::<f64>()
+    };
+    assert!(
+        total(&plain) > total(&m) * 1.2,
+        "{} vs {}",
+        total(&plain),
+        total(&m)
+    );
+}
