@@ -126,6 +126,15 @@ pub struct AnimateArgs {
     /// --load-stats learned; `lightlearn merge` combines the chunks.
     #[arg(long, value_name = "K")]
     pub chunk: Option<u32>,
+    /// Temporal-coherence evaluation: render per-frame references (lightbvh, N spp) and each
+    /// of --variants into DIR/<variant>/, and write DIR/report.html and DIR/report.json
+    /// (per-frame MSE and relMSE, a plot, a flip between frames, flicker).
+    #[arg(long, value_name = "N", conflicts_with_all = ["load_stats", "chunk"])]
+    pub reference_spp: Option<u32>,
+    /// With --reference-spp: the variants side by side, SAMPLER or SAMPLER-on/-off (carry)
+    /// [default: wang,S-off,S-on for a learning --sampler S, else S].
+    #[arg(long, value_name = "LIST", requires = "reference_spp")]
+    pub variants: Option<String>,
     #[arg(long, default_value = "bayes", value_parser = sampler_parser())]
     pub sampler: LightSampler,
     #[arg(long, default_value_t = 320)]

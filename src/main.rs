@@ -145,6 +145,28 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
 
 fn cmd_animate(a: AnimateArgs) -> Result<()> {
     let mut ui = Terminal::new(a.quiet);
+    if let Some(n) = a.reference_spp {
+        use commands::animate_report::Variant;
+        let s = a.sampler.name();
+        let list = a.variants.clone().unwrap_or(if a.sampler.learned() {
+            format!("wang,{s}-off,{s}-on")
+        } else {
+            s.to_string()
+        });
+        let results =
+            commands::animate_report::run(&a.request()?, n, &Variant::parse_list(&list)?, &mut ui)?;
+        for r in &results {
+            ui.message(&format!(
+                "{}: mean MSE {:.3e}, flicker {:.2}, step {:.2}",
+                r.name,
+                r.mse.iter().sum::<f64>() / r.mse.len().max(1) as f64,
+                r.flicker,
+                r.step
+            ));
+        }
+        ui.message(&format!("wrote {}", a.out.join("report.html").display()));
+        return Ok(());
+    }
     let o = commands::animate::run(&a.request()?, &mut ui)?;
     let (frames, seconds) = (
         o.frames.len(),

@@ -480,3 +480,50 @@ fn the_frames_become_a_video_when_ffmpeg_is_installed() {
         "--frames 1..3 starts at 1"
     );
 }
+
+#[test]
+fn the_reference_report_compares_every_variant_on_every_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("report");
+    animate(
+        &root().join("scenes/city-cars.glb"),
+        &out,
+        &[
+            "--frames",
+            "0..2",
+            "--fps",
+            "1",
+            "--spp",
+            "8",
+            "--reference-spp",
+            "128",
+        ],
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    let names: Vec<&str> = report["variants"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["wang", "bayes-off", "bayes-on"]);
+    for v in report["variants"].as_array().unwrap() {
+        let mse = v["mse"].as_array().unwrap();
+        assert_eq!(mse.len(), 3);
+        assert!(mse.iter().all(|m| m.as_f64().unwrap().is_finite()));
+        assert!(v["flicker"].as_f64().unwrap() >= 0.0);
+    }
+    // 8 spp is far noisier than a 128-spp reference: the error is there to see.
+    assert!(report["variants"][0]["mse"][0].as_f64().unwrap() > 0.0);
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    for want in [
+        "<svg",
+        "bayes-on",
+        "Flip between consecutive frames",
+        "flicker",
+    ] {
+        assert!(html.contains(want), "report.html lacks {want}");
+    }
+    assert!(out.join("reference/frame-0002.exr").exists());
+}
