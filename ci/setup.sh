@@ -15,6 +15,9 @@ packages=(
   chromium                # headless browser: tests/report_browser.rs checks the HTML report
   python3-pip             # pip for Mitsuba 3, the independent renderer of tests/mitsuba.rs
   ffmpeg                  # animate writes DIR/animation.mp4 (tests/animate.rs checks it)
+  xvfb                    # a virtual X display: tests/preview.rs opens the real preview window
+  xdotool                 # ... and types keys into it
+  x11-apps                # ... and captures it (xwd)
   pkg-config
 )
 

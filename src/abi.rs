@@ -300,6 +300,23 @@ pub struct TraceParams {
     pub pad1: u32,
 }
 
+/// Push constants of `preview.comp`: the film's size, the window's, how to scale and show.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct PreviewParams {
+    pub film_width: u32,
+    pub film_height: u32,
+    pub out_width: u32,
+    pub out_height: u32,
+    /// radiance_scale × exposure / spp.
+    pub mean_scale: f32,
+    pub spp: f32,
+    /// 0: the image; 1: the relative standard error of each pixel's mean.
+    pub view: u32,
+    /// Pixels blue first (B8G8R8A8 swapchains).
+    pub bgra: u32,
+}
+
 /// Per-pixel accumulator: sum and sum of squares of the pixel samples (rgb; w unused).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]

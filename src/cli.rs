@@ -65,6 +65,11 @@ pub enum Command {
     /// with ffmpeg installed, DIR/animation.mp4; the learned statistics carry from frame to
     /// frame (--carry on).
     Animate(AnimateArgs),
+    /// Open a window that shows the scene converging while you look, and keeps learning
+    /// while you move (W/A/S/D/Q/E, arrows/right-drag look, left-drag orbit, wheel speed, F
+    /// frame, Home scene camera, 1-6 sampler, R reset learning, V view, +/- exposure, G
+    /// direct/paths, P screenshot, Esc quit). Needs a display; `render` is the headless path.
+    Preview(PreviewArgs),
     /// Write an Open Job Description job (JOBDIR/template.yaml) that renders a still or an
     /// animation in sample chunks on a render farm and merges them (`openjd run
     /// JOBDIR/template.yaml` runs it here).
@@ -186,6 +191,49 @@ impl AnimateArgs {
             load_stats: self.load_stats.clone(),
             video: !self.no_video,
             chunk: self.chunk,
+            device: self.device.options(),
+        })
+    }
+}
+
+#[derive(Args)]
+pub struct PreviewArgs {
+    /// glTF 2.0 scene. Default: the built-in scene.
+    pub scene: Option<PathBuf>,
+    #[arg(long, default_value = "bayes", value_parser = sampler_parser())]
+    pub sampler: LightSampler,
+    /// Window width in pixels (the film's at rest).
+    #[arg(long, default_value_t = 640)]
+    pub width: u32,
+    #[arg(long, default_value_t = 480)]
+    pub height: u32,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Surface vertices of a path (1 = direct light; G toggles).
+    #[arg(long, default_value_t = 1, value_name = "D")]
+    pub max_depth: u32,
+    #[command(flatten)]
+    pub regions: RegionArgs,
+    #[command(flatten)]
+    pub learn: LearnArgs,
+    #[command(flatten)]
+    pub device: DeviceArgs,
+}
+
+impl PreviewArgs {
+    pub fn request(&self) -> Result<lightlearn::preview::PreviewRequest> {
+        if self.width == 0 || self.height == 0 || self.width > 16384 || self.height > 16384 {
+            anyhow::bail!("--width/--height must be between 1 and 16384");
+        }
+        Ok(lightlearn::preview::PreviewRequest {
+            scene: self.scene.clone(),
+            sampler: self.sampler,
+            width: self.width,
+            height: self.height,
+            seed: self.seed,
+            max_depth: self.max_depth,
+            regions: self.regions.settings()?,
+            learn: self.learn.settings()?,
             device: self.device.options(),
         })
     }

@@ -12,6 +12,7 @@ pub mod interrupt;
 pub mod io;
 pub mod learning;
 pub mod lights;
+pub mod preview;
 pub mod reference;
 pub mod render;
 pub mod rng;

@@ -30,6 +30,9 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(a) => cmd_render(a),
         Command::Animate(a) => cmd_animate(a),
+        Command::Preview(a) => a
+            .request()
+            .and_then(|r| lightlearn::preview::run(&r, &mut Terminal::new(false))),
         Command::Farm(a) => a.request().and_then(|r| {
             let o = commands::farm::write(&r)?;
             eprintln!(

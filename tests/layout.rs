@@ -138,6 +138,7 @@ fn host_and_shader_structs_match() {
     spv.extend(reflect(kernels::LIGHT_SAMPLE));
     spv.extend(reflect(kernels::FOLD));
     spv.extend(reflect(kernels::BSDF));
+    spv.extend(reflect(kernels::PREVIEW));
     let rust = [
         rust_layout!(BvhNode {
             a_min,
@@ -213,6 +214,16 @@ fn host_and_shader_structs_match() {
             pad1
         }),
         rust_layout!(PixelAccum { sum, sum_sq }),
+        rust_layout!(PreviewParams {
+            film_width,
+            film_height,
+            out_width,
+            out_height,
+            mean_scale,
+            spp,
+            view,
+            bgra
+        }),
         rust_layout!(LightNode {
             bmin,
             phi,

@@ -24,8 +24,16 @@ pub struct ContextOptions {
     pub validation: bool,
 }
 
+/// A window's Vulkan surface (the preview), owned by the context that presents to it.
+pub struct Surface {
+    pub loader: ash::khr::surface::Instance,
+    pub handle: vk::SurfaceKHR,
+}
+
 pub struct Context {
-    _entry: ash::Entry,
+    pub entry: ash::Entry,
+    /// The window surface this context presents to (None: headless).
+    pub surface: Option<Surface>,
     pub instance: ash::Instance,
     debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     /// Validation errors reported by the layer since the last check (boxed: the callback
@@ -65,8 +73,33 @@ fn no_device_help() -> &'static str {
      If one is installed, check that VK_DRIVER_FILES / VK_ICD_FILENAMES point to existing files."
 }
 
+/// Creates a window's surface once the instance exists.
+pub type SurfaceMaker<'a> = &'a dyn Fn(&ash::Entry, &ash::Instance) -> Result<vk::SurfaceKHR>;
+
 impl Context {
+    /// A headless context: compute only.
     pub fn new(options: &ContextOptions) -> Result<Arc<Context>> {
+        Self::create(options, &[], None)
+    }
+
+    /// A context that can also present to a window: the instance gets the surface
+    /// extensions the window system needs (`instance_extensions`, from ash-window), the
+    /// surface is made by `make_surface`, and only a device whose compute queue can present
+    /// to it is chosen (others are skipped with their names in the error), with
+    /// VK_KHR_swapchain.
+    pub fn new_presenting(
+        options: &ContextOptions,
+        instance_extensions: &[*const i8],
+        make_surface: SurfaceMaker,
+    ) -> Result<Arc<Context>> {
+        Self::create(options, instance_extensions, Some(make_surface))
+    }
+
+    fn create(
+        options: &ContextOptions,
+        instance_extensions: &[*const i8],
+        make_surface: Option<SurfaceMaker>,
+    ) -> Result<Arc<Context>> {
         let entry = unsafe { ash::Entry::load() }.map_err(|e| {
             anyhow!("cannot load the Vulkan loader (libvulkan.so.1): {e}. Run `ci/setup.sh` (package libvulkan1).")
         })?;
@@ -77,7 +110,7 @@ impl Context {
             .api_version(vk::API_VERSION_1_2);
 
         let mut layers: Vec<*const i8> = Vec::new();
-        let mut extensions: Vec<*const i8> = Vec::new();
+        let mut extensions: Vec<*const i8> = instance_extensions.to_vec();
         if options.validation {
             let available = unsafe { entry.enumerate_instance_layer_properties() }?;
             let found = available
@@ -122,9 +155,13 @@ impl Context {
             None
         };
 
-        let (physical, queue_family, properties) = match pick_device(&instance, options) {
-            Ok(p) => p,
-            Err(e) => {
+        let surface = match make_surface.map(|make| make(&entry, &instance)) {
+            None => None,
+            Some(Ok(handle)) => Some(Surface {
+                loader: ash::khr::surface::Instance::new(&entry, &instance),
+                handle,
+            }),
+            Some(Err(e)) => {
                 unsafe {
                     if let Some((loader, m)) = &debug {
                         loader.destroy_debug_utils_messenger(*m, None);
@@ -134,6 +171,22 @@ impl Context {
                 return Err(e);
             }
         };
+        let (physical, queue_family, properties) =
+            match pick_device(&instance, options, surface.as_ref()) {
+                Ok(p) => p,
+                Err(e) => {
+                    unsafe {
+                        if let Some(s) = &surface {
+                            s.loader.destroy_surface(s.handle, None);
+                        }
+                        if let Some((loader, m)) = &debug {
+                            loader.destroy_debug_utils_messenger(*m, None);
+                        }
+                        instance.destroy_instance(None);
+                    }
+                    return Err(e);
+                }
+            };
         let device_name = properties
             .device_name_as_c_str()
             .map(|c| c.to_string_lossy().into_owned())
@@ -143,7 +196,15 @@ impl Context {
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
-        let device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
+        let swapchain_ext = [ash::khr::swapchain::NAME.as_ptr()];
+        let device_extensions: &[*const i8] = if surface.is_some() {
+            &swapchain_ext
+        } else {
+            &[]
+        };
+        let device_info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_info)
+            .enabled_extension_names(device_extensions);
         let device = unsafe { instance.create_device(physical, &device_info, None) }
             .with_context(|| format!("cannot create a Vulkan device on '{device_name}'"))?;
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
@@ -164,7 +225,8 @@ impl Context {
         let command_pool = unsafe { device.create_command_pool(&pool_info, None) }?;
 
         Ok(Arc::new(Context {
-            _entry: entry,
+            entry,
+            surface,
             instance,
             debug,
             validation_log,
@@ -268,6 +330,9 @@ impl Drop for Context {
             self.device.destroy_command_pool(self.command_pool, None);
             ManuallyDrop::drop(&mut self.allocator);
             self.device.destroy_device(None);
+            if let Some(s) = &self.surface {
+                s.loader.destroy_surface(s.handle, None);
+            }
             if let Some((loader, m)) = &self.debug {
                 loader.destroy_debug_utils_messenger(*m, None);
             }
@@ -290,6 +355,7 @@ fn type_name(t: vk::PhysicalDeviceType) -> &'static str {
 fn pick_device(
     instance: &ash::Instance,
     options: &ContextOptions,
+    surface: Option<&Surface>,
 ) -> Result<(vk::PhysicalDevice, u32, vk::PhysicalDeviceProperties)> {
     let devices = unsafe { instance.enumerate_physical_devices() }?;
     if devices.is_empty() {
@@ -308,10 +374,22 @@ fn pick_device(
             continue;
         }
         let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+        let presents = |qf: usize| {
+            surface.is_none_or(|s| unsafe {
+                s.loader
+                    .get_physical_device_surface_support(pd, qf as u32, s.handle)
+                    .unwrap_or(false)
+            })
+        };
         let Some(qf) = families
             .iter()
-            .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE))
+            .enumerate()
+            .position(|(i, f)| f.queue_flags.contains(vk::QueueFlags::COMPUTE) && presents(i))
         else {
+            if surface.is_some() {
+                names.pop();
+                names.push(format!("{name} (cannot present to this window)"));
+            }
             continue;
         };
         if let Some(want) = &options.device {

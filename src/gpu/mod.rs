@@ -7,6 +7,7 @@ pub mod context;
 /// for the device code and the tests.
 pub use crate::abi as layout;
 pub mod pipeline;
+pub mod swapchain;
 
 pub use buffer::Buffer;
 pub use context::{Context, ContextOptions};
@@ -20,4 +21,5 @@ pub mod kernels {
     pub const FOLD: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/fold.spv"));
     pub const BSDF: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bsdf.spv"));
     pub const IMPORTANCE: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/importance.spv"));
+    pub const PREVIEW: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/preview.spv"));
 }

@@ -29,7 +29,7 @@ pub use result::{Learned, RegionStats, RenderResult};
 pub use session::{Session, FOLD_BINDINGS, MAX_PASSES, RENDER_BINDINGS};
 
 /// The light samplers, a closed set: one value per `SAMPLER` case in `shaders/render.comp`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum LightSampler {
     /// Every light equally likely.

@@ -135,6 +135,9 @@ pub struct Session<'a> {
     moved: bool,
     /// A growth point has passed and the cuts grow at the next fold boundary.
     growth_due: bool,
+    /// Growth waits (the preview while the camera moves: a cut build every frame halved
+    /// the frame rate); due growth happens once it is resumed.
+    growth_paused: bool,
 }
 
 impl<'a> Session<'a> {
@@ -194,6 +197,7 @@ impl<'a> Session<'a> {
             fold,
             moved: false,
             growth_due: false,
+            growth_paused: false,
         };
         session.bind_scene()?;
         session.bind_learned()?;
@@ -324,7 +328,7 @@ impl<'a> Session<'a> {
             if growth_point(passes) || self.moved && spp <= 32 && growth_point(spp) {
                 self.growth_due = true;
             }
-            if self.growth_due && self.at_fold_boundary() {
+            if self.growth_due && !self.growth_paused && self.at_fold_boundary() {
                 let t0 = Instant::now();
                 self.grow_regions()?;
                 self.growth_due = false;
@@ -421,6 +425,32 @@ impl<'a> Session<'a> {
         }
         self.moved = true;
         Ok(())
+    }
+
+    /// Holds region growth back (`true`) or lets it go on (`false`); what fell due meanwhile
+    /// grows at the next fold boundary. Regions reached meanwhile use the shared fallback
+    /// cut, which is unbiased.
+    pub fn pause_growth(&mut self, paused: bool) {
+        self.growth_paused = paused;
+    }
+
+    /// The film's accumulators and size (the preview's display pass reads them on the GPU).
+    pub fn film(&self) -> (&Buffer, u32, u32) {
+        (&self.film.accum, self.film.width, self.film.height)
+    }
+
+    /// What the film's sums are multiplied by to give radiance.
+    pub fn radiance_scale(&self) -> f32 {
+        self.gpu.radiance_scale
+    }
+
+    /// Regions that have a cut of their own so far.
+    pub fn regions_with_cuts(&self) -> usize {
+        self.learned.cuts.built()
+    }
+
+    pub fn settings(&self) -> &RenderSettings {
+        &self.settings
     }
 
     /// Samples per pixel in the film.

@@ -1,0 +1,495 @@
+//! `lightlearn preview`: a window that shows a render session's film as it converges, with
+//! a fly/orbit camera. A camera change resets the film and keeps what was learned (regions
+//! live in world space); each sampler and depth has its own session, so switching keeps every
+//! learned state. While the camera moves the film is rendered at reduced size and shown
+//! upscaled; at rest it goes back to the window's size (as Cycles' viewport does).
+//!
+//! Keys: W/A/S/D/Q/E move, arrows or right-drag look, left-drag orbits the scene centre,
+//! wheel changes the speed, F frames the scene, Home returns to its camera; 1–6 pick the
+//! sampler (uniform, power, lightbvh, wang, donikian, bayes), R resets the learning, V
+//! switches image / relative error, +/- exposure, G direct light / path tracing, P saves
+//! preview-NNNN.exr (+ .png, .json), Esc quits.
+
+pub mod camera;
+mod display;
+
+use std::collections::{HashMap, HashSet};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{anyhow, bail, Result};
+use glam::Vec3;
+use raw_window_handle::{HasDisplayHandle, HasWindowHandle};
+use winit::application::ApplicationHandler;
+use winit::dpi::PhysicalSize;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::keyboard::{KeyCode, PhysicalKey};
+use winit::window::{Window, WindowId};
+
+use crate::accel::Bvh;
+use crate::commands::Ui;
+use crate::gpu::swapchain::Presented;
+use crate::gpu::{Context, ContextOptions};
+use crate::learning::LearnSettings;
+use crate::lights::regions::RegionSettings;
+use crate::render::{self, Budget, GpuScene, LightSampler, RenderSettings, Session};
+use crate::scene::{Camera, Scene};
+use camera::FlyCamera;
+use display::Display;
+
+/// What `preview` is asked for.
+#[derive(Clone, Debug)]
+pub struct PreviewRequest {
+    pub scene: Option<PathBuf>,
+    pub sampler: LightSampler,
+    pub width: u32,
+    pub height: u32,
+    pub seed: u32,
+    pub max_depth: u32,
+    pub regions: RegionSettings,
+    pub learn: LearnSettings,
+    pub device: ContextOptions,
+}
+
+const NO_DISPLAY: &str = "the preview needs a display (DISPLAY or WAYLAND_DISPLAY) and none can be opened; `lightlearn render` is the headless path";
+
+/// Frames aim at this many seconds of passes while the camera moves, so input stays
+/// responsive (one pass is the smallest unit: at depth 8 on lavapipe even a reduced pass can
+/// take longer), and at rest, where fewer presents leave more time to the passes.
+const MOVING_FRAME_SECONDS: f64 = 1.0 / 30.0;
+const RESTING_FRAME_SECONDS: f64 = 1.0 / 10.0;
+/// The camera counts as moving for this long after the last change: the film stays at
+/// reduced size meanwhile.
+const REST_SECONDS: f64 = 0.3;
+
+/// Opens the window and runs until Esc or the window is closed.
+pub fn run(req: &PreviewRequest, ui: &mut dyn Ui) -> Result<()> {
+    if std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
+        bail!("{NO_DISPLAY}");
+    }
+    crate::commands::check_depth(req.max_depth)?;
+    req.regions.check()?;
+    req.learn.check()?;
+    let scene = crate::commands::load_scene(req.scene.as_deref(), ui)?;
+    let bvh = Bvh::build(&scene.triangles);
+    let started = Instant::now();
+    let event_loop = EventLoop::new().map_err(|e| anyhow!("{NO_DISPLAY} ({e})"))?;
+    let name = req
+        .scene
+        .as_ref()
+        .and_then(|p| p.file_name())
+        .map_or("default scene".to_string(), |n| {
+            n.to_string_lossy().to_string()
+        });
+    #[allow(deprecated)] // created before run_app so that the sessions can borrow the scene
+    let window = event_loop
+        .create_window(
+            Window::default_attributes()
+                .with_title(format!("lightlearn — {name}"))
+                .with_inner_size(PhysicalSize::new(req.width, req.height)),
+        )
+        .map_err(|e| anyhow!("cannot open a window: {e}; {NO_DISPLAY}"))?;
+    let display_handle = window.display_handle()?.as_raw();
+    let window_handle = window.window_handle()?.as_raw();
+    let extensions = ash_window::enumerate_required_extensions(display_handle).map_err(|e| {
+        anyhow!("this window system has no Vulkan surface support ({e}); {NO_DISPLAY}")
+    })?;
+    let ctx = Context::new_presenting(&req.device, extensions, &|entry, instance| {
+        unsafe { ash_window::create_surface(entry, instance, display_handle, window_handle, None) }
+            .map_err(|e| anyhow!("cannot create a Vulkan surface for the window: {e}"))
+    })?;
+    let gpu = GpuScene::upload(&ctx, &scene, &bvh)?;
+    let size = window.inner_size();
+    let display = Display::new(&ctx, size.width, size.height)?;
+    ui.message(&format!(
+        "{}: {} triangles, {} lights; device {}",
+        scene.source,
+        scene.triangles.len(),
+        scene.lights.len(),
+        ctx.describe()
+    ));
+    let (lo, hi) = scene.bounds();
+    let extent = (hi - lo).length().max(1e-3);
+    let mut app = App {
+        req: req.clone(),
+        name,
+        ctx: ctx.clone(),
+        scene: &scene,
+        gpu: &gpu,
+        window,
+        display,
+        sessions: HashMap::new(),
+        sampler: req.sampler,
+        depth: req.max_depth,
+        camera: FlyCamera::from_camera(&scene.camera, 0.25 * extent),
+        view: scene.camera,
+        centre: 0.5 * (lo + hi),
+        bounds: (lo, hi),
+        exposure: 1.0,
+        display_mode: 0,
+        held: HashSet::new(),
+        cursor: None,
+        buttons: (false, false),
+        last_change: None,
+        last_frame: Instant::now(),
+        frame_seconds: 0.0,
+        per_pass: None,
+        move_factor: if req.max_depth > 1 { 4 } else { 2 },
+        started,
+        first_image: None,
+        title_at: Instant::now(),
+        error: None,
+        ui,
+    };
+    event_loop.run_app(&mut app)?;
+    if let Some(t) = app.first_image {
+        app.ui.message(&format!("first image after {t:.2} s"));
+    }
+    match app.error.take() {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+struct App<'a, 'u> {
+    req: PreviewRequest,
+    name: String,
+    ctx: Arc<Context>,
+    scene: &'a Scene,
+    gpu: &'a GpuScene,
+    window: Window,
+    display: Display,
+    /// One session per (sampler, depth): switching keeps each learned state.
+    sessions: HashMap<(LightSampler, u32), Session<'a>>,
+    sampler: LightSampler,
+    depth: u32,
+    /// The controller; `view` is the camera rendered (exactly the scene's until the first
+    /// move, so an unmoved preview is the `render` of its camera).
+    camera: FlyCamera,
+    view: Camera,
+    centre: Vec3,
+    bounds: (Vec3, Vec3),
+    exposure: f32,
+    /// 0: the image; 1: relative error.
+    display_mode: u32,
+    held: HashSet<KeyCode>,
+    cursor: Option<(f64, f64)>,
+    /// Left, right mouse buttons.
+    buttons: (bool, bool),
+    /// When the camera last changed (None: at rest since the start).
+    last_change: Option<Instant>,
+    last_frame: Instant,
+    frame_seconds: f64,
+    /// Seconds per pass of the current session at its current size.
+    per_pass: Option<f64>,
+    /// How much smaller than the window the film is while the camera moves: 2 to start (4
+    /// with paths), doubled (up to 8) while one pass at that size takes longer than 1/20 s
+    /// (the 15 frames per second the preview aims at, with the display's share).
+    move_factor: u32,
+    started: Instant,
+    first_image: Option<f64>,
+    title_at: Instant,
+    error: Option<anyhow::Error>,
+    ui: &'u mut dyn Ui,
+}
+
+impl<'a> App<'a, '_> {
+    fn settings(&self, width: u32, height: u32) -> RenderSettings {
+        RenderSettings {
+            width,
+            height,
+            budget: Budget::Samples(u32::MAX),
+            seed: self.req.seed,
+            sampler: self.sampler,
+            regions: self.req.regions,
+            learn: self.req.learn,
+            resume: None,
+            stratified: true,
+            max_depth: self.depth,
+        }
+    }
+
+    fn moving(&self) -> bool {
+        self.last_change
+            .is_some_and(|t| t.elapsed().as_secs_f64() < REST_SECONDS)
+    }
+
+    /// The film size now: the window's, or 1/`move_factor` of it while the camera moves.
+    fn film_size(&self) -> (u32, u32) {
+        let (w, h) = self.display.extent();
+        if self.moving() {
+            let f = self.move_factor;
+            ((w / f).max(1), (h / f).max(1))
+        } else {
+            (w.max(1), h.max(1))
+        }
+    }
+
+    /// The current session, made on first use, at the current camera and film size.
+    fn session(&mut self) -> Result<&mut Session<'a>> {
+        let key = (self.sampler, self.depth);
+        let (w, h) = self.film_size();
+        if !self.sessions.contains_key(&key) {
+            let s = Session::new(&self.ctx, self.scene, self.gpu, &self.settings(w, h))?;
+            self.sessions.insert(key, s);
+            self.per_pass = None;
+        }
+        let camera = self.view;
+        let session = self.sessions.get_mut(&key).expect("inserted above");
+        let (_, fw, fh) = session.film();
+        if (fw, fh) != (w, h) {
+            session.resize(w, h)?;
+            self.per_pass = None;
+        }
+        if session.camera() != camera {
+            session.set_camera(camera)?;
+        }
+        Ok(session)
+    }
+
+    /// The controller moved: render its camera.
+    fn changed_camera(&mut self) {
+        self.view = self.camera.camera();
+        self.last_change = Some(Instant::now());
+    }
+
+    fn frame(&mut self) -> Result<()> {
+        let now = Instant::now();
+        let dt = (now - self.last_frame).as_secs_f64().min(0.25) as f32;
+        self.last_frame = now;
+        // Held keys fly and look.
+        let mut amount = Vec3::ZERO;
+        let (mut yaw, mut pitch) = (0.0, 0.0);
+        for k in &self.held {
+            match k {
+                KeyCode::KeyW => amount.x += 1.0,
+                KeyCode::KeyS => amount.x -= 1.0,
+                KeyCode::KeyD => amount.y += 1.0,
+                KeyCode::KeyA => amount.y -= 1.0,
+                KeyCode::KeyE => amount.z += 1.0,
+                KeyCode::KeyQ => amount.z -= 1.0,
+                KeyCode::ArrowLeft => yaw += 1.0,
+                KeyCode::ArrowRight => yaw -= 1.0,
+                KeyCode::ArrowUp => pitch += 1.0,
+                KeyCode::ArrowDown => pitch -= 1.0,
+                _ => {}
+            }
+        }
+        if amount != Vec3::ZERO || yaw != 0.0 || pitch != 0.0 {
+            self.camera.fly(amount, dt);
+            self.camera.look(yaw * dt, pitch * dt);
+            self.changed_camera();
+        }
+        // Passes for about a frame's time (at least one), timed at the film's current size
+        // (session() forgets the timing when it resizes the film).
+        let moving = self.moving();
+        let target = if moving {
+            MOVING_FRAME_SECONDS
+        } else {
+            RESTING_FRAME_SECONDS
+        };
+        self.session()?;
+        let k = self
+            .per_pass
+            .map_or(1, |p| ((target / p.max(1e-6)) as u32).clamp(1, 64));
+        let session = self
+            .sessions
+            .get_mut(&(self.sampler, self.depth))
+            .expect("made by session()");
+        // Cuts for newly reached regions are built once the camera rests (building them
+        // every frame while moving took half of each frame on lavapipe).
+        session.pause_growth(moving);
+        let seconds = session.run_passes(k)?;
+        self.per_pass = Some(seconds / k as f64);
+        if moving && seconds / k as f64 > 1.0 / 20.0 && self.move_factor < 8 {
+            self.move_factor *= 2;
+        }
+        let (exposure, view) = (self.exposure, self.display_mode);
+        let session = &self.sessions[&(self.sampler, self.depth)];
+        let spp = session.spp();
+        let (_, fw, fh) = session.film();
+        let regions = session.regions_with_cuts();
+        if self.display.show(session, exposure, view)? == Presented::OutOfDate {
+            let s = self.window.inner_size();
+            self.display.resize(s.width, s.height)?;
+        }
+        if self.first_image.is_none() {
+            self.first_image = Some(self.started.elapsed().as_secs_f64());
+        }
+        self.frame_seconds = now.elapsed().as_secs_f64();
+        if self.title_at.elapsed().as_secs_f64() > 0.25 {
+            self.title_at = Instant::now();
+            let msps = fw as f64 * fh as f64 / self.per_pass.unwrap_or(1.0).max(1e-9) / 1e6;
+            self.window.set_title(&format!(
+                "lightlearn — {} — {} {} — {spp} spp at {fw}×{fh}, {msps:.2} Msamples/s, {:.0} ms/frame, {regions} regions learned{}",
+                self.name,
+                self.sampler.name(),
+                if self.depth > 1 { format!("paths (depth {})", self.depth) } else { "direct light".into() },
+                self.frame_seconds * 1e3,
+                if view == 1 { " — relative error" } else { "" }
+            ));
+        }
+        Ok(())
+    }
+
+    /// P: the current film as preview-NNNN.exr (+ .png, .json) in the working folder.
+    fn screenshot(&mut self) -> Result<()> {
+        let n = (0..10_000)
+            .find(|n| !Path::new(&format!("preview-{n:04}.exr")).exists())
+            .ok_or_else(|| anyhow!("preview-0000 … preview-9999 all exist; move them away"))?;
+        let out = PathBuf::from(format!("preview-{n:04}.exr"));
+        let device = self.ctx.describe();
+        let scene = self.scene;
+        let session = self.session()?;
+        let result = session.result()?;
+        let settings = session.settings().clone();
+        let paths = crate::film::OutputPaths::new(&out)?;
+        let report = render::report_json(scene, &settings, &result, &device);
+        crate::film::write_outputs(&paths, result.width, result.height, &result.mean(), &report)?;
+        self.ui.message(&format!(
+            "wrote {} (+ .png, .json): {} spp at {}×{}",
+            out.display(),
+            result.spp,
+            result.width,
+            result.height
+        ));
+        Ok(())
+    }
+
+    fn key(&mut self, code: KeyCode, event_loop: &ActiveEventLoop) -> Result<()> {
+        let samplers = [
+            KeyCode::Digit1,
+            KeyCode::Digit2,
+            KeyCode::Digit3,
+            KeyCode::Digit4,
+            KeyCode::Digit5,
+            KeyCode::Digit6,
+        ];
+        if let Some(i) = samplers.iter().position(|k| *k == code) {
+            self.sampler = LightSampler::ALL[i];
+            self.per_pass = None;
+            self.move_factor = 2;
+            return Ok(());
+        }
+        match code {
+            KeyCode::Escape => event_loop.exit(),
+            KeyCode::KeyR => {
+                self.sessions.remove(&(self.sampler, self.depth));
+            }
+            KeyCode::KeyV => self.display_mode = 1 - self.display_mode,
+            KeyCode::Equal | KeyCode::NumpadAdd => self.exposure *= std::f32::consts::SQRT_2,
+            KeyCode::Minus | KeyCode::NumpadSubtract => self.exposure /= std::f32::consts::SQRT_2,
+            KeyCode::KeyG => {
+                self.move_factor = 2;
+                self.depth = if self.depth > 1 {
+                    1
+                } else if self.req.max_depth > 1 {
+                    self.req.max_depth
+                } else {
+                    8
+                };
+                self.per_pass = None;
+            }
+            KeyCode::KeyF => {
+                let c = Camera::framing(self.bounds.0, self.bounds.1);
+                self.camera = FlyCamera::from_camera(&c, self.camera.speed);
+                self.changed_camera();
+            }
+            KeyCode::Home => {
+                self.camera = FlyCamera::from_camera(&self.scene.camera, self.camera.speed);
+                self.changed_camera();
+                self.view = self.scene.camera;
+            }
+            KeyCode::KeyP => self.screenshot()?,
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn fail(&mut self, event_loop: &ActiveEventLoop, e: anyhow::Error) {
+        if self.error.is_none() {
+            self.error = Some(e);
+        }
+        event_loop.exit();
+    }
+}
+
+impl ApplicationHandler for App<'_, '_> {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        event_loop.set_control_flow(ControlFlow::Poll);
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        let result = match event {
+            WindowEvent::CloseRequested => {
+                event_loop.exit();
+                Ok(())
+            }
+            WindowEvent::Resized(size) => self.display.resize(size.width, size.height),
+            WindowEvent::RedrawRequested => self.frame(),
+            WindowEvent::KeyboardInput { event, .. } => {
+                let PhysicalKey::Code(code) = event.physical_key else {
+                    return;
+                };
+                match event.state {
+                    ElementState::Pressed => {
+                        self.held.insert(code);
+                        if event.repeat {
+                            Ok(())
+                        } else {
+                            self.key(code, event_loop)
+                        }
+                    }
+                    ElementState::Released => {
+                        self.held.remove(&code);
+                        Ok(())
+                    }
+                }
+            }
+            WindowEvent::MouseInput { state, button, .. } => {
+                let down = state == ElementState::Pressed;
+                match button {
+                    MouseButton::Left => self.buttons.0 = down,
+                    MouseButton::Right => self.buttons.1 = down,
+                    _ => {}
+                }
+                Ok(())
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                let p = (position.x, position.y);
+                if let Some(prev) = self.cursor {
+                    let (dx, dy) = ((p.0 - prev.0) as f32, (p.1 - prev.1) as f32);
+                    const RAD_PER_PIXEL: f32 = 0.005;
+                    if self.buttons.0 {
+                        self.camera
+                            .orbit(self.centre, -dx * RAD_PER_PIXEL, -dy * RAD_PER_PIXEL);
+                        self.changed_camera();
+                    } else if self.buttons.1 {
+                        self.camera.look(-dx * RAD_PER_PIXEL, -dy * RAD_PER_PIXEL);
+                        self.changed_camera();
+                    }
+                }
+                self.cursor = Some(p);
+                Ok(())
+            }
+            WindowEvent::MouseWheel { delta, .. } => {
+                let lines = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => (p.y / 40.0) as f32,
+                };
+                self.camera.speed *= 1.25f32.powf(lines);
+                Ok(())
+            }
+            _ => Ok(()),
+        };
+        if let Err(e) = result {
+            self.fail(event_loop, e);
+        }
+    }
+
+    fn about_to_wait(&mut self, _event_loop: &ActiveEventLoop) {
+        self.window.request_redraw();
+    }
+}
