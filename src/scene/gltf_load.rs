@@ -21,8 +21,10 @@ use glam::{DMat4, DQuat, DVec3, DVec4, Quat, Vec3};
 use gltf::mesh::Mode;
 
 use super::animation::{Animations, Pose};
+pub use super::frame::{Frame, NATIVE_SIZES};
 use super::gltf_data::{load_buffers, Images};
-use super::{Camera, Light, Material, Scene, Texture};
+use super::gltf_material::material_slot;
+use super::{Camera, Light, Material, Scene};
 
 /// Largest scene we accept, so a corrupt index count cannot exhaust memory. The GPU BVH and
 /// light buffers must fit lavapipe's 128 MiB storage-buffer limit: 48 B per triangle.
@@ -129,26 +131,6 @@ pub struct Document {
     name: String,
     base: std::path::PathBuf,
     pub animations: Animations,
-}
-
-/// The frame the f32 coordinates of a scene are taken in: world = origin + local / unit
-/// ([`scene_frame`] says how it is chosen).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Frame {
-    pub origin: DVec3,
-    pub unit: f64,
-}
-
-impl Frame {
-    /// The frame for a scene with f64 bounds [lo, hi].
-    pub fn of(lo: DVec3, hi: DVec3) -> Frame {
-        let (origin, unit) = scene_frame(lo, hi);
-        Frame { origin, unit }
-    }
-
-    pub fn to_local(&self, p: DVec3) -> Vec3 {
-        ((p - self.origin) * self.unit).as_vec3()
-    }
 }
 
 impl Document {
@@ -639,158 +621,8 @@ fn bounds64(triangles: &[[DVec3; 3]], points: &[DVec3]) -> (DVec3, DVec3) {
     (lo, hi)
 }
 
-/// Sizes (bounding-box diagonals) the renderer takes as they are: every committed scene
-/// (3.5 to 171 units) and real scenes in metres from a table top to a town.
-pub const NATIVE_SIZES: std::ops::RangeInclusive<f64> = 1.0..=16384.0;
-
-/// The frame the f32 coordinates of a scene with f64 bounds [lo, hi] are taken in:
-/// (origin, unit), world = origin + local / unit.
-/// - origin: the centre of the bounds when that lies farther from the file's origin than
-///   the scene is large, so coordinates keep their precision relative to the scene's size
-///   (measured: cornell moved by 1e7 lost most of its light before); else the file's own
-///   origin.
-/// - unit: 1 for sizes in [`NATIVE_SIZES`]; else the power of two (exact) that brings the
-///   size to 4..8. The light tree's distance clamp (pbrt-v4's max(d², |diagonal|/2)) mixes
-///   units, so a tiny scene sampled far worse: cornell × 1e-3 had 75× the relMSE of cornell
-///   with lightbvh at 1024 spp.
-///
-/// Scenes inside the range with their centre near the origin load bit for bit as written.
-fn scene_frame(lo: DVec3, hi: DVec3) -> (DVec3, f64) {
-    if !lo.is_finite() {
-        return (DVec3::ZERO, 1.0);
-    }
-    let (centre, size) = (0.5 * (lo + hi), (hi - lo).length());
-    let origin = if centre.length() > size {
-        centre
-    } else {
-        DVec3::ZERO
-    };
-    let unit = if NATIVE_SIZES.contains(&size) || size == 0.0 {
-        1.0
-    } else {
-        2f64.powi(2 - size.log2().floor() as i32)
-    };
-    (origin, unit)
-}
-
 fn node_label(node: &gltf::Node) -> String {
     format!("node {} ('{}')", node.index(), node.name().unwrap_or(""))
-}
-
-/// Index of our material for a glTF material (the default material gets its own slot).
-#[allow(clippy::too_many_arguments)]
-fn material_slot(
-    m: &gltf::Material,
-    file: &str,
-    materials: &mut Vec<Material>,
-    index: &mut HashMap<Option<usize>, u32>,
-    textures: &mut Vec<Texture>,
-    texture_index: &mut HashMap<usize, Option<u32>>,
-    images: &Images,
-    warn: &mut dyn FnMut(String),
-) -> Result<u32> {
-    if let Some(&i) = index.get(&m.index()) {
-        return Ok(i);
-    }
-    let label = match m.index() {
-        Some(i) => format!("material {i} ('{}')", m.name().unwrap_or("")),
-        None => "the default material".to_string(),
-    };
-    let base = m.pbr_metallic_roughness().base_color_factor();
-    let strength = m.emissive_strength().unwrap_or(1.0);
-    let emission = Vec3::from(m.emissive_factor()) * strength;
-    let base_color = Vec3::new(base[0], base[1], base[2]);
-    if !emission.is_finite() || emission.min_element() < 0.0 {
-        bail!("'{file}': {label} has a non-finite or negative emission (emissiveFactor × emissiveStrength = {emission}); use finite values ≥ 0");
-    }
-    if !base_color.is_finite() || base_color.min_element() < 0.0 {
-        bail!(
-            "'{file}': {label} has a non-finite or negative baseColorFactor; use values in [0, 1]"
-        );
-    }
-    let pbr = m.pbr_metallic_roughness();
-    let (metallic, roughness) = (pbr.metallic_factor(), pbr.roughness_factor());
-    if !(0.0..=1.0).contains(&metallic) || !(0.0..=1.0).contains(&roughness) {
-        bail!(
-            "'{file}': {label} has metallicFactor {metallic} and roughnessFactor {roughness}; \
-             both must be in [0, 1]"
-        );
-    }
-    let (specular, specular_color) = match m.specular() {
-        Some(sp) => (sp.specular_factor(), Vec3::from(sp.specular_color_factor())),
-        None => (1.0, Vec3::ONE),
-    };
-    if !(0.0..=1.0).contains(&specular)
-        || !specular_color.is_finite()
-        || specular_color.min_element() < 0.0
-    {
-        bail!(
-            "'{file}': {label} has KHR_materials_specular specularFactor {specular} and \
-             specularColorFactor {specular_color}; use a factor in [0, 1] and colours ≥ 0"
-        );
-    }
-    let ignored = [
-        (
-            pbr.metallic_roughness_texture().is_some(),
-            "a metallicRoughnessTexture",
-        ),
-        (m.normal_texture().is_some(), "a normal texture"),
-        (
-            m.specular().is_some_and(|sp| {
-                sp.specular_texture().is_some() || sp.specular_color_texture().is_some()
-            }),
-            "a specular texture",
-        ),
-    ];
-    for (present, what) in ignored {
-        if present {
-            warn(format!(
-                "'{file}': {label} has {what}; lightlearn uses the material's factors only"
-            ));
-        }
-    }
-    if m.emissive_texture().is_some() {
-        // Not sampled: say so instead of silently rendering a flat colour.
-        warn(format!(
-            "'{file}': {label} has an emissive texture; lightlearn uses emissiveFactor only"
-        ));
-    }
-    let base_color_texture = match m.pbr_metallic_roughness().base_color_texture() {
-        None => None,
-        Some(info) => {
-            let t = info.texture();
-            if let Some(&known) = texture_index.get(&t.index()) {
-                known
-            } else {
-                let loaded = match images.decode(&t) {
-                    Ok(tex) => {
-                        textures.push(tex);
-                        Some(textures.len() as u32 - 1)
-                    }
-                    Err(e) => {
-                        warn(format!("'{file}': {label}: base-colour texture {}: {e}; using baseColorFactor alone", t.index()));
-                        None
-                    }
-                };
-                texture_index.insert(t.index(), loaded);
-                loaded
-            }
-        }
-    };
-    let slot = materials.len() as u32;
-    materials.push(Material {
-        name: m.name().unwrap_or("").to_string(),
-        base_color: base_color.clamp(Vec3::ZERO, Vec3::ONE),
-        metallic,
-        roughness,
-        specular,
-        specular_color,
-        emission,
-        double_sided: m.double_sided(),
-        base_color_texture,
-    });
-    index.insert(m.index(), slot);
-    Ok(slot)
 }
 
 /// Triangles of a primitive as index triples.

@@ -7,9 +7,11 @@
 pub mod animated;
 pub mod animation;
 pub mod families;
+pub mod frame;
 pub mod gltf_check;
 mod gltf_data;
 pub mod gltf_load;
+mod gltf_material;
 pub mod gltf_write;
 
 use glam::Vec3;
