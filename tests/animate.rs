@@ -527,3 +527,55 @@ fn the_reference_report_compares_every_variant_on_every_frame() {
     }
     assert!(out.join("reference/frame-0002.exr").exists());
 }
+
+/// Two groups of four bulbs that swap sides at t = 1 and come back at t = 2: frame 0's tree
+/// refitted at frame 1 groups lights 10 m apart, so the frame builds its own tree and learns
+/// afresh; frame 2 refits frame 0's tree again and cannot use frame 1's statistics either.
+#[test]
+fn a_degraded_light_tree_is_rebuilt_and_learning_restarts() {
+    let mut g = GltfBuilder::new();
+    let m = g.material("grey", Vec3::splat(0.5), Vec3::ZERO, false);
+    g.quad(
+        "floor",
+        [
+            Vec3::new(-8.0, 0.0, 4.0),
+            Vec3::new(8.0, 0.0, 4.0),
+            Vec3::new(8.0, 0.0, -4.0),
+            Vec3::new(-8.0, 0.0, -4.0),
+        ],
+        m,
+    );
+    for i in 0..8 {
+        let side = if i < 4 { -5.0 } else { 5.0 };
+        let p = Vec3::new(side + 0.3 * (i % 4) as f32, 1.0, 0.0);
+        // Odd lights cross to the other side at t = 1.
+        let q = if i % 2 == 1 {
+            Vec3::new(-p.x, p.y, 1.5)
+        } else {
+            p
+        };
+        g.point_light(&format!("bulb{i}"), p, Vec3::ONE, 1.0);
+        let node = g.last_node();
+        let key = |v: Vec3| v.to_array().to_vec();
+        g.animate(
+            node,
+            "translation",
+            &[0.0, 1.0, 2.0],
+            &[key(p), key(q), key(p)],
+        );
+    }
+    g.camera(Vec3::new(0.0, 6.0, 8.0), Vec3::ZERO, 1.0);
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("swap.glb");
+    std::fs::write(&scene, g.to_glb()).unwrap();
+    let out = dir.path().join("out");
+    animate(&scene, &out, &["--fps", "1", "--spp", "4"]);
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("animation.json")).unwrap()).unwrap();
+    let f = summary["frames"].as_array().unwrap();
+    assert_eq!(f.len(), 3);
+    assert!(f[1]["tree_cost_ratio"].as_f64().unwrap() > 2.0, "{}", f[1]);
+    assert_eq!(f[1]["learning"], "restarted (light tree rebuilt)");
+    assert!(f[2]["tree_cost_ratio"].as_f64().unwrap() < 2.0);
+    assert_eq!(f[2]["learning"], "restarted (light tree rebuilt)");
+}

@@ -257,7 +257,16 @@ pub fn run(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
                 .as_deref()
                 .filter(|_| k == first)
                 .unwrap_or(Path::new("the previous frame's statistics"));
-            if rebuilt {
+            if rebuilt || saved.header.scene != gpu.fingerprint {
+                // This frame's light tree is not the one the statistics were learned on (it
+                // degraded and was rebuilt, here or on the frame they come from): its nodes
+                // mean other light sets, so the frame learns afresh (unbiased either way).
+                if !rebuilt {
+                    ui.message(&format!(
+                        "warning: {} were learned on another light tree; frame {k} learns afresh",
+                        what.display()
+                    ));
+                }
                 learning = "restarted (light tree rebuilt)".into();
             } else {
                 render::check_resume(&scene, &gpu, &settings, &saved, what)?;
