@@ -23,7 +23,9 @@ struct PreviewParams {
     // radiance_scale × exposure / spp: the mean radiance of a pixel, exposed.
     float mean_scale;
     float spp;
-    // 0: image; 1: relative standard error of each pixel's mean (0 → black, ≥ 0.5 → white).
+    // 0: image; 1: relative standard error of each pixel's mean (0 → black, ≥ 0.5 → white);
+    // 2: the share of the pixel's light samples that came out zero (render.comp counts them
+    // in sum.w, all light samples in sum_sq.w).
     uint view;
     // Blue first (B8G8R8A8 swapchains).
     uint bgra;
@@ -47,6 +49,8 @@ void main() {
     if (params.spp > 0.0) {
         if (params.view == 0u) {
             c = a.sum.rgb * params.mean_scale;
+        } else if (params.view == 2u) {
+            c = vec3(a.sum_sq.w > 0.0 ? a.sum.w / a.sum_sq.w : 0.0);
         } else {
             float n = params.spp;
             float m = dot(a.sum.rgb, vec3(1.0 / 3.0)) / n;

@@ -311,7 +311,8 @@ pub struct PreviewParams {
     /// radiance_scale × exposure / spp.
     pub mean_scale: f32,
     pub spp: f32,
-    /// 0: the image; 1: the relative standard error of each pixel's mean.
+    /// 0: the image; 1: the relative standard error of each pixel's mean; 2: the share of
+    /// its light samples that were zero.
     pub view: u32,
     /// Pixels blue first (B8G8R8A8 swapchains).
     pub bgra: u32,

@@ -258,6 +258,18 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
         px.iter().map(|p| p[0] + p[1] + p[2]).sum::<f32>() > 0.0,
         "a black screenshot"
     );
+    // V twice: the zero-light-sample view, a different picture of the same film.
+    x.run("xdotool", &["key", "v", "v"]);
+    wait_for("the zero-light view", 20, || {
+        title(&x, &window).contains("zero light samples")
+    });
+    std::thread::sleep(Duration::from_millis(300));
+    let (_, _, zeros) = capture(&x, &window);
+    let differs = zeros.iter().zip(&after).filter(|(a, b)| a != b).count();
+    assert!(
+        differs > zeros.len() / 10,
+        "the zero-light view looks like the image"
+    );
     // A resize: the window keeps rendering at the new size.
     assert!(x
         .run("xdotool", &["windowsize", &window, "120", "90"])

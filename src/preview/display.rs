@@ -66,7 +66,8 @@ impl Display {
         Ok(())
     }
 
-    /// Shows the session's film (exposure: a linear factor; view 0 image, 1 relative error).
+    /// Shows the session's film (exposure: a linear factor; view 0 image, 1 relative error,
+    /// 2 zero-light-sample share).
     pub fn show(&mut self, session: &Session, exposure: f32, view: u32) -> Result<Presented> {
         let (accum, fw, fh) = session.film();
         let e = self.swapchain().extent;

@@ -7,7 +7,7 @@
 //! Keys: W/A/S/D/Q/E move, arrows or right-drag look, left-drag orbits the scene centre,
 //! wheel changes the speed, F frames the scene, Home returns to its camera; 1–6 pick the
 //! sampler (uniform, power, lightbvh, wang, donikian, bayes), R resets the learning, V
-//! switches image / relative error, +/- exposure, G direct light / path tracing, P saves
+//! cycles image / relative error / zero-light-sample share, +/- exposure, G direct light / path tracing, P saves
 //! preview-NNNN.exr (+ .png, .json), Esc quits.
 
 pub mod camera;
@@ -172,7 +172,7 @@ struct App<'a, 'u> {
     centre: Vec3,
     bounds: (Vec3, Vec3),
     exposure: f32,
-    /// 0: the image; 1: relative error.
+    /// 0: the image; 1: relative error; 2: zero-light-sample share.
     display_mode: u32,
     held: HashSet<KeyCode>,
     cursor: Option<(f64, f64)>,
@@ -328,7 +328,7 @@ impl<'a> App<'a, '_> {
                 self.sampler.name(),
                 if self.depth > 1 { format!("paths (depth {})", self.depth) } else { "direct light".into() },
                 self.frame_seconds * 1e3,
-                if view == 1 { " — relative error" } else { "" }
+                [" — image", " — relative error", " — zero light samples"][view as usize]
             ));
         }
         Ok(())
@@ -378,7 +378,7 @@ impl<'a> App<'a, '_> {
             KeyCode::KeyR => {
                 self.sessions.remove(&(self.sampler, self.depth));
             }
-            KeyCode::KeyV => self.display_mode = 1 - self.display_mode,
+            KeyCode::KeyV => self.display_mode = (self.display_mode + 1) % 3,
             KeyCode::Equal | KeyCode::NumpadAdd => self.exposure *= std::f32::consts::SQRT_2,
             KeyCode::Minus | KeyCode::NumpadSubtract => self.exposure /= std::f32::consts::SQRT_2,
             KeyCode::KeyG => {
