@@ -270,6 +270,42 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
         differs > zeros.len() / 10,
         "the zero-light view looks like the image"
     );
+    // V once more: what each region has learned, a heat map computed on the host.
+    x.run("xdotool", &["key", "v"]);
+    wait_for("the regions view", 20, || {
+        title(&x, &window).contains("regions learned —")
+            || title(&x, &window).ends_with("regions learned")
+    });
+    std::thread::sleep(Duration::from_millis(300));
+    let (_, _, heat) = capture(&x, &window);
+    assert!(heat.iter().zip(&zeros).filter(|(a, b)| a != b).count() > heat.len() / 10);
+    // A left-drag orbits about the point under the cursor: the view changes.
+    x.run(
+        "xdotool",
+        &[
+            "mousemove",
+            "--window",
+            &window,
+            "48",
+            "36",
+            "mousedown",
+            "1",
+            "mousemove",
+            "--window",
+            &window,
+            "70",
+            "36",
+            "mouseup",
+            "1",
+        ],
+    );
+    wait_for("the orbit", 20, || title_spp(&title(&x, &window)) >= 2);
+    std::thread::sleep(Duration::from_millis(400));
+    let (_, _, orbited) = capture(&x, &window);
+    assert!(
+        orbited.iter().zip(&heat).filter(|(a, b)| a != b).count() > heat.len() / 10,
+        "the orbit did not change the view"
+    );
     // A resize: the window keeps rendering at the new size.
     assert!(x
         .run("xdotool", &["windowsize", &window, "120", "90"])

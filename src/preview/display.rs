@@ -66,6 +66,17 @@ impl Display {
         Ok(())
     }
 
+    /// Shows `pixels` (the window's size, packed as the swapchain wants: see [`Self::bgra`]).
+    pub fn show_pixels(&mut self, pixels: &[u32]) -> Result<Presented> {
+        self.pixels.write(bytemuck::cast_slice(pixels))?;
+        self.swapchain().present(&self.pixels)
+    }
+
+    /// Whether packed pixels are blue first.
+    pub fn bgra(&self) -> bool {
+        self.swapchain().bgra()
+    }
+
     /// Shows the session's film (exposure: a linear factor; view 0 image, 1 relative error,
     /// 2 zero-light-sample share).
     pub fn show(&mut self, session: &Session, exposure: f32, view: u32) -> Result<Presented> {

@@ -4,14 +4,15 @@
 //! learned state. While the camera moves the film is rendered at reduced size and shown
 //! upscaled; at rest it goes back to the window's size (as Cycles' viewport does).
 //!
-//! Keys: W/A/S/D/Q/E move, arrows or right-drag look, left-drag orbits the scene centre,
-//! wheel changes the speed, F frames the scene, Home returns to its camera; 1–6 pick the
+//! Keys: W/A/S/D/Q/E move, arrows or right-drag look, left-drag orbits,
+//! wheel changes the speed (left-drag orbits the point under the cursor), F frames the scene, Home returns to its camera; 1–6 pick the
 //! sampler (uniform, power, lightbvh, wang, donikian, bayes), R resets the learning, V
-//! cycles image / relative error / zero-light-sample share, +/- exposure, G direct light / path tracing, P saves
+//! cycles image / relative error / zero-light-sample share / regions learned, +/- exposure, G direct light / path tracing, P saves
 //! preview-NNNN.exr (+ .png, .json), Esc quits.
 
 pub mod camera;
 mod display;
+mod heat;
 
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -129,6 +130,8 @@ pub fn run(req: &PreviewRequest, ui: &mut dyn Ui) -> Result<()> {
         bounds: (lo, hi),
         exposure: 1.0,
         display_mode: 0,
+        heat: None,
+        pivot: 0.5 * (lo + hi),
         held: HashSet::new(),
         cursor: None,
         buttons: (false, false),
@@ -172,8 +175,12 @@ struct App<'a, 'u> {
     centre: Vec3,
     bounds: (Vec3, Vec3),
     exposure: f32,
-    /// 0: the image; 1: relative error; 2: zero-light-sample share.
+    /// 0: the image; 1: relative error; 2: zero-light-sample share; 3: what each region
+    /// has learned (computed on the host, refreshed twice a second).
     display_mode: u32,
+    heat: Option<(Instant, Vec<u32>)>,
+    /// What a left-drag orbits: the point under the cursor when the button went down.
+    pivot: Vec3,
     held: HashSet<KeyCode>,
     cursor: Option<(f64, f64)>,
     /// Left, right mouse buttons.
@@ -249,6 +256,23 @@ impl<'a> App<'a, '_> {
         Ok(session)
     }
 
+    /// The scene point under the cursor (the scene centre when it points at nothing).
+    fn point_under_cursor(&self) -> Vec3 {
+        let (w, h) = self.display.extent();
+        let Some((x, y)) = self.cursor else {
+            return self.centre;
+        };
+        let d = heat::pixel_ray(&self.view, w, h, x as f32, y as f32);
+        match self
+            .gpu
+            .bvh
+            .intersect(self.view.position, d, 0.0, f32::INFINITY)
+        {
+            Some((t, _)) => self.view.position + t * d,
+            None => self.centre,
+        }
+    }
+
     /// The controller moved: render its camera.
     fn changed_camera(&mut self) {
         self.view = self.camera.camera();
@@ -311,7 +335,30 @@ impl<'a> App<'a, '_> {
         let spp = session.spp();
         let (_, fw, fh) = session.film();
         let regions = session.regions_with_cuts();
-        if self.display.show(session, exposure, view)? == Presented::OutOfDate {
+        let presented = if view == 3 {
+            let stale = self.heat.as_ref().is_none_or(|(t, px)| {
+                t.elapsed().as_secs_f64() > 0.5
+                    || px.len() != (self.display.extent().0 * self.display.extent().1) as usize
+            });
+            if stale {
+                let (w, h) = self.display.extent();
+                let px = heat::heat_map(
+                    self.scene,
+                    self.gpu,
+                    &self.view,
+                    session,
+                    w,
+                    h,
+                    self.display.bgra(),
+                )?;
+                self.heat = Some((Instant::now(), px));
+            }
+            let px = &self.heat.as_ref().expect("made above").1;
+            self.display.show_pixels(px)?
+        } else {
+            self.display.show(session, exposure, view)?
+        };
+        if presented == Presented::OutOfDate {
             let s = self.window.inner_size();
             self.display.resize(s.width, s.height)?;
         }
@@ -328,7 +375,7 @@ impl<'a> App<'a, '_> {
                 self.sampler.name(),
                 if self.depth > 1 { format!("paths (depth {})", self.depth) } else { "direct light".into() },
                 self.frame_seconds * 1e3,
-                [" — image", " — relative error", " — zero light samples"][view as usize]
+                [" — image", " — relative error", " — zero light samples", " — regions learned"][view as usize]
             ));
         }
         Ok(())
@@ -378,7 +425,10 @@ impl<'a> App<'a, '_> {
             KeyCode::KeyR => {
                 self.sessions.remove(&(self.sampler, self.depth));
             }
-            KeyCode::KeyV => self.display_mode = (self.display_mode + 1) % 3,
+            KeyCode::KeyV => {
+                self.display_mode = (self.display_mode + 1) % 4;
+                self.heat = None;
+            }
             KeyCode::Equal | KeyCode::NumpadAdd => self.exposure *= std::f32::consts::SQRT_2,
             KeyCode::Minus | KeyCode::NumpadSubtract => self.exposure /= std::f32::consts::SQRT_2,
             KeyCode::KeyG => {
@@ -451,7 +501,12 @@ impl ApplicationHandler for App<'_, '_> {
             WindowEvent::MouseInput { state, button, .. } => {
                 let down = state == ElementState::Pressed;
                 match button {
-                    MouseButton::Left => self.buttons.0 = down,
+                    MouseButton::Left => {
+                        if down && !self.buttons.0 {
+                            self.pivot = self.point_under_cursor();
+                        }
+                        self.buttons.0 = down
+                    }
                     MouseButton::Right => self.buttons.1 = down,
                     _ => {}
                 }

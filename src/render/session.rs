@@ -444,6 +444,30 @@ impl<'a> Session<'a> {
         self.gpu.radiance_scale
     }
 
+    /// How much the region of each (point, normal) has learned: the observations summed
+    /// over its cut's slots, or None where the region has no cut of its own (it uses the
+    /// shared fallback cut). Samplers that do not learn have no observations: Some(0).
+    pub fn observations_at(&self, points: &[(glam::Vec3, glam::Vec3)]) -> Result<Vec<Option<f32>>> {
+        let cuts = &self.learned.cuts;
+        let stats: Vec<SlotStats> = if self.is_learning() {
+            self.learned.stats.read()?
+        } else {
+            Vec::new()
+        };
+        Ok(points
+            .iter()
+            .map(|&(p, n)| {
+                let o = cuts.offset_at(p, n);
+                (o != 0).then(|| {
+                    let len = cuts.cuts[o] as usize;
+                    stats
+                        .get(o + 1..o + 1 + len)
+                        .map_or(0.0, |s| s.iter().map(|x| x.n_zero + x.n_nonzero).sum())
+                })
+            })
+            .collect())
+    }
+
     /// Regions that have a cut of their own so far.
     pub fn regions_with_cuts(&self) -> usize {
         self.learned.cuts.built()
