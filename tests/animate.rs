@@ -66,7 +66,7 @@ fn animated_nodes_move_as_keyed() {
     assert!(anim.is_animated());
     assert_eq!(anim.span, (0.0, 2.0));
     // 2 s at 24 fps, both ends included.
-    assert_eq!(anim.frame_count(24.0), 49);
+    assert_eq!(anim.frame_count(24.0).unwrap(), 49);
     assert_eq!(anim.time(12, 24.0), 0.5);
     let at = |t: f32| match anim.scene_at(t, &mut |_| {}).unwrap().lights[0] {
         Light::Point { position, .. } => position,
@@ -577,5 +577,53 @@ fn a_degraded_light_tree_is_rebuilt_and_learning_restarts() {
     assert!(f[1]["tree_cost_ratio"].as_f64().unwrap() > 2.0, "{}", f[1]);
     assert_eq!(f[1]["learning"], "restarted (light tree rebuilt)");
     assert!(f[2]["tree_cost_ratio"].as_f64().unwrap() < 2.0);
-    assert_eq!(f[2]["learning"], "restarted (light tree rebuilt)");
+    assert_eq!(
+        f[2]["learning"],
+        "restarted (the statistics' light tree was rebuilt)"
+    );
+}
+
+/// An emissive panel keyed to scale 0 and back: its triangles vanish, the frame has fewer
+/// lights, so it gets a tree of its own (the refit of frame 0's would panic on the count).
+#[test]
+fn lights_that_vanish_and_return_restart_the_learning() {
+    let mut g = moving_light();
+    let panel = g.material("panel", Vec3::splat(0.8), Vec3::new(4.0, 4.0, 4.0), false);
+    g.quad(
+        "panel",
+        [
+            Vec3::new(-1.0, 2.0, -1.0),
+            Vec3::new(-1.0, 2.0, 1.0),
+            Vec3::new(1.0, 2.0, 1.0),
+            Vec3::new(1.0, 2.0, -1.0),
+        ],
+        panel,
+    );
+    let node = g.last_node();
+    g.animate(
+        node,
+        "scale",
+        &[0.0, 1.0, 2.0],
+        &[vec![1.0; 3], vec![0.0; 3], vec![1.0; 3]],
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("blink.glb");
+    std::fs::write(&scene, g.to_glb()).unwrap();
+    let out = dir.path().join("out");
+    animate(&scene, &out, &["--fps", "1", "--spp", "4"]);
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("animation.json")).unwrap()).unwrap();
+    let f = summary["frames"].as_array().unwrap();
+    let lights = |k: usize| {
+        let r: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join(format!("frame-{k:04}.json"))).unwrap())
+                .unwrap();
+        r["lights"].as_u64().unwrap()
+    };
+    assert_eq!((lights(0), lights(1), lights(2)), (3, 1, 3));
+    assert_eq!(f[1]["learning"], "restarted (light tree rebuilt)");
+    assert!(
+        f[1]["tree_cost_ratio"].is_null(),
+        "no ratio between other lights"
+    );
 }

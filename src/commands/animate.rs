@@ -124,7 +124,7 @@ pub fn check(req: &AnimateRequest) -> Result<()> {
     if req.load_stats.is_some() && !(req.sampler.learned() && req.carry) {
         bail!("--load-stats needs a learning sampler (bayes, donikian) and --carry on");
     }
-    if req.load_stats.is_some() && req.frames.is_some_and(|(a, _)| a == 0) {
+    if req.load_stats.is_some() && req.frames.is_none_or(|(a, _)| a == 0) {
         bail!("--load-stats holds the statistics of the frame before the first; frame 0 has none (start at --frame 1 or later)");
     }
     if req.chunk.is_some() && req.frames.is_none_or(|(a, b)| a != b) {
@@ -155,7 +155,7 @@ pub fn run(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
     let anim = AnimatedScene::open(req.scene.as_deref(), &mut warn_once(ui))?;
     let (first, last) = match req.frames {
         Some(r) => r,
-        None if anim.is_animated() => (0, anim.frame_count(req.fps) - 1),
+        None if anim.is_animated() => (0, anim.frame_count(req.fps)? - 1),
         None => bail!(
             "'{}' has no animations; give --frames A..B to render a still scene as frames, or use `lightlearn render`",
             anim.doc.name()
@@ -217,15 +217,21 @@ pub fn run(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
         let moved = previous
             .as_ref()
             .map_or(Changes::default(), |p| Changes::between(p, &scene));
-        // The frame's light tree: frame 0's refitted, unless that degraded.
-        let fresh = LightTree::build(&scene);
-        let (refit_cost, fresh_cost) = (topology.refit(&scene).cost(), fresh.cost());
-        let ratio = if fresh_cost > 0.0 {
-            refit_cost / fresh_cost
+        // The frame's light tree: frame 0's refitted, unless that degraded, or the frame has
+        // other lights (an emissive mesh keyed to scale 0 loses its triangles): then a tree
+        // of its own, and the learning restarts.
+        let relit = scene.lights.len() != topology.order.len();
+        let ratio = if relit {
+            f64::INFINITY
         } else {
-            1.0
+            let fresh_cost = LightTree::build(&scene).cost();
+            if fresh_cost > 0.0 {
+                topology.refit(&scene).cost() / fresh_cost
+            } else {
+                1.0
+            }
         };
-        let rebuilt = ratio > DEGRADED;
+        let rebuilt = relit || ratio > DEGRADED;
         let gpu = match prev_gpu.take() {
             Some(g) if !moved.scene_moved() && !rebuilt => g,
             _ => {
@@ -261,13 +267,18 @@ pub fn run(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
                 // This frame's light tree is not the one the statistics were learned on (it
                 // degraded and was rebuilt, here or on the frame they come from): its nodes
                 // mean other light sets, so the frame learns afresh (unbiased either way).
-                if !rebuilt {
+                if !rebuilt && k == first && req.load_stats.is_some() {
                     ui.message(&format!(
                         "warning: {} were learned on another light tree; frame {k} learns afresh",
                         what.display()
                     ));
                 }
-                learning = "restarted (light tree rebuilt)".into();
+                learning = if rebuilt {
+                    "restarted (light tree rebuilt)"
+                } else {
+                    "restarted (the statistics' light tree was rebuilt)"
+                }
+                .into();
             } else {
                 render::check_resume(&scene, &gpu, &settings, &saved, what)?;
                 if moved.scene_moved() && req.forget < 1.0 {

@@ -195,12 +195,18 @@ pub fn write(req: &FarmRequest) -> Result<FarmOutcome> {
             bail!("--frames {a}..{b}: the last frame comes before the first")
         }
         (Some(r), _) => Some(r),
-        (None, _) if anim.is_animated() => Some((0, anim.frame_count(req.fps) - 1)),
+        (None, _) if anim.is_animated() => Some((0, anim.frame_count(req.fps)? - 1)),
         (None, _) => None,
     };
     if let Some((a, b)) = frames {
         if b - a >= MAX_FRAMES {
             bail!("--frames {a}..{b}: at most {MAX_FRAMES} frames per job; write several jobs");
+        }
+        // Carried statistics count every frame's chunks: the last frame's sample ranges
+        // must stay within the random streams a continuation may use.
+        let total = (b - a + 1) as u64 * req.chunks as u64 * req.spp as u64;
+        if req.carry && req.sampler.learned() && total > (crate::render::MAX_PASSES / 2) as u64 {
+            bail!("{} frames × {} chunks × {} spp carried from frame to frame is {total} passes, more than the 2^30 the random streams hold; fewer frames per job, chunks or spp", b - a + 1, req.chunks, req.spp);
         }
     }
     std::fs::create_dir_all(&req.job_dir)

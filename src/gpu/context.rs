@@ -414,6 +414,10 @@ fn pick_device(
                 "no Vulkan 1.2 compute device matches --device '{want}'. Available: {}",
                 names.join(", ")
             ),
+            None if surface.is_some() => bail!(
+                "no Vulkan 1.2 device can present to this window (found: {}); `lightlearn render` is the headless path",
+                names.join(", ")
+            ),
             None => bail!(
                 "no Vulkan 1.2 device with a compute queue (found: {}). {}",
                 names.join(", "),

@@ -48,6 +48,10 @@ pub struct StatsHeader {
     /// --forget`), so `merge-stats --base` can take out the shared start exactly.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub start_forget: Option<f32>,
+    /// Passes a farm chunk skipped before its own (`--chunk`): `samples_done` counts them,
+    /// its learning does not.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub skipped_passes: Option<u32>,
 }
 
 #[derive(Clone, Debug)]
@@ -343,10 +347,21 @@ impl SavedStats {
             cuts.extend_from_slice(&cut);
         }
         let mut header = first.header.clone();
-        header.samples_done = parts
+        // The passes learned from together (a chunk's skipped passes are not its own), and
+        // never below the last pass any part drew: a continuation must start after both.
+        let learned = parts
             .iter()
-            .try_fold(0u32, |a, (p, _)| a.checked_add(p.header.samples_done))
+            .try_fold(0u32, |a, (p, _)| {
+                a.checked_add(p.header.samples_done - p.header.skipped_passes.unwrap_or(0))
+            })
             .ok_or_else(|| anyhow::anyhow!("the parts have learned from more passes together than a statistics file counts (2^32)"))?;
+        let last = parts
+            .iter()
+            .map(|(p, _)| p.header.samples_done)
+            .max()
+            .unwrap_or(0);
+        header.samples_done = learned.max(last);
+        header.skipped_passes = None;
         header.regions = index.len() as u32;
         header.cuts_len = cuts.len() as u32;
         Ok(SavedStats {
@@ -382,6 +397,12 @@ impl SavedStats {
             let mo = merged.index[r];
             if mo == 0 {
                 bail!("region {r} has a cut in the --base file but in none of the parts: they did not start from it");
+            }
+            fn cut(s: &SavedStats, o: u32) -> &[u32] {
+                &s.cuts[o as usize..o as usize + 1 + s.cuts[o as usize] as usize]
+            }
+            if cut(base, bo) != cut(&merged, mo) {
+                bail!("region {r} has another cut in the --base file than in the parts: they did not start from it (give the statistics the chunks loaded)");
             }
             let (bo, mo) = (bo as usize, mo as usize);
             for k in 1..cut_len(base, bo as u32) {

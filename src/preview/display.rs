@@ -58,6 +58,10 @@ impl Display {
 
     /// A new swapchain for a window of `width`×`height`.
     pub fn resize(&mut self, width: u32, height: u32) -> Result<()> {
+        if width == 0 || height == 0 {
+            // Minimised: keep the swapchain until the window has a size again.
+            return Ok(());
+        }
         // The old swapchain is handed over (oldSwapchain) and destroyed once the new one
         // exists.
         let old = self.swapchain.take();

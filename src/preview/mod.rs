@@ -119,7 +119,7 @@ pub fn run(req: &PreviewRequest, ui: &mut dyn Ui) -> Result<()> {
         ctx: ctx.clone(),
         scene: &scene,
         gpu: &gpu,
-        window,
+        window: &window,
         display,
         sessions: HashMap::new(),
         sampler: req.sampler,
@@ -157,15 +157,16 @@ pub fn run(req: &PreviewRequest, ui: &mut dyn Ui) -> Result<()> {
 }
 
 struct App<'a, 'u> {
+    /// Dropped first (fields drop in order): the sessions and the swapchain go before the
+    /// context's surface, and the window (a local of `run`) outlives them all.
+    sessions: HashMap<(LightSampler, u32), Session<'a>>,
+    display: Display,
     req: PreviewRequest,
     name: String,
     ctx: Arc<Context>,
     scene: &'a Scene,
     gpu: &'a GpuScene,
-    window: Window,
-    display: Display,
-    /// One session per (sampler, depth): switching keeps each learned state.
-    sessions: HashMap<(LightSampler, u32), Session<'a>>,
+    window: &'a Window,
     sampler: LightSampler,
     depth: u32,
     /// The controller; `view` is the camera rendered (exactly the scene's until the first
@@ -280,6 +281,11 @@ impl<'a> App<'a, '_> {
     }
 
     fn frame(&mut self) -> Result<()> {
+        let size = self.window.inner_size();
+        if size.width == 0 || size.height == 0 {
+            // Minimised: nothing to show, and a 0×0 swapchain is invalid.
+            return Ok(());
+        }
         let now = Instant::now();
         let dt = (now - self.last_frame).as_secs_f64().min(0.25) as f32;
         self.last_frame = now;
@@ -472,6 +478,10 @@ impl ApplicationHandler for App<'_, '_> {
     }
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        if self.error.is_some() {
+            // Exiting: events still queued must not touch a state that failed.
+            return;
+        }
         let result = match event {
             WindowEvent::CloseRequested => {
                 event_loop.exit();
@@ -519,7 +529,7 @@ impl ApplicationHandler for App<'_, '_> {
                     const RAD_PER_PIXEL: f32 = 0.005;
                     if self.buttons.0 {
                         self.camera
-                            .orbit(self.centre, -dx * RAD_PER_PIXEL, -dy * RAD_PER_PIXEL);
+                            .orbit(self.pivot, -dx * RAD_PER_PIXEL, -dy * RAD_PER_PIXEL);
                         self.changed_camera();
                     } else if self.buttons.1 {
                         self.camera.look(-dx * RAD_PER_PIXEL, -dy * RAD_PER_PIXEL);

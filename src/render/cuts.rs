@@ -81,6 +81,7 @@ pub fn stats_header(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) ->
         tau: Some(settings.regions.tau),
         k_max: Some(settings.regions.k_max),
         start_forget: None,
+        skipped_passes: None,
     }
 }
 

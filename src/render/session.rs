@@ -135,6 +135,8 @@ pub struct Session<'a> {
     moved: bool,
     /// A growth point has passed and the cuts grow at the next fold boundary.
     growth_due: bool,
+    /// Passes skipped before the first (a farm chunk, [`Session::skip_passes`]).
+    skipped: u32,
     /// Growth waits (the preview while the camera moves: a cut build every frame halved
     /// the frame rate); due growth happens once it is resumed.
     growth_paused: bool,
@@ -198,6 +200,7 @@ impl<'a> Session<'a> {
             moved: false,
             growth_due: false,
             growth_paused: false,
+            skipped: 0,
         };
         session.bind_scene()?;
         session.bind_learned()?;
@@ -420,7 +423,10 @@ impl<'a> Session<'a> {
             return Ok(());
         }
         match self.learned.passes.checked_add(k) {
-            Some(p) if p <= MAX_PASSES / 2 => self.learned.passes = p,
+            Some(p) if p <= MAX_PASSES / 2 => {
+                self.learned.passes = p;
+                self.skipped = k;
+            }
             _ => bail!("--chunk starts past the {} passes the random streams hold; use fewer or smaller chunks", MAX_PASSES / 2),
         }
         self.moved = true;
@@ -562,6 +568,7 @@ impl<'a> Session<'a> {
                 samples_done: self.learned.passes,
                 regions: cuts.index.len() as u32,
                 cuts_len: cuts.cuts.len() as u32,
+                skipped_passes: (self.skipped > 0).then_some(self.skipped),
                 ..stats_header(self.scene, self.gpu, &self.settings)
             },
             index: cuts.index.clone(),

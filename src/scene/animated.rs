@@ -76,9 +76,15 @@ impl AnimatedScene {
 
     /// Frames in the whole span at `fps`, both ends included (a tiny tolerance keeps an end
     /// that is a whole number of frames away, as 2 s at 24 fps, from rounding below it).
-    pub fn frame_count(&self, fps: f64) -> u32 {
+    pub fn frame_count(&self, fps: f64) -> Result<u32> {
         let n = ((self.span.1 - self.span.0) as f64 * fps + 1e-6).floor() + 1.0;
-        n.min(MAX_FRAMES as f64) as u32
+        if n > MAX_FRAMES as f64 {
+            bail!(
+                "'{}' spans {n} frames at {fps} fps, more than the {MAX_FRAMES} one run renders; give --frames A..B or a lower --fps",
+                self.doc.name()
+            );
+        }
+        Ok(n as u32)
     }
 
     /// The scene at time `t`, in the animation's frame and grid box. Warnings go to `warn`.

@@ -10,6 +10,10 @@ use std::collections::BTreeMap;
 use anyhow::{bail, Result};
 use glam::{Quat, Vec3, Vec4};
 
+/// Key times beyond this many seconds are refused: frame times are computed in f32 from
+/// the span, which must stay finite and precise.
+pub const MAX_TIME: f32 = 1e7;
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Interpolation {
     Step,
@@ -47,6 +51,12 @@ impl Channel {
         }
         if let Some(i) = self.times.iter().position(|t| !t.is_finite()) {
             bail!("{at}: key time {i} is not a finite number; fix the sampler's input");
+        }
+        if let Some(i) = self.times.iter().position(|t| t.abs() > MAX_TIME) {
+            bail!(
+                "{at}: key time {i} ({}) is beyond ±{MAX_TIME} s; fix the sampler's input",
+                self.times[i]
+            );
         }
         if let Some(i) = self.times.windows(2).position(|w| w[1] <= w[0]) {
             bail!(
@@ -100,7 +110,7 @@ impl Channel {
                 v
             }
         };
-        if n == 1 || t <= self.times[0] {
+        if n == 1 || !t.is_finite() || t <= self.times[0] {
             return unit(value(0));
         }
         if t >= self.times[n - 1] {
@@ -130,6 +140,11 @@ impl Channel {
                     + (s3 - 2.0 * s2 + s) * dt * b0
                     + (-2.0 * s3 + 3.0 * s2) * v1
                     + (s3 - s2) * dt * a1;
+                if self.property == Property::Rotation && p.length_squared() < 1e-12 {
+                    // Keys q and -q with flat tangents cancel halfway: the same rotation
+                    // either way, so take the shorter arc between them.
+                    return Vec4::from(slerp(quat(v0), quat(v1), s).to_array());
+                }
                 unit(p)
             }
         }
