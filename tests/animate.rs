@@ -31,20 +31,26 @@ fn ok(o: &Output) {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
-/// A floor, a camera and one point light keyed from (0, 1, 0) at t = 0 to (2, 1, 0) at t = 2.
-fn moving_light() -> GltfBuilder {
+/// A builder holding a grey Lambertian floor (albedo `albedo`) over x in `x`, z in ±`half_z`.
+fn floor(albedo: f32, x: (f32, f32), half_z: f32) -> GltfBuilder {
     let mut g = GltfBuilder::new();
-    let m = g.material("grey", Vec3::splat(0.5), Vec3::ZERO, false);
+    let m = g.material("grey", Vec3::splat(albedo), Vec3::ZERO, false);
     g.quad(
         "floor",
         [
-            Vec3::new(-2.0, 0.0, 2.0),
-            Vec3::new(4.0, 0.0, 2.0),
-            Vec3::new(4.0, 0.0, -2.0),
-            Vec3::new(-2.0, 0.0, -2.0),
+            Vec3::new(x.0, 0.0, half_z),
+            Vec3::new(x.1, 0.0, half_z),
+            Vec3::new(x.1, 0.0, -half_z),
+            Vec3::new(x.0, 0.0, -half_z),
         ],
         m,
     );
+    g
+}
+
+/// A floor, a camera and one point light keyed from (0, 1, 0) at t = 0 to (2, 1, 0) at t = 2.
+fn moving_light() -> GltfBuilder {
+    let mut g = floor(0.5, (-2.0, 4.0), 2.0);
     g.point_light("bulb", Vec3::new(0.0, 1.0, 0.0), Vec3::ONE, 2.0);
     let node = g.last_node();
     g.animate(
@@ -301,18 +307,7 @@ fn assert_unbiased(what: &str, got: (f64, f64), want: (f64, f64)) {
 /// Six narrow spots over a floor, each sweeping 6 m along x in 3 s (so frame 3's lit
 /// patches lie where frame 0's cones never reached), and one dim bulb.
 fn sweeping_spots() -> GltfBuilder {
-    let mut g = GltfBuilder::new();
-    let m = g.material("grey", Vec3::splat(0.6), Vec3::ZERO, false);
-    g.quad(
-        "floor",
-        [
-            Vec3::new(-5.0, 0.0, 5.0),
-            Vec3::new(5.0, 0.0, 5.0),
-            Vec3::new(5.0, 0.0, -5.0),
-            Vec3::new(-5.0, 0.0, -5.0),
-        ],
-        m,
-    );
+    let mut g = floor(0.6, (-5.0, 5.0), 5.0);
     for i in 0..6 {
         let p = Vec3::new(-3.0, 1.5, -3.0 + 1.2 * i as f32);
         g.spot_light(
@@ -533,18 +528,7 @@ fn the_reference_report_compares_every_variant_on_every_frame() {
 /// afresh; frame 2 refits frame 0's tree again and cannot use frame 1's statistics either.
 #[test]
 fn a_degraded_light_tree_is_rebuilt_and_learning_restarts() {
-    let mut g = GltfBuilder::new();
-    let m = g.material("grey", Vec3::splat(0.5), Vec3::ZERO, false);
-    g.quad(
-        "floor",
-        [
-            Vec3::new(-8.0, 0.0, 4.0),
-            Vec3::new(8.0, 0.0, 4.0),
-            Vec3::new(8.0, 0.0, -4.0),
-            Vec3::new(-8.0, 0.0, -4.0),
-        ],
-        m,
-    );
+    let mut g = floor(0.5, (-8.0, 8.0), 4.0);
     for i in 0..8 {
         let side = if i < 4 { -5.0 } else { 5.0 };
         let p = Vec3::new(side + 0.3 * (i % 4) as f32, 1.0, 0.0);

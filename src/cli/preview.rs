@@ -34,9 +34,7 @@ pub struct PreviewArgs {
 
 impl PreviewArgs {
     pub fn request(&self) -> Result<lightlearn::preview::PreviewRequest> {
-        if self.width == 0 || self.height == 0 || self.width > 16384 || self.height > 16384 {
-            anyhow::bail!("--width/--height must be between 1 and 16384");
-        }
+        lightlearn::commands::check_size(self.width, self.height)?;
         Ok(lightlearn::preview::PreviewRequest {
             scene: self.scene.clone(),
             sampler: self.sampler,

@@ -102,13 +102,20 @@ pub fn frame_seed(seed: u32, k: u32) -> u32 {
     seed ^ k.wrapping_mul(0x9E37_79B9)
 }
 
-pub fn check(req: &AnimateRequest) -> Result<()> {
-    if !(req.fps.is_finite() && req.fps > 0.0 && req.fps <= 1000.0) {
+/// The frame rate and the forgetting factor of a sequence (`animate`, `farm`).
+pub fn check_timing(fps: f64, forget: f32) -> Result<()> {
+    if !(fps.is_finite() && fps > 0.0 && fps <= 1000.0) {
         bail!("--fps must be a number of frames per second in (0, 1000]");
     }
-    if !(req.forget > 0.0 && req.forget <= 1.0) {
+    if !(forget > 0.0 && forget <= 1.0) {
         bail!("--forget must be in (0, 1]: the weight old statistics keep when lights or geometry move (1 keeps all)");
     }
+    Ok(())
+}
+
+pub fn check(req: &AnimateRequest) -> Result<()> {
+    check_timing(req.fps, req.forget)?;
+    super::check_size(req.width, req.height)?;
     match (req.spp, req.seconds) {
         (Some(0), _) => bail!("--spp must be at least 1"),
         (None, Some(t)) if !(t.is_finite() && t > 0.0) => {

@@ -177,15 +177,8 @@ pub fn write(req: &FarmRequest) -> Result<FarmOutcome> {
     }
     super::render::chunk_offset(Some(req.chunks - 1), Some(req.spp))?;
     super::check_depth(req.max_depth)?;
-    if req.width == 0 || req.height == 0 || req.width > 16384 || req.height > 16384 {
-        bail!("--width/--height must be between 1 and 16384");
-    }
-    if !(req.fps.is_finite() && req.fps > 0.0 && req.fps <= 1000.0) {
-        bail!("--fps must be a number of frames per second in (0, 1000]");
-    }
-    if !(req.forget > 0.0 && req.forget <= 1.0) {
-        bail!("--forget must be in (0, 1]");
-    }
+    super::check_size(req.width, req.height)?;
+    super::animate::check_timing(req.fps, req.forget)?;
     let scene = std::fs::canonicalize(&req.scene)
         .with_context(|| format!("cannot find the scene '{}'", req.scene.display()))?;
     let anim = AnimatedScene::open(Some(&scene), &mut |_| {})?;
@@ -235,8 +228,8 @@ pub fn write(req: &FarmRequest) -> Result<FarmOutcome> {
          "description": "The lightlearn executable on the workers (a path, or `lightlearn` when it is on their PATH)."},
         {"name": "ChunkSpp", "type": "INT", "minValue": 1, "default": req.spp,
          "description": "Samples per pixel of each chunk; an image gets chunks × this."},
-        {"name": "Width", "type": "INT", "minValue": 1, "maxValue": 16384, "default": req.width},
-        {"name": "Height", "type": "INT", "minValue": 1, "maxValue": 16384, "default": req.height},
+        {"name": "Width", "type": "INT", "minValue": 1, "maxValue": super::MAX_SIZE, "default": req.width},
+        {"name": "Height", "type": "INT", "minValue": 1, "maxValue": super::MAX_SIZE, "default": req.height},
         {"name": "MaxDepth", "type": "INT", "minValue": 1, "maxValue": super::MAX_DEPTH,
          "default": req.max_depth, "description": "Surface vertices of a path (1 = direct light)."},
         {"name": "Sampler", "type": "STRING", "allowedValues": samplers,

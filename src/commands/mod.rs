@@ -42,6 +42,17 @@ impl Ui for Silent {
 /// Path tracing depth: 1 (direct light) to [`MAX_DEPTH`] vertices.
 pub const MAX_DEPTH: u32 = 100;
 
+/// Largest image side (also the farm's Width/Height parameter bound).
+pub const MAX_SIZE: u32 = 16384;
+
+/// An image size every command accepts: 1..=[`MAX_SIZE`] on each side.
+pub fn check_size(width: u32, height: u32) -> Result<()> {
+    if width == 0 || height == 0 || width > MAX_SIZE || height > MAX_SIZE {
+        bail!("--width/--height must be between 1 and {MAX_SIZE}");
+    }
+    Ok(())
+}
+
 pub fn check_depth(d: u32) -> Result<()> {
     if !(1..=MAX_DEPTH).contains(&d) {
         bail!("--max-depth {d} is out of range: use 1 (direct light) to {MAX_DEPTH} (Russian roulette ends most paths long before)");

@@ -68,9 +68,7 @@ pub fn run(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         (None, Some(t)) => Budget::Seconds(t),
         (None, None) => Budget::Samples(64),
     };
-    if req.width == 0 || req.height == 0 || req.width > 16384 || req.height > 16384 {
-        bail!("--width/--height must be between 1 and 16384");
-    }
+    super::check_size(req.width, req.height)?;
     check_depth(req.max_depth)?;
     let skip = chunk_offset(req.chunk, req.spp)?;
     req.regions.check()?;
