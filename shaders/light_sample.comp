@@ -11,6 +11,8 @@ layout(local_size_x = 64) in;
 layout(constant_id = 0) const uint SAMPLER = 2u;
 // How a cut's cluster picks its light: 0 by power, 1 by importance (RegionSettings).
 layout(constant_id = 1) const uint IN_CLUSTER = 0u;
+// The learned samplers' switches: learn[0].flags, fixed for the pipeline (learning.glsl).
+layout(constant_id = 3) const uint LEARN_FLAGS = 0u;
 
 layout(std430, set = 0, binding = 0) readonly buffer Nodes { LightNode light_nodes[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Order { uint light_order[]; };

@@ -26,6 +26,25 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(constant_id = 0) const uint SAMPLER = 0u;
 // How a cut's cluster picks its light: 0 by power, 1 by importance (RegionSettings).
 layout(constant_id = 1) const uint IN_CLUSTER = 0u;
+// Stages knocked out for the stage profile (`lightlearn profile`, src/bench/stages.rs); 0 in
+// every render. The images are then wrong: only the time of a pass means something.
+layout(constant_id = 2) const uint KNOCK_OUT = 0u;
+#define KNOCK_SELECT 1u   // lights picked uniformly instead of by SAMPLER
+#define KNOCK_SHADOW 2u   // shadow rays not traced (every light sample taken as visible)
+#define KNOCK_MIS_PMF 4u  // light_pmf of an emitter a BSDF ray hits not evaluated
+#define KNOCK_OBSERVE 8u  // observations not recorded (no statistics atomics)
+// The learned samplers' switches (LearnParams.flags), fixed for the pipeline (learning.glsl).
+layout(constant_id = 3) const uint LEARN_FLAGS = 0u;
+// What the scene's materials need (src/render/mod.rs kernel_flags): 1 a glossy material, 2 a
+// textured one. Code no material needs is compiled out: on lavapipe a branch costs its body
+// even where no lane takes it (`lightlearn profile`).
+layout(constant_id = 4) const uint SCENE_FLAGS = 3u;
+#define SCENE_GLOSSY ((SCENE_FLAGS & 1u) != 0u)
+const bool SCENE_TEXTURED = (SCENE_FLAGS & 2u) != 0u;
+// --max-depth 1 (RenderSettings::max_depth is fixed for a session): direct light alone, the
+// BSDF sampling and MIS code compiled out (lavapipe runs the code after a uniform `break`
+// too). The push constant max_depth stays the loop's bound.
+layout(constant_id = 5) const bool DIRECT_ONLY = false;
 
 layout(std430, set = 0, binding = 0) readonly buffer Nodes { BvhNode bvh_nodes[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Tris { BvhTri bvh_tris[]; };
@@ -160,7 +179,7 @@ void main() {
     vec3 origin = params.cam_pos.xyz;
 
     const bool learned = SAMPLER == SAMPLER_BAYES || SAMPLER == SAMPLER_DONIKIAN;
-    const bool mis = params.max_depth > 1u;
+    const bool mis = params.max_depth > (DIRECT_ONLY ? 0xffffffffu : 1u);
     vec3 L = vec3(0.0);
     vec3 beta = vec3(1.0);  // the path throughput
     float zero_samples = 0.0;
@@ -171,7 +190,7 @@ void main() {
     float prev_brdf = 1.0;
     Bsdf prev_bsdf;
     vec3 prev_wo = vec3(0.0);
-    const bool brdf_select = SAMPLER == SAMPLER_BAYES && (learn[0].flags & LEARN_BRDF_SELECT) != 0u;
+    const bool brdf_select = (BAYES_FLAGS & LEARN_BRDF_SELECT) != 0u;
     float prev_bsdf_pdf = 0.0;
     // Vertices 0 … max_depth − 1 sample a light and the BSDF; the ray after the last one
     // only looks for the emitter it hits (its MIS weight completes that vertex's light sample).
@@ -189,7 +208,9 @@ void main() {
             if (depth > 0u && li != NO_LIGHT) {
                 // The light sampler's pdf of this point, in solid angle at prev_x.
                 select_brdf(prev_bsdf, prev_wo, prev_n, brdf_select);
-                float p_sel = light_pmf(prev_x, prev_n, li, params.light_count, prev_brdf);
+                float p_sel = (KNOCK_OUT & KNOCK_MIS_PMF) != 0u
+                    ? 1.0 / float(params.light_count)
+                    : light_pmf(prev_x, prev_n, li, params.light_count, prev_brdf);
                 vec3 to = origin + t * dir - prev_x;
                 float cos_l = abs(dot(ng, dir));
                 float p_light = cos_l > 0.0 ? p_sel * dot(to, to) / (lights[li].area * cos_l) : 0.0;
@@ -204,7 +225,7 @@ void main() {
         vec3 x = origin + t * dir;
         uint dim0 = depth * DIMS_PER_VERTEX;
         // glTF: base colour = factor × texture.
-        if (m.texture != NO_TEXTURE) {
+        if (SCENE_TEXTURED && m.texture != NO_TEXTURE) {
             m.base_color *= sample_texture(m.texture, triangle_uv(tri.prim, x, tri.v0, tri.e1, tri.e2));
         }
         vec3 wo = -dir;
@@ -220,13 +241,14 @@ void main() {
         float cv_chosen = 0.0;
         // --brdf-aware: the observation includes the BRDF towards the light as luminance; its
         // prior (and light_pmf) take the BRDF's albedo / π, the Lambertian f of equal albedo.
-        const bool brdf_aware = SAMPLER == SAMPLER_BAYES && (learn[0].flags & LEARN_BRDF) != 0u;
+        const bool brdf_aware = (BAYES_FLAGS & LEARN_BRDF) != 0u;
         float brdf = brdf_aware ? bsdf.albedo / PI : 1.0;
-        if (SAMPLER == SAMPLER_LIGHTBVH) li = sample_light_tree(x, n, u_light, pmf);
+        if ((KNOCK_OUT & KNOCK_SELECT) != 0u) li = pick_light(u_light, params.light_count, pmf);
+        else if (SAMPLER == SAMPLER_LIGHTBVH) li = sample_light_tree(x, n, u_light, pmf);
         else if (SAMPLER == SAMPLER_WANG) li = sample_wang(x, n, u_light, pmf);
         else if (learned) li = sample_learned(x, n, u_light, brdf, pmf, slot, p_slot, d2_slot, cv_total, cv_chosen);
         else li = pick_light(u_light, params.light_count, pmf);
-        if (learned && li != NO_LIGHT && slot == NO_SLOT) atomicAdd(counters[1], 1u);
+        if (learned && li != NO_LIGHT && slot == NO_SLOT && (KNOCK_OUT & KNOCK_SELECT) == 0u) atomicAdd(counters[1], 1u);
         // The observation of the chosen cluster: Î_C = L_e G V / (P(l|C) p(y|l)) as
         // luminance (not divided by P(C|x)); zero when occluded or facing away. Learning
         // models the light-sampling estimator, so it takes no MIS weight (docs/method.md §5).
@@ -252,7 +274,7 @@ void main() {
             // Stop short of an area light's own surface; a point light has none.
             float tmax = area ? sdist - eps : sdist;
             float ts;
-            if (trace_ray(so, to_light / sdist, 0.0, tmax, true, ts) == NO_HIT) {
+            if ((KNOCK_OUT & KNOCK_SHADOW) != 0u || trace_ray(so, to_light / sdist, 0.0, tmax, true, ts) == NO_HIT) {
                 // Evaluated only for visible samples (GGX costs tens of operations).
                 vec3 f = bsdf_eval(bsdf, n, wo, wi);
                 float w = 1.0;
@@ -267,7 +289,7 @@ void main() {
                 observed = luminance(Li) * cos_x * (p_slot / pmf) * (brdf_aware ? luminance(f) : 1.0);
             }
         }
-        if (learned && slot != NO_SLOT) record_observation(slot, observed * d2_slot);
+        if (learned && slot != NO_SLOT && (KNOCK_OUT & KNOCK_OBSERVE) == 0u) record_observation(slot, observed * d2_slot);
         light_samples += 1.0;
         zero_samples += any(greaterThan(Ic, vec3(0.0))) ? 0.0 : 1.0;
         // --control-variates (docs/method.md §6): Σ_C g_C + (Î_C − g_C) / P(C) instead of

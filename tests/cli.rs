@@ -285,3 +285,49 @@ fn the_same_command_writes_the_same_files() {
     strip_timings(&mut jb);
     assert_eq!(ja, jb, "the reports differ beyond their timings");
 }
+
+/// `profile` times a pass with each stage knocked out (src/bench/stages.rs): every variant's
+/// pipeline must be valid (the validation layer is on) and every row of the table there. The
+/// timings themselves vary with the machine, so only their form is checked.
+#[test]
+fn profile_times_every_stage_of_a_learning_path_tracer() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.glb");
+    let dir = tempfile::tempdir().unwrap();
+    let out = run(
+        &[
+            "profile",
+            scene.to_str().unwrap(),
+            "--spp",
+            "2",
+            "--repeats",
+            "1",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--max-depth",
+            "3",
+            "--validation",
+        ],
+        dir.path(),
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}{text}", stderr(&out));
+    for row in [
+        "nothing (the real kernel)",
+        "light selection",
+        "shadow rays",
+        "MIS light pmf",
+        "statistics atomics",
+        "folds between passes",
+        "all of the above",
+    ] {
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(&format!("| {row}")))
+            .unwrap_or_else(|| panic!("no row '{row}' in:\n{text}"));
+        let seconds: f64 = line.split('|').nth(2).unwrap().trim().parse().unwrap();
+        assert!(seconds > 0.0 && seconds.is_finite(), "{line}");
+    }
+    expect_failure(&["profile", "--spp", "0"], dir.path(), &[], &["--spp"]);
+}

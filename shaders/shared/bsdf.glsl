@@ -33,6 +33,12 @@
 // under sqrt(1e-3) ≈ 0.03 renders as 0.03 (no perfect mirrors yet).
 const float MIN_ALPHA = 1.0e-3;
 
+// Whether any material of the scene is glossy; an including kernel that knows may define it
+// false (render.comp, from SCENE_FLAGS), compiling the GGX code out.
+#ifndef SCENE_GLOSSY
+#define SCENE_GLOSSY true
+#endif
+
 struct Bsdf {
     vec3 base;      // base colour (factor × texture)
     float metallic;
@@ -61,7 +67,8 @@ Bsdf make_bsdf(GpuMaterial m, vec3 base, vec3 n, vec3 v) {
     b.specular = m.specular;
     b.f0_d = min(0.04 * m.specular_color, vec3(1.0));
     b.alpha = max(m.roughness * m.roughness, MIN_ALPHA);
-    b.lambert = m.metallic == 0.0 && m.specular == 0.0;
+    // SCENE_GLOSSY false: no material of the scene is glossy, so the GGX code compiles out.
+    b.lambert = !SCENE_GLOSSY || (m.metallic == 0.0 && m.specular == 0.0);
     float w = schlick_weight(dot(n, v));
     float fd = max3(b.f0_d) + (1.0 - max3(b.f0_d)) * w;
     float ws = b.metallic * luminance(base + (1.0 - base) * w) + (1.0 - b.metallic) * b.specular * fd;

@@ -1,5 +1,6 @@
 // BVH traversal. The including kernel declares `bvh_nodes` (BvhNode[]) and `bvh_tris`
-// (BvhTri[]). Same loop as Bvh::traverse in src/accel/bvh.rs.
+// (BvhTri[]). Same loop as Bvh::traverse in src/accel/bvh.rs (both children's leaves in one inner loop
+// here, tested in the same order: the same hits).
 #ifndef BVH_GLSL
 #define BVH_GLSL
 
@@ -67,15 +68,23 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
         float tb = slab(n.b_min, n.b_max, oi, inv, tmin, best_t);
         bool hit_a = ta >= 0.0;
         bool hit_b = tb >= 0.0;
-        if (hit_a && (n.a_ref & BVH_LEAF_BIT) != 0u) {
-            hit_a = false;
-            intersect_leaf(n.a_ref, n.a_count, o, d, tmin, best_t, best);
+        // The triangles of both children that are hit leaves, in one loop (a's first): one
+        // copy of the intersection code, so SIMD lanes with a leaf in a and lanes with one
+        // in b run it together.
+        uint na = hit_a && (n.a_ref & BVH_LEAF_BIT) != 0u ? n.a_count : 0u;
+        uint nb = hit_b && (n.b_ref & BVH_LEAF_BIT) != 0u ? n.b_count : 0u;
+        if (na + nb > 0u) {
+            uint fa = n.a_ref & ~BVH_LEAF_BIT;
+            uint fb = n.b_ref & ~BVH_LEAF_BIT;
+            for (uint k = 0u; k < na + nb; ++k) {
+                uint i = k < na ? fa + k : fb + (k - na);
+                float t = intersect_tri(bvh_tris[i], o, d, tmin, best_t);
+                if (t >= 0.0) { best_t = t; best = i; }
+                if (any_hit && best != NO_HIT) break;
+            }
             if (any_hit && best != NO_HIT) break;
-        }
-        if (hit_b && (n.b_ref & BVH_LEAF_BIT) != 0u) {
-            hit_b = false;
-            intersect_leaf(n.b_ref, n.b_count, o, d, tmin, best_t, best);
-            if (any_hit && best != NO_HIT) break;
+            hit_a = hit_a && na == 0u;
+            hit_b = hit_b && nb == 0u;
         }
         if (hit_a && hit_b) {
             bool a_first = ta <= tb;

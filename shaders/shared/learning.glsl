@@ -2,8 +2,11 @@
 // (Donikian et al. 2006, docs/method.md §8), and the recording of their observations.
 // Mirror of src/learning/mod.rs (`slot_weight`, `donikian_weights`); tests/learning.rs checks
 // GPU against CPU. The including kernel declares the region buffers, `slot_stats`
-// (SlotStats[], parallel to `cuts`), `slot_delta` (SlotDelta[], same) and `learn`
-// (LearnParams[1]).
+// (SlotStats[], parallel to `cuts`), `slot_delta` (SlotDelta[], same), `learn`
+// (LearnParams[1]) and the specialization constant LEARN_FLAGS (= learn[0].flags, fixed for
+// the pipeline: on lavapipe a branch costs its body even where no lane takes it, so a switch
+// that is off must be compiled out, not tested per slot; `lightlearn profile` measured the
+// --brdf-select and --control-variates tests alone at 22 % of a bayes pass with both off).
 #ifndef LEARNING_GLSL
 #define LEARNING_GLSL
 
@@ -11,6 +14,13 @@
 #include "posterior.glsl"
 
 #define NO_SLOT 0xffffffffu
+
+// The switches as specialization-constant expressions without && or ||: glslang 11 emits
+// `A && B` of specialization constants as a branch whose result does not dominate its uses
+// (spirv-val rejects the module). BAYES_FLAGS: LEARN_FLAGS for bayes, 0 for the others.
+const uint BAYES_FLAGS = SAMPLER == SAMPLER_BAYES ? LEARN_FLAGS : 0u;
+const bool REGRESSION_ON = (LEARN_FLAGS & LEARN_REGRESSION) != 0u;
+const bool CV_ON = (BAYES_FLAGS & LEARN_CONTROL_VARIATES) != 0u;
 
 // --brdf-select: a factor > 0 on slot weights for the BRDF at the shading point towards the
 // node's cluster; every including kernel defines it (render.comp: the BRDF; the test kernel
@@ -32,7 +42,7 @@ float bayes_weight(SlotStats s, float mu0) {
     // t is clamped so that t² stays a normal float: only absurd prior/scale ratios are
     // touched, and the weight stays positive and finite (the estimator unbiased).
     float t = clamp(mu0 / s.scale, 1e-15, 1e15);
-    if ((learn[0].flags & LEARN_TARGET_MEAN) != 0u) return s.scale * max(s.coef_a * t + s.coef_b, 0.0);
+    if ((LEARN_FLAGS & LEARN_TARGET_MEAN) != 0u) return s.scale * max(s.coef_a * t + s.coef_b, 0.0);
     float v = (s.coef_a * t + s.coef_b) * t + s.coef_c;
     // v underflows only without data (b = c = 0), where the weight is t · sqrt(a).
     return s.scale * (v > 0.0 ? sqrt(v) : t * sqrt(s.coef_a));
@@ -51,8 +61,8 @@ float predicted_mean(SlotStats s, float mu0, float di, float brdf) {
 // sum (0: no cluster can light x); cv_total as in sample_learned.
 float learned_weights(uint o, vec3 p, vec3 n, float brdf, out float cv_total) {
     uint count = cuts[o];
-    bool regression = (learn[0].flags & LEARN_REGRESSION) != 0u;
-    const bool cv = SAMPLER == SAMPLER_BAYES && (learn[0].flags & LEARN_CONTROL_VARIATES) != 0u;
+    const bool regression = REGRESSION_ON;
+    const bool cv = CV_ON;
     float total = 0.0;
     cv_total = 0.0;
     if (SAMPLER == SAMPLER_DONIKIAN && o != 0u) {
@@ -96,7 +106,7 @@ float learned_weights(uint o, vec3 p, vec3 n, float brdf, out float cv_total) {
             float mu0 = imp * di * brdf * learn[0].prior_scale;
             SlotStats st = slot_stats[o + 1u + i];
             w = bayes_weight(st, mu0) / di;
-            if ((learn[0].flags & LEARN_BRDF_SELECT) != 0u) w *= brdf_toward(nd, p, n);
+            if ((LEARN_FLAGS & LEARN_BRDF_SELECT) != 0u) w *= brdf_toward(nd, p, n);
             if (cv && w > 0.0) cv_total += predicted_mean(st, mu0, di, brdf);
         }
         cut_w[i] = w;
@@ -117,8 +127,8 @@ uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint
                     out float p_slot, out float d2, out float cv_total, out float cv_chosen) {
     uint o = region_cut(p, n);
     uint count = cuts[o];
-    bool regression = (learn[0].flags & LEARN_REGRESSION) != 0u;
-    const bool cv = SAMPLER == SAMPLER_BAYES && (learn[0].flags & LEARN_CONTROL_VARIATES) != 0u;
+    const bool regression = REGRESSION_ON;
+    const bool cv = CV_ON;
     pmf = 0.0;
     slot = NO_SLOT;
     p_slot = 0.0;

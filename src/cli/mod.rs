@@ -18,8 +18,10 @@ use lightlearn::scene::families::{Family, FamilyParams};
 
 mod animate;
 mod preview;
+mod profile;
 pub use animate::{AnimateArgs, FarmArgs};
 pub use preview::PreviewArgs;
+pub use profile::ProfileArgs;
 
 pub(crate) fn sampler_parser() -> impl TypedValueParser<Value = LightSampler> {
     PossibleValuesParser::new(
@@ -83,6 +85,10 @@ pub enum Command {
     /// Benchmark: rays/s of the GPU traversal kernel and of a multithreaded CPU traversal of
     /// the same BVH, side by side, for coherent and incoherent rays.
     BenchRays(BenchArgs),
+    /// Benchmark: where a render pass spends its time. Times the same passes with one stage
+    /// of the kernel knocked out at a time (light selection, shadow rays, MIS pmf, statistics
+    /// atomics, folds); a stage's cost is what leaving it out saves.
+    Profile(ProfileArgs),
     /// Combine renders of one image made apart (other seeds: farm chunks) into the image
     /// their summed samples give, weighted by each part's spp from its JSON.
     Merge(MergeArgs),

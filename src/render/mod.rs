@@ -200,6 +200,9 @@ pub struct GpuScene {
     /// ([`stats_file::scene_fingerprint`]; an animation frame's:
     /// [`stats_file::topology_fingerprint`]).
     pub fingerprint: String,
+    /// The kernel code the materials need (`render.comp` SCENE_FLAGS: [`SCENE_GLOSSY`],
+    /// [`SCENE_TEXTURED`]).
+    pub kernel_flags: u32,
 }
 
 /// Offset for secondary-ray origins: 1e-4 of the scene's size (1.7 mm in the default 12 m
@@ -301,6 +304,7 @@ impl GpuScene {
             None => stats_file::scene_fingerprint(&tree),
         };
         let light_tree_seconds = t0.elapsed().as_secs_f64();
+        let kernel_flags = kernel_flags(&materials);
         Ok(GpuScene {
             nodes: Buffer::from_slice(ctx, "bvh nodes", &bvh.nodes)?,
             tris: Buffer::from_slice(ctx, "bvh triangles", &bvh.tris)?,
@@ -322,8 +326,26 @@ impl GpuScene {
             radiance_scale: 1.0 / emission_scale,
             light_tree_seconds,
             fingerprint,
+            kernel_flags,
         })
     }
+}
+
+/// `render.comp` SCENE_FLAGS: a glossy material (GGX code compiled in).
+pub const SCENE_GLOSSY: u32 = 1;
+/// `render.comp` SCENE_FLAGS: a textured material (texture lookups compiled in).
+pub const SCENE_TEXTURED: u32 = 2;
+
+/// What the scene's materials need of `render.comp`, as its SCENE_FLAGS: a scene without
+/// glossy or textured materials gets a kernel without that code, with the same arithmetic
+/// (every material of such a scene takes the Lambertian / untextured branch anyway).
+fn kernel_flags(materials: &[GpuMaterial]) -> u32 {
+    // The kernel's test for a Lambertian material (bsdf.glsl make_bsdf), on the same values.
+    let glossy = materials
+        .iter()
+        .any(|m| !(m.metallic == 0.0 && m.specular == 0.0));
+    let textured = materials.iter().any(|m| m.texture != u32::MAX);
+    (glossy as u32 * SCENE_GLOSSY) | (textured as u32 * SCENE_TEXTURED)
 }
 
 /// The scene camera's vectors in the form `render.comp` takes.

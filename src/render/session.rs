@@ -168,17 +168,7 @@ impl<'a> Session<'a> {
             )?;
         }
         let learned = LearnedState::new(ctx, scene, gpu, settings, &scene.camera)?;
-        let render = ComputePipeline::with_sets(
-            ctx,
-            "render",
-            kernels::RENDER,
-            &RENDER_BINDINGS.map(|set| set.len() as u32),
-            std::mem::size_of::<RenderParams>() as u32,
-            &[
-                settings.sampler.shader_id(),
-                settings.regions.in_cluster_importance as u32,
-            ],
-        )?;
+        let render = render_pipeline(ctx, gpu, settings, 0)?;
         let fold = ComputePipeline::new(
             ctx,
             "fold",
@@ -210,6 +200,16 @@ impl<'a> Session<'a> {
             session.fold_all(true)?;
         }
         Ok(session)
+    }
+
+    /// Knocks stages out of every following pass (`render.comp` KNOCK_OUT: the bits of
+    /// [`crate::bench::stages`]): the images are then wrong, only the pass time means
+    /// something. 0 restores the real kernel.
+    pub fn knock_out(&mut self, mask: u32) -> Result<()> {
+        self.render = render_pipeline(&self.ctx, self.gpu, &self.settings, mask)?;
+        self.bind_scene()?;
+        self.bind_learned()?;
+        self.bind_film()
     }
 
     fn is_learning(&self) -> bool {
@@ -622,6 +622,30 @@ pub const MAX_PASSES: u32 = 1 << 31;
 
 /// Whether regions reached without a cut get one after `n` passes: 1, 2, 4, 8, 16, 32,
 /// then every 64th (soon after the start or a camera move, rarely once settled).
+/// `render.comp` for these settings, with the stages in `knock_out` left out (0: none).
+fn render_pipeline(
+    ctx: &Arc<Context>,
+    gpu: &GpuScene,
+    settings: &RenderSettings,
+    knock_out: u32,
+) -> Result<ComputePipeline> {
+    ComputePipeline::with_sets(
+        ctx,
+        "render",
+        kernels::RENDER,
+        &RENDER_BINDINGS.map(|set| set.len() as u32),
+        std::mem::size_of::<RenderParams>() as u32,
+        &[
+            settings.sampler.shader_id(),
+            settings.regions.in_cluster_importance as u32,
+            knock_out,
+            settings.learn.gpu_params().flags,
+            gpu.kernel_flags,
+            (settings.max_depth == 1) as u32,
+        ],
+    )
+}
+
 pub fn growth_point(n: u32) -> bool {
     n > 0 && (n <= 32 && n.is_power_of_two() || n.is_multiple_of(64))
 }

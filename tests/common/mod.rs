@@ -117,7 +117,7 @@ pub fn gpu_samples_and_pmfs(
         lightlearn::gpu::kernels::LIGHT_SAMPLE,
         11,
         4,
-        &[sampler, cuts.in_cluster_importance as u32],
+        &[sampler, cuts.in_cluster_importance as u32, 0, params.flags],
     )
     .unwrap();
     k.bind(&[

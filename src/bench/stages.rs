@@ -1,0 +1,98 @@
+//! Stage profile of a render pass: where a pass of `render.comp` spends its time. One kernel
+//! does a whole path, so its stages cannot be timed apart with timestamp queries; instead the
+//! same passes are timed with one stage knocked out at a time (the `KNOCK_OUT` specialization
+//! constant of `render.comp`), and a stage's cost is what its removal saves. The knocked-out
+//! kernels compute wrong images; the attribution is approximate where a stage changes the work
+//! of the others (uniform picks shadow other lights, so their shadow rays differ).
+
+use std::sync::Arc;
+
+use anyhow::Result;
+
+use crate::gpu::Context;
+use crate::render::{GpuScene, RenderSettings, Session};
+use crate::scene::Scene;
+
+/// `render.comp` KNOCK_OUT bits.
+pub const KNOCK_SELECT: u32 = 1;
+pub const KNOCK_SHADOW: u32 = 2;
+pub const KNOCK_MIS_PMF: u32 = 4;
+pub const KNOCK_OBSERVE: u32 = 8;
+
+/// One timed variant.
+pub struct StageTime {
+    /// What the variant leaves out ("nothing" for the real kernel).
+    pub name: &'static str,
+    /// The fastest of the repeats, seconds for the passes.
+    pub seconds: f64,
+}
+
+/// The variants that mean something for these settings: (name, KNOCK_OUT bits, folds).
+fn variants(settings: &RenderSettings) -> Vec<(&'static str, u32, bool)> {
+    let learning = settings.sampler.learned();
+    let mut v = vec![
+        ("nothing (the real kernel)", 0, true),
+        ("light selection (uniform picks)", KNOCK_SELECT, true),
+        ("shadow rays (all visible)", KNOCK_SHADOW, true),
+    ];
+    if settings.max_depth > 1 {
+        v.push(("MIS light pmf of BSDF hits", KNOCK_MIS_PMF, true));
+    }
+    if learning {
+        v.push(("statistics atomics", KNOCK_OBSERVE, true));
+        v.push(("folds between passes", 0, false));
+    }
+    let all = KNOCK_SELECT | KNOCK_SHADOW | KNOCK_MIS_PMF | KNOCK_OBSERVE;
+    v.push(("all of the above", all, false));
+    v
+}
+
+/// Times `passes` passes of each variant on fresh sessions, the fastest of `repeats`.
+pub fn profile(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    gpu: &GpuScene,
+    settings: &RenderSettings,
+    passes: u32,
+    repeats: u32,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Vec<StageTime>> {
+    let mut out = Vec::new();
+    for (name, mask, folds) in variants(settings) {
+        let mut s = settings.clone();
+        if !folds {
+            // No fold inside the timed passes (the coefficients are set once, untimed).
+            s.learn.update_every = passes + 1;
+        }
+        let mut best = f64::INFINITY;
+        for _ in 0..repeats.max(1) {
+            let mut session = Session::new(ctx, scene, gpu, &s)?;
+            session.knock_out(mask)?;
+            best = best.min(session.run_passes(passes)?);
+        }
+        progress(&format!("without {name}: {best:.3} s"));
+        out.push(StageTime {
+            name,
+            seconds: best,
+        });
+    }
+    Ok(out)
+}
+
+/// A markdown table: each variant, its time, and what leaving the stage out saved.
+pub fn table(times: &[StageTime]) -> String {
+    let full = times.first().map_or(1.0, |t| t.seconds);
+    let mut s =
+        String::from("| left out | seconds | saved | share of the pass |\n|---|---|---|---|\n");
+    for t in times {
+        let saved = full - t.seconds;
+        s.push_str(&format!(
+            "| {} | {:.3} | {:+.3} | {:.0} % |\n",
+            t.name,
+            t.seconds,
+            saved,
+            100.0 * saved / full
+        ));
+    }
+    s
+}

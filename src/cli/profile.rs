@@ -1,0 +1,87 @@
+//! `profile`: where a render pass spends its time (src/bench/stages.rs).
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::Args;
+
+use super::{sampler_parser, DeviceArgs, LearnArgs, RegionArgs};
+use lightlearn::commands::{self, Ui};
+use lightlearn::render::{Budget, LightSampler, RenderSettings};
+
+#[derive(Args)]
+pub struct ProfileArgs {
+    /// glTF 2.0 scene. Default: the built-in scene.
+    pub scene: Option<PathBuf>,
+    #[arg(long, default_value = "bayes", value_parser = sampler_parser())]
+    pub sampler: LightSampler,
+    /// Passes (samples per pixel) timed per variant.
+    #[arg(long, default_value_t = 16, value_name = "N")]
+    pub spp: u32,
+    #[arg(long, default_value_t = 160)]
+    pub width: u32,
+    #[arg(long, default_value_t = 120)]
+    pub height: u32,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u32,
+    /// Surface vertices of a path (1 = direct light).
+    #[arg(long, default_value_t = 8, value_name = "D")]
+    pub max_depth: u32,
+    /// Timed runs per variant; the fastest counts.
+    #[arg(long, default_value_t = 3)]
+    pub repeats: u32,
+    #[command(flatten)]
+    pub regions: RegionArgs,
+    #[command(flatten)]
+    pub learn: LearnArgs,
+    #[command(flatten)]
+    pub device: DeviceArgs,
+}
+
+impl ProfileArgs {
+    pub fn run(&self, ui: &mut dyn Ui) -> Result<String> {
+        commands::check_size(self.width, self.height)?;
+        commands::check_depth(self.max_depth)?;
+        if !(1..=4096).contains(&self.spp) || !(1..=100).contains(&self.repeats) {
+            anyhow::bail!("--spp takes 1..=4096 and --repeats 1..=100");
+        }
+        let (scene, ctx, gpu, _) =
+            commands::prepare(self.scene.as_deref(), &self.device.options(), ui)?;
+        let settings = RenderSettings {
+            width: self.width,
+            height: self.height,
+            budget: Budget::Samples(self.spp),
+            seed: self.seed,
+            sampler: self.sampler,
+            regions: self.regions.settings()?,
+            learn: self.learn.settings()?,
+            stratified: true,
+            max_depth: self.max_depth,
+            resume: None,
+        };
+        let times = lightlearn::bench::stages::profile(
+            &ctx,
+            &scene,
+            &gpu,
+            &settings,
+            self.spp,
+            self.repeats,
+            &mut |l| ui.message(l),
+        )?;
+        let paths = self.spp as f64 * self.width as f64 * self.height as f64;
+        Ok(format!(
+            "{}: {} triangles, {} lights; {} on {}; {}×{}, {} spp, depth {}: {:.3} M paths/s\n\n{}",
+            scene.source,
+            scene.triangles.len(),
+            scene.lights.len(),
+            self.sampler.name(),
+            ctx.describe(),
+            self.width,
+            self.height,
+            self.spp,
+            self.max_depth,
+            paths / times[0].seconds / 1e6,
+            lightlearn::bench::stages::table(&times)
+        ))
+    }
+}
