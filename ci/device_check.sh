@@ -1,0 +1,218 @@
+#!/usr/bin/env bash
+# The check a session with a real GPU lent (the `device` tool) runs as is, and that runs here on
+# lavapipe too: the test suite on that device, bench-rays, the README's default render and a
+# short wang/bayes compare, with a summary in $OUT/summary.md.
+#
+#   ci/device_check.sh prepare   here, before the device call: builds the release binary and
+#                                the test binaries (stripped, xz-packed) into .device/, and
+#                                downloads the Vulkan loader and validation-layer .debs into
+#                                .device/debs (the device machine starts bare and offline, and
+#                                has no Rust toolchain). Prints the `run` call to make.
+#   ci/device_check.sh [run]     anywhere: uses .device/ when it is there, else builds with
+#                                cargo; runs the checks. Results go to $OUT (the device tool's
+#                                folder) or, without it, to ./device-check-out.
+#
+# Env: DEVICE_CHECK_SKIP_TESTS=1 skips the suite (a quick re-run of the timings);
+#      DEVICE_CHECK_STEP_LIMIT=S caps each step at S seconds (default 300: lavapipe needs ~210 s for the default render).
+set -uo pipefail
+cd "$(dirname "$0")/.."
+root="$PWD"
+pack="$root/.device"
+mode="${1:-run}"
+
+if [ "$mode" = prepare ]; then
+  set -e
+  grep -qx '/.device/' .git/info/exclude 2>/dev/null || echo '/.device/' >>.git/info/exclude
+  rm -rf "$pack" && mkdir -p "$pack/bin" "$pack/debs"
+  cargo build --release --quiet
+  # The test executables cargo would run, one per test target (cargo prints them as JSON).
+  cargo test --release --no-run --message-format=json 2>/dev/null |
+    python3 -c '
+import json, sys
+for line in sys.stdin:
+    m = json.loads(line)
+    if m.get("reason") == "compiler-artifact" and m.get("executable") and m["profile"]["test"]:
+        print(m["target"]["name"] + "\t" + m["executable"])' >"$pack/tests.tsv"
+  cp target/release/lightlearn "$pack/bin/lightlearn"
+  while IFS=$'\t' read -r name exe; do cp "$exe" "$pack/bin/test-$name"; done <"$pack/tests.tsv"
+  strip "$pack"/bin/*
+  # The binaries have this folder compiled in (CARGO_MANIFEST_DIR, CARGO_BIN_EXE_lightlearn).
+  echo "$root" >"$pack/manifest_dir"
+  (cd "$pack" && tar -cJf bin.tar.xz bin && rm -rf bin)
+  # Debian 12's loader and validation layers (tests run with validation on). The device
+  # tool's README gives the amd64 apt options; packages the image already has are skipped
+  # there at unpack time.
+  o=(-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/amd64-lists)
+  mkdir -p /tmp/amd64-lists/partial
+  if apt-get "${o[@]}" update -qq >/dev/null 2>&1; then
+    (cd "$pack/debs" && apt-get "${o[@]}" download libvulkan1 vulkan-validationlayers >/dev/null 2>&1) ||
+      echo "device_check: warning: could not download the Vulkan .debs; the device needs its own loader" >&2
+  else
+    echo "device_check: warning: apt-get update failed; no .debs packed" >&2
+  fi
+  du -sh "$pack"
+  echo "device_check: packed. Make the device call with carry [\".device\"] and the command:"
+  echo "  bash ci/device_check.sh run"
+  exit 0
+fi
+
+out="${OUT:-$root/device-check-out}"
+mkdir -p "$out"
+log="$out/log.txt"
+: >"$log"
+summary="$out/summary.md"
+limit="${DEVICE_CHECK_STEP_LIMIT:-300}"
+say() { echo "$*" | tee -a "$log"; }
+t_start=$(date +%s)
+
+# --- The Vulkan loader and driver -------------------------------------------------------
+# (grep -c, not -q: under pipefail an early grep exit makes ldconfig's SIGPIPE fail the test.)
+if [ "$(ldconfig -p 2>/dev/null | grep -c 'libvulkan.so.1')" = 0 ] && ls "$pack"/debs/*.deb >/dev/null 2>&1; then
+  for f in "$pack"/debs/*.deb; do dpkg -x "$f" / && say "unpacked $(basename "$f")"; done
+  ldconfig
+elif ! ls /usr/share/vulkan/explicit_layer.d/VkLayer_khronos_validation.json >/dev/null 2>&1 &&
+  ls "$pack"/debs/vulkan-validationlayers*.deb >/dev/null 2>&1; then
+  dpkg -x "$pack"/debs/vulkan-validationlayers*.deb / && say "unpacked the validation layers"
+  ldconfig
+fi
+nvidia_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+if [ -z "${VK_DRIVER_FILES:-}" ]; then
+  if [ -f "$nvidia_icd" ]; then
+    export VK_DRIVER_FILES="$nvidia_icd"
+  elif [ -f /etc/vulkan/icd.d/nvidia_icd.json ]; then
+    export VK_DRIVER_FILES=/etc/vulkan/icd.d/nvidia_icd.json
+  elif [ -f /usr/share/vulkan/icd.d/nvidia_icd.json ]; then
+    export VK_DRIVER_FILES=/usr/share/vulkan/icd.d/nvidia_icd.json
+  else
+    export VK_DRIVER_FILES=/usr/share/vulkan/icd.d/lvp_icd.x86_64.json
+  fi
+fi
+say "VK_DRIVER_FILES=$VK_DRIVER_FILES"
+command -v nvidia-smi >/dev/null && nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader >>"$log" 2>&1
+
+# --- The binaries -------------------------------------------------------------------------
+if [ -f "$pack/bin.tar.xz" ]; then
+  tmp=$(mktemp -d)
+  tar -xJf "$pack/bin.tar.xz" -C "$tmp"
+  bin="$tmp/bin"
+  built_in=$(cat "$pack/manifest_dir")
+  if [ "$built_in" != "$root" ]; then
+    # The test binaries look for scenes/, shaders/ and the lightlearn binary under the folder
+    # they were built in: make that folder this checkout, with the binary where cargo put it.
+    if [ -e "$built_in" ] && [ ! -L "$built_in" ]; then
+      say "device_check: $built_in exists and is not this checkout; tests that read files will fail"
+    else
+      mkdir -p "$(dirname "$built_in")" && ln -sfn "$root" "$built_in"
+    fi
+  fi
+  mkdir -p "$root/target/release" && cp "$bin/lightlearn" "$root/target/release/lightlearn"
+  tests=$(cut -f1 "$pack/tests.tsv")
+  test_exe() { echo "$bin/test-$1"; }
+else
+  command -v cargo >/dev/null || {
+    say "device_check: no .device/ pack and no cargo: run 'ci/device_check.sh prepare' here first"
+    exit 2
+  }
+  say "building with cargo"
+  cargo build --release --quiet 2>>"$log" || { say "build failed"; exit 1; }
+  cargo test --release --no-run --message-format=json 2>>"$log" |
+    python3 -c '
+import json, sys
+for line in sys.stdin:
+    m = json.loads(line)
+    if m.get("reason") == "compiler-artifact" and m.get("executable") and m["profile"]["test"]:
+        print(m["target"]["name"] + "\t" + m["executable"])' >"$out/tests.tsv"
+  tests=$(cut -f1 "$out/tests.tsv")
+  test_exe() { awk -F'\t' -v n="$1" '$1 == n { print $2 }' "$out/tests.tsv"; }
+fi
+ll="$root/target/release/lightlearn"
+
+rows=()
+row() { rows+=("| $1 | $2 | $3 | $4 |"); }
+step() { # name, then the command; its output goes to the log; returns its status
+  local name="$1"; shift
+  local t0=$(date +%s.%N)
+  echo "=== $name: $*" >>"$log"
+  timeout "$limit" "$@" >>"$log.step" 2>&1
+  local rc=$?
+  cat "$log.step" >>"$log"
+  step_seconds=$(python3 -c "import time; print(f'{time.time() - $t0:.1f}')")
+  return $rc
+}
+
+# --- The device the renderer picks ----------------------------------------------------------
+"$ll" render scenes/cornell.glb --width 16 --height 16 --spp 1 --max-depth 1 --out "$out/probe/p.exr" --mkdir -q >>"$log" 2>&1
+device=$(python3 -c "import json; print(json.load(open('$out/probe/p.json'))['device'])" 2>/dev/null || echo "none found")
+rm -rf "$out/probe"
+say "device: $device"
+
+# --- The test suite on that device ------------------------------------------------------------
+passed=0 failed=0 failed_names=()
+if [ "${DEVICE_CHECK_SKIP_TESTS:-0}" != 1 ]; then
+  t_tests=$(date +%s)
+  for t in $tests; do
+    : >"$log.step"
+    if step "test $t" "$(test_exe "$t")"; then
+      passed=$((passed + 1))
+    else
+      failed=$((failed + 1)) && failed_names+=("$t")
+    fi
+    counts=$(grep -E '^test result' "$log.step" | tail -1)
+    say "test $t: ${counts:-no result line} (${step_seconds} s)"
+  done
+  detail="${#failed_names[@]} failing: ${failed_names[*]:-none}"
+  row "test suite ($((passed + failed)) binaries)" "$([ $failed = 0 ] && echo pass || echo FAIL)" "$(($(date +%s) - t_tests))" "$detail"
+fi
+
+# --- bench-rays -----------------------------------------------------------------------------
+: >"$log.step"
+if step bench-rays "$ll" bench-rays --repeats 5; then
+  rays=$(grep -E '^(coherent|incoherent)' "$log.step" | sed -E 's/ +/ /g' | cut -d' ' -f1-2,5-6,10-11 | paste -sd ';' -)
+  row bench-rays pass "$step_seconds" "$rays"
+else
+  row bench-rays FAIL "$step_seconds" "see log.txt"
+fi
+cp "$log.step" "$out/bench-rays.txt"
+
+# --- The README's default render --------------------------------------------------------------
+: >"$log.step"
+if step "default render" "$ll" render --out "$out/render.exr" -q; then
+  secs=$(python3 -c "import json; j = json.load(open('$out/render.json')); print(f\"{j['render_seconds']:.2f} s render, {j['total_seconds']:.2f} s total, {j['width']}x{j['height']} {j['spp']} spp\")")
+  row "default render (lightlearn render)" pass "$step_seconds" "$secs"
+else
+  row "default render (lightlearn render)" FAIL "$step_seconds" "see log.txt"
+fi
+rm -f "$out/render.exr"
+
+# --- A short compare of wang and bayes -----------------------------------------------------------
+: >"$log.step"
+if step compare "$ll" compare scenes/rooms16.glb --samplers wang,bayes --spp 64 --reference-spp 1024 \
+  --width 128 --height 96 --max-depth 1 --out "$out/compare" -q; then
+  ratio=$(python3 -c "
+import json
+m = json.load(open('$out/compare/metrics.json'))
+for c in m['comparisons']:
+    print(c.get('budget', ''), '; '.join(f\"{r['sampler']} relMSE {r['rel_mse']:.3e} in {r.get('seconds', 0):.2f} s\" for r in c['runs']))
+" 2>>"$log" | paste -sd ' ' -)
+  row "compare rooms16 wang,bayes 64 spp, direct" pass "$step_seconds" "$ratio"
+else
+  row "compare rooms16 wang,bayes 64 spp, direct" FAIL "$step_seconds" "see log.txt"
+fi
+cp "$out/compare/metrics.json" "$out/compare-metrics.json" 2>/dev/null
+rm -rf "$out/compare" "$log.step"
+
+{
+  echo "# lightlearn device check"
+  echo
+  echo "- device: $device"
+  echo "- VK_DRIVER_FILES: $VK_DRIVER_FILES"
+  echo "- commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
+  echo "- total: $(($(date +%s) - t_start)) s"
+  echo
+  echo "| step | result | seconds | numbers |"
+  echo "|---|---|---|---|"
+  printf '%s\n' "${rows[@]}"
+} >"$summary"
+cat "$summary"
+grep -q FAIL "$summary" && exit 1
+exit 0
