@@ -32,9 +32,10 @@ import json, sys
 for line in sys.stdin:
     m = json.loads(line)
     if m.get("reason") == "compiler-artifact" and m.get("executable") and m["profile"]["test"]:
-        print(m["target"]["name"] + "\t" + m["executable"])' >"$pack/tests.tsv"
+        print(m["target"]["kind"][0] + "-" + m["target"]["name"] + "\t" + m["executable"])' >"$pack/tests.tsv"
   cp target/release/lightlearn "$pack/bin/lightlearn"
   while IFS=$'\t' read -r name exe; do cp "$exe" "$pack/bin/test-$name"; done <"$pack/tests.tsv"
+  [ "$(cut -f1 "$pack/tests.tsv" | sort | uniq -d)" = "" ] || { echo "device_check: two test targets share a name" >&2; exit 1; }
   strip "$pack"/bin/*
   # The binaries have this folder compiled in (CARGO_MANIFEST_DIR, CARGO_BIN_EXE_lightlearn).
   echo "$root" >"$pack/manifest_dir"
@@ -121,7 +122,7 @@ import json, sys
 for line in sys.stdin:
     m = json.loads(line)
     if m.get("reason") == "compiler-artifact" and m.get("executable") and m["profile"]["test"]:
-        print(m["target"]["name"] + "\t" + m["executable"])' >"$out/tests.tsv"
+        print(m["target"]["kind"][0] + "-" + m["target"]["name"] + "\t" + m["executable"])' >"$out/tests.tsv"
   tests=$(cut -f1 "$out/tests.tsv")
   test_exe() { awk -F'\t' -v n="$1" '$1 == n { print $2 }' "$out/tests.tsv"; }
 fi
@@ -167,7 +168,13 @@ fi
 # --- bench-rays -----------------------------------------------------------------------------
 : >"$log.step"
 if step bench-rays "$ll" bench-rays --repeats 5; then
-  rays=$(grep -E '^(coherent|incoherent)' "$log.step" | sed -E 's/ +/ /g' | cut -d' ' -f1-2,5-6,10-11 | paste -sd ';' -)
+  rays=$(python3 -c '
+import re, sys
+for l in open(sys.argv[1]):
+    m = re.match(r"(\w+).*GPU\s+([\d.]+) Mrays/s.*CPU \((\d+) threads\)\s+([\d.]+) Mrays/s\s+GPU/CPU ([\d.]+)", l)
+    if m:
+        print(f"{m[1]}: GPU {m[2]} Mrays/s, CPU ({m[3]} threads) {m[4]}, ratio {m[5]}", end="; ")
+' "$log.step")
   row bench-rays pass "$step_seconds" "$rays"
 else
   row bench-rays FAIL "$step_seconds" "see log.txt"
