@@ -46,8 +46,10 @@ void main() {
     else if (SAMPLER == SAMPLER_LIGHTBVH) c.light = sample_light_tree(q.p, q.n, q.u, c.pmf);
     else c.light = sample_learned(q.p, q.n, q.u, 1.0, c.pmf, slot, p_slot, d2, c.cv_total, c.cv_chosen);
     if (c.light == NO_LIGHT) c.pmf = 0.0;
-    // light_pmf of the chosen light, and of the query's own light (q.light; none: 0).
-    c.pmf_again = c.light == NO_LIGHT ? 0.0 : light_pmf(q.p, q.n, c.light, 0u, 1.0);
+    // The pmf of the chosen light again, as render.comp's MIS weight takes it (from the
+    // choice's cut and total: light_pmf_of_cut), and light_pmf of the query's own light
+    // (q.light; none: 0) summed afresh.
+    c.pmf_again = c.light == NO_LIGHT ? 0.0 : light_pmf_of_cut(sel_cut, sel_total, q.p, q.n, c.light, 0u, 1.0);
     c.pmf_query = q.light == NO_LIGHT ? 0.0 : light_pmf(q.p, q.n, q.light, 0u, 1.0);
     choices[i] = c;
 }

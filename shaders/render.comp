@@ -192,6 +192,9 @@ void main() {
     vec3 prev_wo = vec3(0.0);
     const bool brdf_select = (BAYES_FLAGS & LEARN_BRDF_SELECT) != 0u;
     float prev_bsdf_pdf = 0.0;
+    // The cut and weight total of the previous vertex's light choice (light_pmf_of_cut).
+    uint prev_cut = 0u;
+    float prev_cut_total = 0.0;
     // Vertices 0 … max_depth − 1 sample a light and the BSDF; the ray after the last one
     // only looks for the emitter it hits (its MIS weight completes that vertex's light sample).
     for (uint depth = 0u; depth <= params.max_depth; ++depth) {
@@ -210,7 +213,7 @@ void main() {
                 select_brdf(prev_bsdf, prev_wo, prev_n, brdf_select);
                 float p_sel = (KNOCK_OUT & KNOCK_MIS_PMF) != 0u
                     ? 1.0 / float(params.light_count)
-                    : light_pmf(prev_x, prev_n, li, params.light_count, prev_brdf);
+                    : light_pmf_of_cut(prev_cut, prev_cut_total, prev_x, prev_n, li, params.light_count, prev_brdf);
                 vec3 to = origin + t * dir - prev_x;
                 float cos_l = abs(dot(ng, dir));
                 float p_light = cos_l > 0.0 ? p_sel * dot(to, to) / (lights[li].area * cos_l) : 0.0;
@@ -322,6 +325,8 @@ void main() {
         prev_bsdf = bsdf;
         prev_wo = wo;
         prev_bsdf_pdf = bsdf_pdf_o;
+        prev_cut = sel_cut;
+        prev_cut_total = sel_total;
         origin = x + n * params.ray_eps;
         dir = wn;
         if (depth + 1u >= 3u) {

@@ -57,6 +57,29 @@ float predicted_mean(SlotStats s, float mu0, float di, float brdf) {
     return max(c.x * mu0 + c.y * s.scale, 0.0) / (di * brdf);
 }
 
+// The bayes weight of slot i of the cut at offset o at (p, n) (0: the slot cannot light x);
+// under --control-variates its predicted mean is added to cv_total. One function for the
+// sum over the cut and for the one slot that light_pmf_of_cut needs, so both are the same
+// float.
+float bayes_slot_weight(uint o, uint i, vec3 p, vec3 n, float brdf, inout float cv_total) {
+    LightNode nd = light_nodes[cuts[o + 1u + i]];
+    float dn;
+    float imp = light_importance_d2(nd, p, n, dn);
+    float w = 0.0;
+    if (imp > 0.0) {
+        float di = REGRESSION_ON ? dn : 1.0;
+        // The prior mean of y = Î · d²: Ĩ · d² (Ĩ without its distance) in the
+        // observation's units (prior_scale: 1/π maps a one-sided emitter's power
+        // Φ = π A L to A L). Before any data w ∝ Ĩ: bayes starts as wang.
+        float mu0 = imp * di * brdf * learn[0].prior_scale;
+        SlotStats st = slot_stats[o + 1u + i];
+        w = bayes_weight(st, mu0) / di;
+        if ((LEARN_FLAGS & LEARN_BRDF_SELECT) != 0u) w *= brdf_toward(nd, p, n);
+        if (CV_ON && w > 0.0) cv_total += predicted_mean(st, mu0, di, brdf);
+    }
+    return w;
+}
+
 // Fills cut_w with the learned weights of the cut at offset o at (p, n) and returns their
 // sum (0: no cluster can light x); cv_total as in sample_learned.
 float learned_weights(uint o, vec3 p, vec3 n, float brdf, out float cv_total) {
@@ -94,23 +117,8 @@ float learned_weights(uint o, vec3 p, vec3 n, float brdf, out float cv_total) {
         return sum_imp;
     }
     for (uint i = 0u; i < count; ++i) {
-        LightNode nd = light_nodes[cuts[o + 1u + i]];
-        float dn;
-        float imp = light_importance_d2(nd, p, n, dn);
-        float w = 0.0;
-        if (imp > 0.0) {
-            float di = regression ? dn : 1.0;
-            // The prior mean of y = Î · d²: Ĩ · d² (Ĩ without its distance) in the
-            // observation's units (prior_scale: 1/π maps a one-sided emitter's power
-            // Φ = π A L to A L). Before any data w ∝ Ĩ: bayes starts as wang.
-            float mu0 = imp * di * brdf * learn[0].prior_scale;
-            SlotStats st = slot_stats[o + 1u + i];
-            w = bayes_weight(st, mu0) / di;
-            if ((LEARN_FLAGS & LEARN_BRDF_SELECT) != 0u) w *= brdf_toward(nd, p, n);
-            if (cv && w > 0.0) cv_total += predicted_mean(st, mu0, di, brdf);
-        }
-        cut_w[i] = w;
-        total += w;
+        cut_w[i] = bayes_slot_weight(o, i, p, n, brdf, cv_total);
+        total += cut_w[i];
     }
     return total;
 }
@@ -135,6 +143,8 @@ uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint
     d2 = 1.0;
     cv_chosen = 0.0;
     float total = learned_weights(o, p, n, brdf, cv_total);
+    sel_cut = o;
+    sel_total = total;
     if (total <= 0.0) return NO_LIGHT;
     uint k;
     uint li = pick_in_cut(o, count, total, u, p, n, pmf, k, p_slot);

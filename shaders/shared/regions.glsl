@@ -36,6 +36,11 @@ uint region_cut(vec3 p, vec3 n) {
 
 // The weights of the current cut's slots (filled by the sampler that calls pick_in_cut).
 float cut_w[MAX_CUT];
+// The cut (offset) and weight total of the last choice by sample_wang / sample_learned: what
+// light_pmf_of_cut needs to repeat that choice's pmf at the same point without summing the
+// cut again.
+uint sel_cut = 0u;
+float sel_total = 0.0;
 
 // Picks slot k of the cut at offset o ∝ cut_w (total > 0: their sum), then a light inside the
 // slot's node: by power (IN_CLUSTER 0, Wang & Åkerlund), or by descending the node's subtree
@@ -102,6 +107,8 @@ uint sample_wang(vec3 p, vec3 n, float u, out float pmf) {
     uint o = region_cut(p, n);
     uint count = cuts[o];
     float total = wang_weights(o, p, n);
+    sel_cut = o;
+    sel_total = total;
     pmf = 0.0;
     if (total <= 0.0) return NO_LIGHT;
     uint k;
@@ -109,12 +116,12 @@ uint sample_wang(vec3 p, vec3 n, float u, out float pmf) {
     return pick_in_cut(o, count, total, u, p, n, pmf, k, p_slot);
 }
 
-// The probability that pick_in_cut (cut at offset o, weights cut_w summing to total) returns
-// the light at position pos of the tree order: the slot holding it, found by binary search
-// over the slots' range starts (a cut covers the order with disjoint ranges in order), times
-// the descent inside. Mirror of src/lights/regions.rs `pmf_in_cut`.
-float pmf_in_cut(uint o, float total, uint pos, vec3 p, vec3 n) {
-    if (!(total > 0.0)) return 0.0;
+#define NO_SLOT_IN_CUT 0xffffffffu
+
+// The slot k of the cut at offset o whose node holds order position pos, found by binary
+// search over the slots' range starts (a cut covers the order with disjoint ranges in order);
+// NO_SLOT_IN_CUT if none does.
+uint slot_holding(uint o, uint pos) {
     uint lo = 0u;
     uint hi = cuts[o];
     // The first slot whose range starts after pos; the one before it is the candidate.
@@ -123,12 +130,26 @@ float pmf_in_cut(uint o, float total, uint pos, vec3 p, vec3 n) {
         if (light_nodes[cuts[o + 1u + mid]].begin <= pos) lo = mid + 1u;
         else hi = mid;
     }
-    if (lo == 0u) return 0.0;
-    uint k = lo - 1u;
-    uint node = cuts[o + 1u + k];
-    if (pos >= light_nodes[node].begin + light_nodes[node].count || !(cut_w[k] > 0.0)) return 0.0;
+    if (lo == 0u) return NO_SLOT_IN_CUT;
+    uint node = cuts[o + lo];
+    return pos < light_nodes[node].begin + light_nodes[node].count ? lo - 1u : NO_SLOT_IN_CUT;
+}
+
+// The probability that pick_in_cut returns the light at position pos given that slot k (of
+// weight w out of total) holds it: P(k) times the descent inside.
+float pmf_in_slot(uint o, uint k, float w, float total, uint pos, vec3 p, vec3 n) {
+    if (!(total > 0.0) || !(w > 0.0)) return 0.0;
     uint leaf;
-    return cut_w[k] / total * descent_pmf(node, pos, p, n, IN_CLUSTER == 1u, leaf);
+    return w / total * descent_pmf(cuts[o + 1u + k], pos, p, n, IN_CLUSTER == 1u, leaf);
+}
+
+// The probability that pick_in_cut (cut at offset o, weights cut_w summing to total) returns
+// the light at position pos of the tree order: the slot holding it, found by binary search
+// over the slots' range starts (a cut covers the order with disjoint ranges in order), times
+// the descent inside. Mirror of src/lights/regions.rs `pmf_in_cut`.
+float pmf_in_cut(uint o, float total, uint pos, vec3 p, vec3 n) {
+    uint k = slot_holding(o, pos);
+    return k == NO_SLOT_IN_CUT ? 0.0 : pmf_in_slot(o, k, cut_w[k], total, pos, p, n);
 }
 
 #endif
