@@ -44,6 +44,7 @@ float light_pmf_of_cut(uint o, float total, vec3 p, vec3 n, uint li, uint count,
         w = light_importance(light_nodes[cuts[o + 1u + k]], p, n);
     } else {
         float cv = 0.0;
+        sel_prior_scale = learn[0].prior_scale;
         w = bayes_slot_weight(o, k, p, n, brdf, cv);
     }
     return pmf_in_slot(o, k, w, total, pos, p, n);
