@@ -20,19 +20,26 @@ root="$PWD"
 pack="$root/.device"
 mode="${1:-run}"
 
+# Builds the test executables and lists them as "KIND-NAME<TAB>PATH", one per test target
+# (lib-lightlearn, bin-lightlearn, test-cli, ...: the library's and the binary's unit tests
+# share the crate's name).
+list_tests() {
+  cargo test --release --no-run --message-format=json |
+    python3 -c '
+import json, sys
+for line in sys.stdin:
+    m = json.loads(line)
+    if m.get("reason") == "compiler-artifact" and m.get("executable") and m["profile"]["test"]:
+        print(m["target"]["kind"][0] + "-" + m["target"]["name"] + "\t" + m["executable"])'
+}
+
 if [ "$mode" = prepare ]; then
   set -e
   grep -qx '/.device/' .git/info/exclude 2>/dev/null || echo '/.device/' >>.git/info/exclude
   rm -rf "$pack" && mkdir -p "$pack/bin" "$pack/debs"
   cargo build --release --quiet
   # The test executables cargo would run, one per test target (cargo prints them as JSON).
-  cargo test --release --no-run --message-format=json 2>/dev/null |
-    python3 -c '
-import json, sys
-for line in sys.stdin:
-    m = json.loads(line)
-    if m.get("reason") == "compiler-artifact" and m.get("executable") and m["profile"]["test"]:
-        print(m["target"]["kind"][0] + "-" + m["target"]["name"] + "\t" + m["executable"])' >"$pack/tests.tsv"
+  list_tests 2>/dev/null >"$pack/tests.tsv"
   cp target/release/lightlearn "$pack/bin/lightlearn"
   while IFS=$'\t' read -r name exe; do cp "$exe" "$pack/bin/test-$name"; done <"$pack/tests.tsv"
   [ "$(cut -f1 "$pack/tests.tsv" | sort | uniq -d)" = "" ] || { echo "device_check: two test targets share a name" >&2; exit 1; }
@@ -116,13 +123,7 @@ else
   }
   say "building with cargo"
   cargo build --release --quiet 2>>"$log" || { say "build failed"; exit 1; }
-  cargo test --release --no-run --message-format=json 2>>"$log" |
-    python3 -c '
-import json, sys
-for line in sys.stdin:
-    m = json.loads(line)
-    if m.get("reason") == "compiler-artifact" and m.get("executable") and m["profile"]["test"]:
-        print(m["target"]["kind"][0] + "-" + m["target"]["name"] + "\t" + m["executable"])' >"$out/tests.tsv"
+  list_tests 2>>"$log" >"$out/tests.tsv"
   tests=$(cut -f1 "$out/tests.tsv")
   test_exe() { awk -F'\t' -v n="$1" '$1 == n { print $2 }' "$out/tests.tsv"; }
 fi
