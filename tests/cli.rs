@@ -319,7 +319,7 @@ fn profile_times_every_stage_of_a_learning_path_tracer() {
         "shadow rays",
         "MIS light pmf",
         "statistics atomics",
-        "folds between passes",
+        "folds and region growth between passes",
         "all of the above",
     ] {
         let line = text

@@ -40,7 +40,7 @@ fn variants(settings: &RenderSettings) -> Vec<(&'static str, u32, bool)> {
     }
     if learning {
         v.push(("statistics atomics", KNOCK_OBSERVE, true));
-        v.push(("folds between passes", 0, false));
+        v.push(("folds and region growth between passes", 0, false));
     }
     let all = KNOCK_SELECT | KNOCK_SHADOW | KNOCK_MIS_PMF | KNOCK_OBSERVE;
     v.push(("all of the above", all, false));
@@ -61,7 +61,8 @@ pub fn profile(
     for (name, mask, folds) in variants(settings) {
         let mut s = settings.clone();
         if !folds {
-            // No fold inside the timed passes (the coefficients are set once, untimed).
+            // No fold inside the timed passes (the coefficients are set once, untimed), and so
+            // no region growth either: it waits for a fold boundary.
             s.learn.update_every = passes + 1;
         }
         let mut best = f64::INFINITY;
