@@ -1,6 +1,6 @@
 // BVH traversal. The including kernel declares `bvh_nodes` (BvhNode[]) and `bvh_tris`
-// (BvhTri[]). Same loop as Bvh::traverse in src/accel/bvh.rs (both children's leaves in one inner loop
-// here, tested in the same order: the same hits).
+// (BvhTri[]). Same loop as Bvh::traverse in src/accel/bvh.rs (here both children's leaves
+// in one inner loop, tested in the same order: the same hits).
 #ifndef BVH_GLSL
 #define BVH_GLSL
 
@@ -37,15 +37,6 @@ float intersect_tri(BvhTri tri, vec3 o, vec3 d, float tmin, float tmax) {
     if (v < 0.0 || u + v > 1.0) return -1.0;
     float t = dot(tri.e2, q) * inv_det;
     return (t > tmin && t < tmax) ? t : -1.0;
-}
-
-// Tests the triangles of a leaf, keeping the closest hit in (best_t, best).
-void intersect_leaf(uint leaf_ref, uint count, vec3 o, vec3 d, float tmin, inout float best_t, inout uint best) {
-    uint first = leaf_ref & ~BVH_LEAF_BIT;
-    for (uint i = first; i < first + count; ++i) {
-        float t = intersect_tri(bvh_tris[i], o, d, tmin, best_t);
-        if (t >= 0.0) { best_t = t; best = i; }
-    }
 }
 
 // Closest hit (any_hit = false) or the first hit found (shadow rays) with t in (tmin, tmax).
