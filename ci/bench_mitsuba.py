@@ -64,6 +64,11 @@ def main():
     if not pathlib.Path(env["DRJIT_LIBLLVM_PATH"]).exists():
         sys.exit(f"bench_mitsuba.py: {env['DRJIT_LIBLLVM_PATH']} is missing: "
                  "`apt-get install libllvm19` (or set DRJIT_LIBLLVM_PATH)")
+    for scene in a.scenes:
+        if not pathlib.Path(scene).is_file():
+            sys.exit(f"bench_mitsuba.py: error: {scene}: no such scene file")
+    if min(a.width, a.height, a.spp, a.repeats) < 1:
+        sys.exit("bench_mitsuba.py: error: --width, --height, --spp and --repeats must be at least 1")
     samples = a.width * a.height * a.spp
     print(f"{a.width}x{a.height}, {a.spp} spp, direct light, uniform light selection; "
           f"render seconds, fastest of {a.repeats}")
@@ -108,4 +113,8 @@ def mean_of_exr(path):
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except subprocess.CalledProcessError as e:
+        # The failing tool has printed its own one-line error above.
+        sys.exit(f"bench_mitsuba.py: error: {e.cmd[0]} {e.cmd[1] if len(e.cmd) > 1 else ''} failed (exit {e.returncode})")
