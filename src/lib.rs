@@ -17,6 +17,7 @@ pub mod reference;
 pub mod render;
 pub mod rng;
 pub mod scene;
+pub mod variance;
 
 /// The committed default scene, built into the binary so `lightlearn render` works from any
 /// folder (source: scenes/default.glb, see scenes/README.md).

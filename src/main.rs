@@ -49,6 +49,7 @@ fn main() -> ExitCode {
         Command::Scene(a) => cmd_scene(a),
         Command::BenchRays(a) => cmd_bench_rays(a),
         Command::Profile(a) => a.run(&mut Terminal::new(false)).map(|t| println!("{t}")),
+        Command::Variance(a) => a.run(&mut Terminal::new(false)).map(|t| println!("{t}")),
         Command::Merge(a) => commands::merge::images(&a.parts, &a.out).map(|o| {
             eprintln!(
                 "wrote {} (+ .png, .json): {} parts, {} spp",

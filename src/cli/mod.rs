@@ -19,9 +19,11 @@ use lightlearn::scene::families::{Family, FamilyParams};
 mod animate;
 mod preview;
 mod profile;
+mod variance;
 pub use animate::{AnimateArgs, FarmArgs};
 pub use preview::PreviewArgs;
 pub use profile::ProfileArgs;
+pub use variance::VarianceArgs;
 
 pub(crate) fn sampler_parser() -> impl TypedValueParser<Value = LightSampler> {
     PossibleValuesParser::new(
@@ -89,6 +91,10 @@ pub enum Command {
     /// of the kernel knocked out at a time (light selection, shadow rays, MIS pmf, statistics
     /// atomics, folds); a stage's cost is what leaving it out saves.
     Profile(ProfileArgs),
+    /// Diagnostic: where each sampler's variance per sample comes from — the cluster choice,
+    /// the light inside the cluster, the point on the light, the pixel footprint — from exact
+    /// per-light sums at fixed first hits, checked against two renders of other seeds.
+    Variance(VarianceArgs),
     /// Combine renders of one image made apart (other seeds: farm chunks) into the image
     /// their summed samples give, weighted by each part's spp from its JSON.
     Merge(MergeArgs),

@@ -10,6 +10,7 @@ pub mod merge;
 pub mod reference;
 pub mod render;
 pub mod scene;
+pub mod variance;
 
 use std::path::Path;
 use std::sync::Arc;

@@ -79,21 +79,71 @@ fn radiance(
     area_samples: u32,
     rng: &mut SplitMix64,
 ) -> Vec3 {
-    let Some((t, prim)) = bvh.intersect(o, d, 0.0, f32::INFINITY) else {
+    let Some(hit) = first_hit(scene, bvh, o, d) else {
         return Vec3::ZERO;
     };
+    let mut l = hit.emission;
+    for light in 0..scene.lights.len() {
+        let s = light_samples(scene, bvh, &hit, light, eps, area_samples, rng);
+        l += hit.brdf * s.sum / s.count as f32;
+    }
+    l
+}
+
+/// The first surface a camera ray meets, shaded as render.comp shades it: Lambertian,
+/// two-sided (the normal faces the ray), emission only on an emitter's front unless the
+/// material is double-sided.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    pub x: Vec3,
+    /// The geometric normal turned towards the ray.
+    pub n: Vec3,
+    /// albedo / π.
+    pub brdf: Vec3,
+    /// The radiance the camera sees emitted at x.
+    pub emission: Vec3,
+}
+
+pub fn first_hit(scene: &Scene, bvh: &Bvh, o: Vec3, d: Vec3) -> Option<Hit> {
+    let (t, prim) = bvh.intersect(o, d, 0.0, f32::INFINITY)?;
     let [a, b, c] = scene.triangles[prim as usize];
     let ng = (b - a).cross(c - a).normalize();
     let front = ng.dot(d) < 0.0;
     let m = &scene.materials[scene.triangle_material[prim as usize] as usize];
-    let mut l = if front || m.double_sided {
-        m.emission
-    } else {
-        Vec3::ZERO
-    };
-    let n = if front { ng } else { -ng };
-    let x = o + t * d;
-    let brdf = m.base_color / std::f32::consts::PI;
+    Some(Hit {
+        x: o + t * d,
+        n: if front { ng } else { -ng },
+        brdf: m.base_color / std::f32::consts::PI,
+        emission: if front || m.double_sided {
+            m.emission
+        } else {
+            Vec3::ZERO
+        },
+    })
+}
+
+/// The one-sample next-event estimates of one light at a hit, without the BRDF and the
+/// light-selection pmf: L_e G V / p(y) (radiance × cosθ_x × cosθ_y / r² / p(y)), each of
+/// `count` samples (1, exact, for point and spot lights; `area_samples` uniform area
+/// samples for a triangle, two random numbers each) summed, with the sum of the squared
+/// luminances of BRDF × sample and how many samples were 0.
+pub struct LightSamples {
+    pub sum: Vec3,
+    pub sum_sq_lum: f64,
+    pub zeros: u32,
+    pub count: u32,
+}
+
+pub fn light_samples(
+    scene: &Scene,
+    bvh: &Bvh,
+    hit: &Hit,
+    light: usize,
+    eps: f32,
+    area_samples: u32,
+    rng: &mut SplitMix64,
+) -> LightSamples {
+    let (x, n) = (hit.x, hit.n);
     // Unoccluded contribution of a point y with "intensity" term `e` (already / r²).
     let visible = |y: Vec3, area: bool| -> Option<(Vec3, f32, f32)> {
         let to = y - x;
@@ -113,52 +163,69 @@ fn radiance(
         }
         Some((wi, dist, cos_x))
     };
-    for light in &scene.lights {
-        match *light {
-            Light::Point {
-                position,
-                intensity,
-            } => {
-                if let Some((_, dist, cos_x)) = visible(position, false) {
-                    l += brdf * intensity * cos_x / (dist * dist);
-                }
-            }
-            Light::Spot {
-                position,
-                direction,
-                intensity,
-                cos_inner,
-                cos_outer,
-            } => {
-                if let Some((wi, dist, cos_x)) = visible(position, false) {
+    let mut out = LightSamples {
+        sum: Vec3::ZERO,
+        sum_sq_lum: 0.0,
+        zeros: 0,
+        count: 0,
+    };
+    let add = |v: Vec3, out: &mut LightSamples| {
+        let lum = crate::scene::luminance(hit.brdf * v) as f64;
+        out.sum += v;
+        out.sum_sq_lum += lum * lum;
+        out.zeros += (lum <= 0.0) as u32;
+        out.count += 1;
+    };
+    match scene.lights[light] {
+        Light::Point {
+            position,
+            intensity,
+        } => {
+            let v = match visible(position, false) {
+                Some((_, dist, cos_x)) => intensity * cos_x / (dist * dist),
+                None => Vec3::ZERO,
+            };
+            add(v, &mut out);
+        }
+        Light::Spot {
+            position,
+            direction,
+            intensity,
+            cos_inner,
+            cos_outer,
+        } => {
+            let v = match visible(position, false) {
+                Some((wi, dist, cos_x)) => {
                     let f = spot_falloff(direction.dot(-wi), cos_inner, cos_outer);
-                    l += brdf * intensity * f * cos_x / (dist * dist);
+                    intensity * f * cos_x / (dist * dist)
                 }
-            }
-            Light::Triangle { triangle } => {
-                let [p0, p1, p2] = scene.triangles[triangle as usize];
-                let cross = (p1 - p0).cross(p2 - p0);
-                let area = 0.5 * cross.length();
-                let ny = cross.normalize();
-                let (emission, two) = scene.triangle_emission(triangle);
-                let mut acc = Vec3::ZERO;
-                for _ in 0..area_samples {
-                    let su = rng.f32().sqrt();
-                    let (b0, b1) = (1.0 - su, rng.f32() * su);
-                    let y = b0 * p0 + b1 * p1 + (1.0 - b0 - b1) * p2;
-                    if let Some((wi, dist, cos_x)) = visible(y, true) {
-                        let mut cos_y = ny.dot(-wi);
-                        if two {
-                            cos_y = cos_y.abs();
-                        }
-                        if cos_y > 0.0 {
-                            acc += emission * cos_x * cos_y * area / (dist * dist);
-                        }
+                None => Vec3::ZERO,
+            };
+            add(v, &mut out);
+        }
+        Light::Triangle { triangle } => {
+            let [p0, p1, p2] = scene.triangles[triangle as usize];
+            let cross = (p1 - p0).cross(p2 - p0);
+            let area = 0.5 * cross.length();
+            let ny = cross.normalize();
+            let (emission, two) = scene.triangle_emission(triangle);
+            for _ in 0..area_samples {
+                let su = rng.f32().sqrt();
+                let (b0, b1) = (1.0 - su, rng.f32() * su);
+                let y = b0 * p0 + b1 * p1 + (1.0 - b0 - b1) * p2;
+                let mut v = Vec3::ZERO;
+                if let Some((wi, dist, cos_x)) = visible(y, true) {
+                    let mut cos_y = ny.dot(-wi);
+                    if two {
+                        cos_y = cos_y.abs();
+                    }
+                    if cos_y > 0.0 {
+                        v = emission * cos_x * cos_y * area / (dist * dist);
                     }
                 }
-                l += brdf * acc / area_samples as f32;
+                add(v, &mut out);
             }
         }
     }
-    l
+    out
 }

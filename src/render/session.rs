@@ -450,6 +450,21 @@ impl<'a> Session<'a> {
         self.gpu.radiance_scale
     }
 
+    /// The regions' index and cuts as the kernel uses them now (the host's copy).
+    pub fn cuts(&self) -> &crate::lights::regions::Cuts {
+        &self.learned.cuts
+    }
+
+    /// The statistics the next pass samples by (learned samplers; empty otherwise): the
+    /// totals as of the last fold, without the window that is still open (unlike
+    /// [`Session::snapshot`], which folds it in).
+    pub fn sampling_stats(&self) -> Result<Vec<SlotStats>> {
+        if !self.is_learning() {
+            return Ok(Vec::new());
+        }
+        self.learned.stats.read()
+    }
+
     /// How much the region of each (point, normal) has learned: the observations summed
     /// over its cut's slots, or None where the region has no cut of its own (it uses the
     /// shared fallback cut). Samplers that do not learn have no observations: Some(0).

@@ -1,0 +1,594 @@
+//! `lightlearn variance`: splits each sampler's variance per sample into the cluster choice,
+//! the light inside the cluster, the point on the light and the pixel footprint
+//! (src/variance/mod.rs), at fixed first hits, and measures the same variance from two
+//! renders of other seeds, so the split is checked against what the kernel does.
+//!
+//! Rows: every sampler of `--samplers` (a learned one learning from scratch: its pmfs are
+//! evaluated on the statistics each pass sampled by, at checkpoints about two per octave of
+//! passes, each standing for the passes up to the next), and with `--converge N` a `bayes`
+//! row whose statistics were learned over N spp and then frozen.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::{bail, Context as _, Result};
+use rayon::prelude::*;
+use serde_json::json;
+
+use super::{check_depth, check_size, prepare, Ui};
+use crate::gpu::{Context, ContextOptions};
+use crate::learning::LearnSettings;
+use crate::lights::regions::RegionSettings;
+use crate::reference::first_hit;
+use crate::render::{camera_params, Budget, GpuScene, LightSampler, RenderSettings, Session};
+use crate::rng::SplitMix64;
+use crate::scene::{luminance, Scene};
+use crate::variance::{hit_terms, pixel_terms, HitTerms, Learned, PixelTerms, Selection};
+
+pub struct VarianceRequest {
+    pub scene: Option<PathBuf>,
+    pub samplers: Vec<LightSampler>,
+    /// A frozen `bayes` row after this many spp of learning.
+    pub converge: Option<u32>,
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel of each measuring render (and of the learning from scratch).
+    pub spp: u32,
+    pub seed: u32,
+    /// Every `stride`-th pixel in x and y is decomposed.
+    pub stride: u32,
+    /// Jittered first hits per decomposed pixel.
+    pub hits: u32,
+    /// Shadow rays per triangle light at each hit.
+    pub area_samples: u32,
+    /// Above 1: the measuring renders also run at this depth (GI), for the split between
+    /// direct light at the first vertex and the rest of the path.
+    pub max_depth: u32,
+    pub regions: RegionSettings,
+    pub learn: LearnSettings,
+    pub device: ContextOptions,
+    pub out: Option<PathBuf>,
+}
+
+/// One row: the decomposition summed over the decomposed pixels, and the measurement.
+#[derive(Clone, Debug)]
+pub struct Row {
+    pub name: String,
+    pub sum: PixelTerms,
+    pub pixels: Vec<PixelTerms>,
+    /// Σ over the decomposed pixels of spp · (a − b)² / 2 from two renders of other seeds
+    /// (independent jitter): the variance per sample the kernel shows.
+    pub measured: f64,
+    /// Per decomposed pixel: spp · (a − b)² / 2 (the terms of `measured`).
+    pub measured_pixels: Vec<f64>,
+    /// The same with the renderer's own jitter, stratified over the passes (R2): the
+    /// footprint term it leaves is this less the selection terms.
+    pub measured_r2: f64,
+    /// The same at `max_depth` (None for direct light only), R2 jitter.
+    pub measured_gi: Option<f64>,
+}
+
+impl Row {
+    /// The largest single pixel's share of `measured`: near 1 the measurement (and any
+    /// equal-spp ratio on this image) rests on a pixel or two of a heavy-tailed estimator.
+    pub fn top_pixel_share(&self) -> f64 {
+        let top = self.measured_pixels.iter().copied().fold(0.0, f64::max);
+        if self.measured > 0.0 {
+            top / self.measured
+        } else {
+            0.0
+        }
+    }
+}
+
+pub struct VarianceOutcome {
+    pub rows: Vec<Row>,
+    pub table: String,
+}
+
+fn check(a: &VarianceRequest) -> Result<()> {
+    check_size(a.width, a.height)?;
+    check_depth(a.max_depth)?;
+    if a.samplers.is_empty() && a.converge.is_none() {
+        bail!("--samplers needs at least one sampler (or give --converge N)");
+    }
+    if !(2..=65536).contains(&a.spp) {
+        bail!("--spp {} is out of range: use 2..=65536", a.spp);
+    }
+    if !(1..=64).contains(&a.stride) || !(1..=256).contains(&a.hits) {
+        bail!("--stride takes 1..=64 and --hits 1..=256");
+    }
+    if !(2..=65536).contains(&a.area_samples) {
+        bail!(
+            "--area-samples {} is out of range: use 2..=65536",
+            a.area_samples
+        );
+    }
+    if let Some(n) = a.converge {
+        if !(1..=1 << 20).contains(&n) {
+            bail!("--converge {n} is out of range: use 1..=1048576 spp");
+        }
+    }
+    if a.learn.brdf_aware || a.learn.control_variates {
+        bail!("variance splits the plain estimator: drop --brdf-aware and --control-variates");
+    }
+    Ok(())
+}
+
+/// The scene's exact terms need a BRDF the CPU evaluates: base colour / π.
+fn check_scene(scene: &Scene) -> Result<()> {
+    if let Some(m) = scene
+        .materials
+        .iter()
+        .find(|m| !m.is_lambertian() || m.base_color_texture.is_some())
+    {
+        bail!(
+            "{}: material '{}' is glossy or textured; `variance` evaluates untextured Lambertian materials only (give it KHR_materials_specular specularFactor 0, metallicFactor 0 and no baseColorTexture)",
+            scene.source,
+            m.name
+        );
+    }
+    if scene.lights.is_empty() {
+        bail!(
+            "{}: the scene has no lights: there is no light selection to split",
+            scene.source
+        );
+    }
+    Ok(())
+}
+
+pub fn run(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> {
+    check(a)?;
+    let created: Vec<PathBuf> = a
+        .out
+        .iter()
+        .flat_map(|o| o.ancestors())
+        .take_while(|p| !p.as_os_str().is_empty() && !p.exists())
+        .map(Path::to_path_buf)
+        .collect();
+    let result = run_checked(a, ui);
+    if result.is_err() {
+        for d in &created {
+            let _ = std::fs::remove_dir(d);
+        }
+    }
+    result
+}
+
+fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> {
+    if let Some(out) = &a.out {
+        std::fs::create_dir_all(out)
+            .with_context(|| format!("cannot create the output folder '{}'", out.display()))?;
+        crate::io::check_writable(&out.join("variance.json"))?;
+    }
+    let (scene, ctx, gpu, _) = prepare(a.scene.as_deref(), &a.device, ui)?;
+    check_scene(&scene)?;
+    ui.message(&format!(
+        "{}: {} lights; decomposing {}×{} pixels of {}×{} with {} hits each, {} shadow rays per triangle light",
+        scene.source,
+        scene.lights.len(),
+        a.width.div_ceil(a.stride),
+        a.height.div_ceil(a.stride),
+        a.width,
+        a.height,
+        a.hits,
+        a.area_samples
+    ));
+    let hits = first_hits(&scene, &gpu, a);
+    let settings = |sampler: LightSampler, depth: u32| RenderSettings {
+        width: a.width,
+        height: a.height,
+        budget: Budget::Samples(a.spp),
+        seed: a.seed,
+        sampler,
+        regions: a.regions,
+        learn: a.learn,
+        // The decomposition's footprint term is that of independent jitter.
+        stratified: false,
+        max_depth: depth,
+        resume: None,
+    };
+    let mut rows = Vec::new();
+    for &sampler in &a.samplers {
+        ui.progress(sampler.name(), 0, 0.0);
+        let s = settings(sampler, 1);
+        let (pixels, first) = if sampler.learned() {
+            learning_terms(&ctx, &scene, &gpu, &s, &hits, ui)?
+        } else {
+            let mut session = Session::new(&ctx, &scene, &gpu, &s)?;
+            session.run_passes(a.spp)?;
+            let pixels = evaluate(&selection(&scene, &gpu, &session, sampler), &hits);
+            (pixels, session.image()?)
+        };
+        let row = measure(
+            &ctx,
+            a,
+            &scene,
+            &gpu,
+            sampler.name().into(),
+            pixels,
+            first,
+            &s,
+            ui,
+        )?;
+        rows.push(row);
+        ui.phase_done();
+    }
+    if let Some(n) = a.converge {
+        ui.progress("bayes, converging", 0, 0.0);
+        let mut s = settings(LightSampler::Bayes, 1);
+        s.seed = a.seed.wrapping_add(2);
+        let mut learner = Session::new(&ctx, &scene, &gpu, &s)?;
+        learner.run_passes(n)?;
+        let saved = learner.snapshot()?.expect("bayes learns");
+        drop(learner);
+        // Frozen: no fold (and so no growth) within the measuring renders.
+        s.seed = a.seed;
+        s.learn.update_every = u32::MAX;
+        s.resume = Some(Arc::new(saved));
+        let mut session = Session::new(&ctx, &scene, &gpu, &s)?;
+        session.run_passes(a.spp)?;
+        let stats = session.sampling_stats()?;
+        let sel = Selection::Cuts {
+            tree: &gpu.tree,
+            cuts: session.cuts(),
+            learned: Some(Learned {
+                stats: &stats,
+                settings: &s.learn,
+                donikian: false,
+            }),
+        };
+        let pixels = evaluate(&sel, &hits);
+        let first = session.image()?;
+        drop(session);
+        let row = measure(
+            &ctx,
+            a,
+            &scene,
+            &gpu,
+            format!("bayes, {n} spp learned, frozen"),
+            pixels,
+            first,
+            &s,
+            ui,
+        )?;
+        rows.push(row);
+        ui.phase_done();
+    }
+    let table = table(a, &rows);
+    if let Some(out) = &a.out {
+        write_outputs(out, a, &rows)?;
+    }
+    Ok(VarianceOutcome { rows, table })
+}
+
+/// `hits` jittered first hits of every decomposed pixel, in row-major order of those pixels.
+fn first_hits(scene: &Scene, gpu: &GpuScene, a: &VarianceRequest) -> Vec<Vec<Option<HitTerms>>> {
+    let cam = camera_params(scene, a.width, a.height);
+    let v = |x: [f32; 4]| glam::Vec3::new(x[0], x[1], x[2]);
+    let (pos, cu, cv, cw) = (v(cam.cam_pos), v(cam.cam_u), v(cam.cam_v), v(cam.cam_w));
+    let pixels = decomposed_pixels(a);
+    pixels
+        .par_iter()
+        .map(|&(px, py)| {
+            let p = (py * a.width + px) as u64;
+            let mut rng =
+                SplitMix64(a.seed as u64 ^ p.wrapping_mul(0x9e37_79b9_7f4a_7c15) ^ 0x5641_5249);
+            (0..a.hits)
+                .map(|_| {
+                    let nx = (px as f32 + rng.f32()) / a.width as f32 * 2.0 - 1.0;
+                    let ny = 1.0 - (py as f32 + rng.f32()) / a.height as f32 * 2.0;
+                    let dir = (cw + nx * cu + ny * cv).normalize();
+                    first_hit(scene, &gpu.bvh, pos, dir).map(|h| {
+                        hit_terms(scene, &gpu.bvh, &h, gpu.ray_eps, a.area_samples, &mut rng)
+                    })
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn decomposed_pixels(a: &VarianceRequest) -> Vec<(u32, u32)> {
+    let mut v = Vec::new();
+    for py in (0..a.height).step_by(a.stride as usize) {
+        for px in (0..a.width).step_by(a.stride as usize) {
+            v.push((px, py));
+        }
+    }
+    v
+}
+
+fn evaluate(sel: &Selection, hits: &[Vec<Option<HitTerms>>]) -> Vec<PixelTerms> {
+    hits.par_iter().map(|h| pixel_terms(h, sel)).collect()
+}
+
+/// A non-learning sampler's pmfs (`wang` with the session's cuts).
+fn selection<'a>(
+    scene: &Scene,
+    gpu: &'a GpuScene,
+    session: &'a Session,
+    sampler: LightSampler,
+) -> Selection<'a> {
+    match sampler {
+        LightSampler::Uniform => Selection::Uniform {
+            count: scene.lights.len() as u32,
+        },
+        LightSampler::Power => Selection::Power {
+            pmf: crate::lights::alias_pmf(&crate::lights::alias_table(
+                &crate::lights::power_weights(scene),
+            )),
+        },
+        LightSampler::Lightbvh => Selection::LightBvh { tree: &gpu.tree },
+        LightSampler::Wang => Selection::Cuts {
+            tree: &gpu.tree,
+            cuts: session.cuts(),
+            learned: None,
+        },
+        LightSampler::Donikian | LightSampler::Bayes => {
+            unreachable!("learned samplers: learning_terms")
+        }
+    }
+}
+
+/// The passes at which a learning sampler's statistics are read: 0, 1, 2, 3, 4, 6, 8, 12, …
+/// (about two per octave) below `spp`.
+fn checkpoints(spp: u32) -> Vec<u32> {
+    let mut v = vec![0u32];
+    let mut k = 1u32;
+    while k < spp {
+        v.push(k);
+        let half = k + k / 2;
+        if half > k && half < spp && half < 2 * k {
+            v.push(half);
+        }
+        k *= 2;
+    }
+    v.dedup();
+    v
+}
+
+/// A learned sampler from scratch: the mean over its passes of each pixel's terms, each
+/// checkpoint's statistics standing for the passes up to the next; and the session's image.
+fn learning_terms(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    gpu: &GpuScene,
+    s: &RenderSettings,
+    hits: &[Vec<Option<HitTerms>>],
+    ui: &mut dyn Ui,
+) -> Result<(Vec<PixelTerms>, Vec<[f32; 3]>)> {
+    let mut session = Session::new(ctx, scene, gpu, s)?;
+    let spp = s_spp(s);
+    let cps = checkpoints(spp);
+    let mut acc = vec![PixelTerms::default(); hits.len()];
+    for (i, &c) in cps.iter().enumerate() {
+        let next = cps.get(i + 1).copied().unwrap_or(spp);
+        let stats = session.sampling_stats()?;
+        let sel = Selection::Cuts {
+            tree: &gpu.tree,
+            cuts: session.cuts(),
+            learned: Some(Learned {
+                stats: &stats,
+                settings: &s.learn,
+                donikian: s.sampler == LightSampler::Donikian,
+            }),
+        };
+        let w = (next - c) as f64 / spp as f64;
+        for (a, p) in acc.iter_mut().zip(evaluate(&sel, hits)) {
+            a.mix(&p, w);
+        }
+        session.run_passes(next - c)?;
+        ui.progress(s.sampler.name(), next, next as f64 / spp as f64);
+    }
+    Ok((acc, session.image()?))
+}
+
+fn s_spp(s: &RenderSettings) -> u32 {
+    match s.budget {
+        Budget::Samples(n) => n,
+        _ => unreachable!("variance renders by samples"),
+    }
+}
+
+/// The row: `first` (this sampler's render at `s`) against a second seed's, and at
+/// `max_depth` two more when GI is asked for.
+#[allow(clippy::too_many_arguments)]
+fn measure(
+    ctx: &Arc<Context>,
+    a: &VarianceRequest,
+    scene: &Scene,
+    gpu: &GpuScene,
+    name: String,
+    pixels: Vec<PixelTerms>,
+    first: Vec<[f32; 3]>,
+    s: &RenderSettings,
+    ui: &mut dyn Ui,
+) -> Result<Row> {
+    let render = |seed: u32, depth: u32, stratified: bool| -> Result<Vec<[f32; 3]>> {
+        let mut s = s.clone();
+        s.seed = seed;
+        s.max_depth = depth;
+        s.stratified = stratified;
+        let mut session = Session::new(ctx, scene, gpu, &s)?;
+        session.run_passes(a.spp)?;
+        session.image()
+    };
+    ui.progress(&name, a.spp, 0.5);
+    let second = render(a.seed.wrapping_add(1), 1, false)?;
+    let measured_pixels = two_seed_pixels(a, &first, &second);
+    let measured = measured_pixels.iter().sum();
+    let x = render(a.seed, 1, true)?;
+    let y = render(a.seed.wrapping_add(1), 1, true)?;
+    let measured_r2 = two_seed_variance(a, &x, &y);
+    let measured_gi = if a.max_depth > 1 {
+        let x = render(a.seed, a.max_depth, true)?;
+        let y = render(a.seed.wrapping_add(1), a.max_depth, true)?;
+        Some(two_seed_variance(a, &x, &y))
+    } else {
+        None
+    };
+    let mut sum = PixelTerms::default();
+    for p in &pixels {
+        sum.add(p);
+    }
+    Ok(Row {
+        name,
+        sum,
+        pixels,
+        measured,
+        measured_pixels,
+        measured_r2,
+        measured_gi,
+    })
+}
+
+/// Σ over the decomposed pixels of spp · (a − b)²/2 (luminance): each pixel's variance per
+/// sample, estimated from two independent renders.
+fn two_seed_variance(a: &VarianceRequest, x: &[[f32; 3]], y: &[[f32; 3]]) -> f64 {
+    two_seed_pixels(a, x, y).iter().sum()
+}
+
+fn two_seed_pixels(a: &VarianceRequest, x: &[[f32; 3]], y: &[[f32; 3]]) -> Vec<f64> {
+    decomposed_pixels(a)
+        .iter()
+        .map(|&(px, py)| {
+            let i = (py * a.width + px) as usize;
+            let d =
+                luminance(glam::Vec3::from(x[i])) as f64 - luminance(glam::Vec3::from(y[i])) as f64;
+            a.spp as f64 * d * d / 2.0
+        })
+        .collect()
+}
+
+fn table(a: &VarianceRequest, rows: &[Row]) -> String {
+    let wang = rows
+        .iter()
+        .find(|r| r.name == "wang")
+        .map(|r| r.sum.total());
+    let mut t = String::new();
+    t += &format!(
+        "Variance per sample, luminance, summed over {} pixels ({} hits each); shares of the predicted total\n\n",
+        rows.first().map_or(0, |r| r.pixels.len()),
+        a.hits
+    );
+    t += "| sampler | predicted | measured | ÷ wang | cluster | light in cluster | point on light | footprint (at emitter pixels) | measured, R2 jitter | R2 footprint | zero samples (lit hits) | dark hits | top pixel's share of measured |";
+    if a.max_depth > 1 {
+        t += &format!(" measured, depth {} | later vertices |", a.max_depth);
+    }
+    t += "\n|---|---|---|---|---|---|---|---|---|---|---|---|---|";
+    if a.max_depth > 1 {
+        t += "---|---|";
+    }
+    t += "\n";
+    for r in rows {
+        let s = &r.sum;
+        let tot = s.total();
+        let pct = |v: f64| format!("{:.1} %", 100.0 * v / tot);
+        let ratio = wang.map_or("—".into(), |w| format!("{:.2}×", w / tot));
+        let selection = s.cluster + s.light + s.point;
+        t += &format!(
+            "| {} | {:.3e} | {:.3e} | {} | {} | {} | {} | {} ({}) | {:.3e} | {:.1} % | {:.1} % | {:.1} % | {:.1} % |",
+            r.name,
+            tot,
+            r.measured,
+            ratio,
+            pct(s.cluster),
+            pct(s.light),
+            pct(s.point),
+            pct(s.jitter),
+            pct(s.jitter_emitter),
+            r.measured_r2,
+            100.0 * (r.measured_r2 - selection) / r.measured_r2,
+            100.0 * s.zero_lit,
+            100.0 * s.dark_hits as f64 / s.hits.max(1) as f64,
+            100.0 * r.top_pixel_share(),
+        );
+        if let Some(g) = r.measured_gi {
+            t += &format!(" {:.3e} | {:.1} % |", g, 100.0 * (g - r.measured) / g);
+        }
+        t += "\n";
+    }
+    if rows.iter().any(|r| r.top_pixel_share() > 0.2) {
+        t += "\nwarning: one pixel holds over 20 % of a measured variance: the estimator is heavy-tailed there, so measured and predicted can disagree widely (more --hits sample the hits better; more pixels the measurement)\n";
+    }
+    if rows.iter().any(|r| r.sum.missed > 0.0) {
+        t += "\nwarning: a sampler gave some light probability 0 (biased): see `missed` in variance.json\n";
+    }
+    t
+}
+
+fn write_outputs(out: &Path, a: &VarianceRequest, rows: &[Row]) -> Result<()> {
+    let (w, h) = (a.width.div_ceil(a.stride), a.height.div_ceil(a.stride));
+    let mut set = crate::io::FileSet::default();
+    let mut json_rows = Vec::new();
+    for (i, r) in rows.iter().enumerate() {
+        let file = format!("row{i}.exr");
+        set.add_with(&out.join(&file), |tmp| write_maps(tmp, w, h, r))?;
+        let s = &r.sum;
+        json_rows.push(json!({
+            "name": r.name,
+            "maps": file,
+            "predicted": s.total(),
+            "measured": r.measured,
+            "measured_r2": r.measured_r2,
+            "top_pixel_share_of_measured": r.top_pixel_share(),
+            "measured_gi": r.measured_gi,
+            "cluster": s.cluster,
+            "light": s.light,
+            "point": s.point,
+            "footprint": s.jitter,
+            "footprint_at_emitter_pixels": s.jitter_emitter,
+            "missed": s.missed,
+            "zero_share_lit_hits": s.zero_lit,
+            "dark_hits": s.dark_hits,
+            "hits": s.hits,
+        }));
+    }
+    let report = json!({
+        "scene": a.scene.as_ref().map(|p| p.display().to_string()),
+        "width": a.width,
+        "height": a.height,
+        "spp": a.spp,
+        "seed": a.seed,
+        "stride": a.stride,
+        "hits_per_pixel": a.hits,
+        "area_samples": a.area_samples,
+        "max_depth": a.max_depth,
+        "map_channels": ["cluster", "light", "point", "footprint", "value", "measured"],
+        "rows": json_rows,
+    });
+    set.add(
+        &out.join("variance.json"),
+        (serde_json::to_string_pretty(&report)? + "\n").as_bytes(),
+    )?;
+    set.commit()
+}
+
+/// Per-pixel maps (variance per sample by stage, and the pixel's value) as a float EXR
+/// with named channels, one pixel per decomposed pixel.
+fn write_maps(path: &Path, w: u32, h: u32, r: &Row) -> Result<()> {
+    use exr::prelude::*;
+    let px = &r.pixels;
+    let chan = |name: &str, f: &dyn Fn(&PixelTerms) -> f64| {
+        AnyChannel::new(
+            name,
+            FlatSamples::F32(px.iter().map(|p| f(p) as f32).collect()),
+        )
+    };
+    let channels = AnyChannels::sort(SmallVec::from_vec(vec![
+        chan("cluster", &|p| p.cluster),
+        chan("light", &|p| p.light),
+        chan("point", &|p| p.point),
+        chan("footprint", &|p| p.jitter),
+        chan("value", &|p| p.value),
+        AnyChannel::new(
+            "measured",
+            FlatSamples::F32(r.measured_pixels.iter().map(|&v| v as f32).collect()),
+        ),
+    ]));
+    Image::from_channels((w as usize, h as usize), channels)
+        .write()
+        .non_parallel()
+        .to_file(path)
+        .map_err(|e| anyhow::anyhow!("EXR write failed: {e}"))
+}
