@@ -227,6 +227,13 @@ pub struct LearnArgs {
     /// measured better on rooms16 and city, see docs/results.md].
     #[arg(long, value_name = "S")]
     pub prior_scale: Option<f32>,
+    /// bayes/donikian: learned cut refinement. At each growth point (passes 1, 2, 4, …, 32,
+    /// then every 64) a region splits up to N of its clusters whose observations vary the
+    /// most (squared coefficient of variation > 1, ≥ 64 observations) into their two
+    /// children, which inherit the cluster's statistics as their prior, up to 64 clusters
+    /// (--k-max caps the cut as built). 0: cuts never change (the default).
+    #[arg(long, default_value_t = 0, value_name = "N")]
+    pub refine_cuts: u32,
 }
 
 impl RegionArgs {
@@ -260,6 +267,7 @@ impl LearnArgs {
             ("--prior-alpha", self.prior_alpha.to_string()),
             ("--prior-cv", self.prior_cv.to_string()),
             ("--lambda", self.lambda.to_string()),
+            ("--refine-cuts", self.refine_cuts.to_string()),
         ]
         .into_iter()
         .flat_map(|(k, v)| [k.to_string(), v])
@@ -296,6 +304,7 @@ impl LearnArgs {
             prior_scale: self
                 .prior_scale
                 .unwrap_or(LearnSettings::default().prior_scale),
+            refine_cuts: self.refine_cuts,
         };
         s.check()?;
         Ok(s)

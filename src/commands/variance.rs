@@ -473,7 +473,10 @@ fn table(a: &VarianceRequest, rows: &[Row]) -> String {
     );
     t += "| sampler | predicted | measured | ÷ wang | cluster | light in cluster | point on light | footprint (at emitter pixels) | measured, R2 jitter | R2 footprint | zero samples (lit hits) | dark hits | top pixel's share of measured |";
     if a.max_depth > 1 {
-        t += &format!(" measured, depth {} | later vertices |", a.max_depth);
+        t += &format!(
+            " measured, depth {} (R2) | later vertices (beyond R2 direct) |",
+            a.max_depth
+        );
     }
     t += "\n|---|---|---|---|---|---|---|---|---|---|---|---|---|";
     if a.max_depth > 1 {
@@ -504,7 +507,7 @@ fn table(a: &VarianceRequest, rows: &[Row]) -> String {
             100.0 * r.top_pixel_share(),
         );
         if let Some(g) = r.measured_gi {
-            t += &format!(" {:.3e} | {:.1} % |", g, 100.0 * (g - r.measured) / g);
+            t += &format!(" {:.3e} | {:.1} % |", g, 100.0 * (g - r.measured_r2) / g);
         }
         t += "\n";
     }

@@ -54,6 +54,10 @@ pub struct LearnSettings {
     /// The prior mean is μ0 = Ĩ_C(x) · d² · prior_scale: Ĩ counts power Φ, while the
     /// observation y = Î d² ≈ Φ/π for a one-sided area light and Φ/(4π) for a point light.
     pub prior_scale: f32,
+    /// Learned cut refinement (`--refine-cuts N`, 0 = off): at each growth point a region
+    /// splits up to N of its clusters whose observations vary the most into their two
+    /// children (src/render/refine.rs).
+    pub refine_cuts: u32,
 }
 
 impl Default for LearnSettings {
@@ -77,6 +81,7 @@ impl Default for LearnSettings {
             // 20 s, 128×96, noise-corrected MSE(wang)/MSE(bayes): rooms16 3.47 → 5.19, city
             // 6.50 → 8.84 (ci/bench_learning.sh ablation setting).
             prior_scale: 1.0 / (4.0 * std::f32::consts::PI),
+            refine_cuts: 0,
         }
     }
 }

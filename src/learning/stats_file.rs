@@ -333,7 +333,7 @@ impl SavedStats {
             let holder = &holders[0].1;
             for (p, name) in others {
                 if cut_of(p, p.index[r]) != cut {
-                    bail!("'{name}' has another cut for region {r} than '{holder}': other cut settings; they cannot be merged");
+                    bail!("'{name}' has another cut for region {r} than '{holder}': other cut settings, or cuts refined apart (--refine-cuts); they cannot be merged");
                 }
             }
             *slot = cuts.len() as u32;

@@ -32,6 +32,8 @@ pub struct LearnedState {
     pub slots: u32,
     /// Regions whose cuts were built between frames (not before the first pass).
     pub regions_added: usize,
+    /// Cut refinements done (`--refine-cuts`: one per region per growth point that split).
+    pub regions_refined: usize,
     /// Growing stopped: more cuts would not fit the device's storage buffers.
     pub full: bool,
     /// Passes learned from, including a loaded file's (the next pass's sample index).
@@ -83,6 +85,7 @@ impl LearnedState {
         Ok(LearnedState {
             missing: Buffer::zeroed(ctx, "missing regions", 4 * words as u64)?,
             regions_added: 0,
+            regions_refined: 0,
             full: false,
             grid: Buffer::from_slice(ctx, "region grid", &[cuts.grid.params])?,
             index: Buffer::from_slice(ctx, "region index", &cuts.index)?,
@@ -176,6 +179,78 @@ impl LearnedState {
         l.regions_added += added.len();
         l.cut_seconds += t0.elapsed().as_secs_f64();
         Ok(added.len())
+    }
+
+    /// Learned cut refinement (src/render/refine.rs), at a fold boundary: every region whose
+    /// cut has clusters to split gets its new cut and statistics appended and its index
+    /// pointed at them (the old slots stay, unused). Returns how many regions changed; the
+    /// caller rebinds.
+    pub fn refine(
+        &mut self,
+        ctx: &Arc<Context>,
+        tree: &LightTree,
+        settings: &RenderSettings,
+    ) -> Result<usize> {
+        let splits = settings.learn.refine_cuts as usize;
+        if splits == 0 || self.full || !settings.sampler.learned() {
+            return Ok(0);
+        }
+        let t0 = Instant::now();
+        let stats: Vec<SlotStats> = self.stats.read()?;
+        // --k-max caps the cut as built; refinement may grow it to what the kernel holds.
+        let k_max = crate::lights::regions::MAX_K as usize;
+        let mut plans = Vec::new();
+        for (r, &o) in self.cuts.index.iter().enumerate() {
+            if o == 0 {
+                continue;
+            }
+            if let Some(p) =
+                super::refine::refined_cut(tree, &self.cuts, &stats, o as usize, splits, k_max)
+            {
+                plans.push((r, o, p));
+            }
+        }
+        if plans.is_empty() {
+            return Ok(0);
+        }
+        let grown: usize = plans.iter().map(|(_, _, (c, _))| c.len() + 1).sum();
+        let max_bytes = ctx.properties.limits.max_storage_buffer_range as usize;
+        if (self.cuts.cuts.len() + grown) * std::mem::size_of::<SlotStats>() > max_bytes {
+            self.full = true;
+            return Ok(0);
+        }
+        let old = self.cuts.cuts.len();
+        let mut fresh = Vec::with_capacity(grown);
+        for (r, o, (cut, st)) in &plans {
+            let offset = self.cuts.cuts.len() as u32;
+            self.cuts.cuts.push(cut.len() as u32);
+            self.cuts.cuts.extend(cut);
+            fresh.push(SlotStats::default());
+            fresh.extend(st);
+            self.cuts.index[*r] = offset;
+            if let Ok(i) = self.cuts.offsets.binary_search(o) {
+                self.cuts.offsets.remove(i);
+            }
+            self.cuts.offsets.push(offset);
+        }
+        self.cuts.offsets.sort_unstable();
+        let new = self.cuts.cuts.len();
+        self.index.write(bytemuck::cast_slice(&self.cuts.index))?;
+        self.cuts_buf = Buffer::from_slice(ctx, "cuts", &self.cuts.cuts)?;
+        let slot = std::mem::size_of::<SlotStats>() as u64;
+        let stats_buf = Buffer::zeroed(ctx, "learned statistics", new as u64 * slot)?;
+        stats_buf.copy_from(&self.stats)?;
+        stats_buf.write_at(old as u64 * slot, bytemuck::cast_slice(&fresh))?;
+        let delta = Buffer::zeroed(
+            ctx,
+            "learning window sums",
+            new as u64 * std::mem::size_of::<SlotDelta>() as u64,
+        )?;
+        delta.copy_from(&self.delta)?;
+        (self.stats, self.delta, self.slots) = (stats_buf, delta, new as u32);
+        self.regions_refined += plans.len();
+        self.cut_seconds += t0.elapsed().as_secs_f64();
+        Ok(plans.len())
     }
 
     /// What reducing the statistics on the host between frames would cost now, measured by

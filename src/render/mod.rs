@@ -18,6 +18,7 @@ use crate::scene::Scene;
 
 mod cuts;
 mod learned_state;
+mod refine;
 mod result;
 mod session;
 

@@ -41,6 +41,9 @@ pub struct RegionStats {
     /// Of those, the regions whose cuts were built between frames, because samples reached
     /// them without one (jitter, bounces, a moved camera).
     pub regions_added_between_frames: usize,
+    /// Cut refinements (`--refine-cuts`): one per region per growth point that split
+    /// clusters.
+    pub cut_refinements: usize,
     /// Host time to find the regions and build their cuts.
     pub cut_seconds: f64,
     /// GPU memory of the region index and the cuts.

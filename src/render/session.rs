@@ -393,7 +393,10 @@ impl<'a> Session<'a> {
         let added = self
             .learned
             .grow(&self.ctx, &self.gpu.tree, &self.settings)?;
-        if added > 0 {
+        let refined = self
+            .learned
+            .refine(&self.ctx, &self.gpu.tree, &self.settings)?;
+        if added + refined > 0 {
             self.bind_learned()?;
             if self.is_learning() {
                 // The new slots' coefficients; the others are recomputed from unchanged
@@ -448,6 +451,11 @@ impl<'a> Session<'a> {
     /// What the film's sums are multiplied by to give radiance.
     pub fn radiance_scale(&self) -> f32 {
         self.gpu.radiance_scale
+    }
+
+    /// Cut refinements so far (`--refine-cuts`).
+    pub fn regions_refined(&self) -> usize {
+        self.learned.regions_refined
     }
 
     /// The regions' index and cuts as the kernel uses them now (the host's copy).
@@ -624,6 +632,7 @@ impl<'a> Session<'a> {
                 regions_with_cuts: cuts.built(),
                 cut_seconds: self.learned.cut_seconds,
                 regions_added_between_frames: self.learned.regions_added,
+                cut_refinements: self.learned.regions_refined,
                 cut_bytes: 4 * (cuts.index.len() + cuts.cuts.len()),
             },
             learned,
