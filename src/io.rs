@@ -30,6 +30,29 @@ pub fn check_parent(p: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Runs `f`, which may create the folder `out` (and missing parents); if it fails, the
+/// folders it created are removed again where still empty, so a failed command leaves no
+/// empty output folder behind.
+pub fn removing_created_folders_on_error<T>(
+    out: Option<&Path>,
+    f: impl FnOnce() -> Result<T>,
+) -> Result<T> {
+    // The folders this run creates (the output folder and missing parents), innermost first.
+    let created: Vec<PathBuf> = out
+        .into_iter()
+        .flat_map(Path::ancestors)
+        .take_while(|p| !p.as_os_str().is_empty() && !p.exists())
+        .map(Path::to_path_buf)
+        .collect();
+    let result = f();
+    if result.is_err() {
+        for d in &created {
+            let _ = std::fs::remove_dir(d); // only if still empty
+        }
+    }
+    result
+}
+
 /// Writes `bytes` to `p` atomically.
 pub fn write_atomic(p: &Path, bytes: &[u8]) -> Result<()> {
     write_atomic_with(p, |tmp| Ok(std::fs::write(tmp, bytes)?))

@@ -993,6 +993,20 @@ fn light_pmf_equals_the_samplers_pmf() {
     }
 }
 
+/// A render's image mean per channel, the variance of that mean (the report's mean
+/// per-pixel variance of the mean / pixels) and the report.
+fn image_mean(out: &Path) -> (Vec<f64>, f64, serde_json::Value) {
+    let (w, h, px) = lightlearn::film::read_exr(out).unwrap();
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.with_extension("json")).unwrap()).unwrap();
+    let pixels = (w * h) as f64;
+    let mean: Vec<f64> = (0..3)
+        .map(|c| px.iter().map(|p| p[c] as f64).sum::<f64>() / pixels)
+        .collect();
+    let var = json["estimated_mse_of_mean"].as_f64().unwrap() / pixels;
+    (mean, var, json)
+}
+
 /// `--brdf-select` scales every cluster's weight by the BRDF towards it, at the vertex that
 /// samples a light and again in `light_pmf` when a BSDF ray hits an emitter: if the two
 /// disagree, the MIS weights no longer sum to one and the image is biased. On rooms16-glossy
@@ -1024,15 +1038,7 @@ fn brdf_select_stays_unbiased_with_mis_on_glossy_floors() {
         ];
         args.extend_from_slice(extra);
         ok(&lightlearn(&args));
-        let (w, h, px) = lightlearn::film::read_exr(&out).unwrap();
-        let json: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(out.with_extension("json")).unwrap()).unwrap();
-        let pixels = (w * h) as f64;
-        let mean: Vec<f64> = (0..3)
-            .map(|c| px.iter().map(|p| p[c] as f64).sum::<f64>() / pixels)
-            .collect();
-        // Variance of the image mean: the mean per-pixel variance of the mean / pixels.
-        let var = json["estimated_mse_of_mean"].as_f64().unwrap() / pixels;
+        let (mean, var, _) = image_mean(&out);
         (mean, var)
     };
     let (reference, var_r) = render("lightbvh", &["--sampler", "lightbvh", "--seed", "1"]);
@@ -1082,14 +1088,7 @@ fn refined_cuts_stay_unbiased_and_deterministic() {
         ];
         args.extend_from_slice(extra);
         ok(&lightlearn(&args));
-        let (w, h, px) = lightlearn::film::read_exr(&out).unwrap();
-        let json: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(out.with_extension("json")).unwrap()).unwrap();
-        let pixels = (w * h) as f64;
-        let mean: Vec<f64> = (0..3)
-            .map(|c| px.iter().map(|p| p[c] as f64).sum::<f64>() / pixels)
-            .collect();
-        let var = json["estimated_mse_of_mean"].as_f64().unwrap() / pixels;
+        let (mean, var, json) = image_mean(&out);
         (mean, var, json, std::fs::read(&out).unwrap())
     };
     let (reference, var_r, _, _) = render("lightbvh", &["--sampler", "lightbvh", "--seed", "1"]);

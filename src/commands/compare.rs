@@ -3,7 +3,7 @@
 //! HTML report together. Everything that can be wrong with the request is checked before
 //! any rendering, and a refused request leaves no folder behind.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{bail, Context as _, Result};
 use serde_json::json;
@@ -45,20 +45,7 @@ pub struct CompareOutcome {
 
 /// Runs the comparison; the folders it creates are removed again if it fails.
 pub fn run(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
-    // The folders this run creates (the output folder and missing parents), innermost first.
-    let created: Vec<PathBuf> = a
-        .out
-        .ancestors()
-        .take_while(|p| !p.as_os_str().is_empty() && !p.exists())
-        .map(Path::to_path_buf)
-        .collect();
-    let result = run_checked(a, ui);
-    if result.is_err() {
-        for d in &created {
-            let _ = std::fs::remove_dir(d); // only if still empty
-        }
-    }
-    result
+    crate::io::removing_created_folders_on_error(Some(&a.out), || run_checked(a, ui))
 }
 
 fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {

@@ -139,20 +139,7 @@ fn check_scene(scene: &Scene) -> Result<()> {
 
 pub fn run(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> {
     check(a)?;
-    let created: Vec<PathBuf> = a
-        .out
-        .iter()
-        .flat_map(|o| o.ancestors())
-        .take_while(|p| !p.as_os_str().is_empty() && !p.exists())
-        .map(Path::to_path_buf)
-        .collect();
-    let result = run_checked(a, ui);
-    if result.is_err() {
-        for d in &created {
-            let _ = std::fs::remove_dir(d);
-        }
-    }
-    result
+    crate::io::removing_created_folders_on_error(a.out.as_deref(), || run_checked(a, ui))
 }
 
 fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> {
