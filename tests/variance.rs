@@ -171,3 +171,30 @@ fn glossy_scenes_are_refused_with_the_material_named() {
     );
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// Work that would take hours or tens of GB (every light traced from every hit) is refused
+/// before it starts, with the fix named.
+#[test]
+fn too_much_exact_work_is_refused_up_front() {
+    let out = std::process::Command::new(common::exe())
+        .args([
+            "variance",
+            "scenes/strings.glb",
+            "--stride",
+            "1",
+            "--hits",
+            "256",
+            "--spp",
+            "2",
+        ])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("too much work") && err.contains("--stride"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}

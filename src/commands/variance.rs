@@ -161,6 +161,27 @@ fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> 
         a.hits,
         a.area_samples
     ));
+    // The exact terms trace every light from every hit: bound the work (and the memory of
+    // the per-hit light lists) before starting it.
+    let hit_count =
+        a.width.div_ceil(a.stride) as f64 * a.height.div_ceil(a.stride) as f64 * a.hits as f64;
+    let triangles = scene
+        .lights
+        .iter()
+        .filter(|l| matches!(l, crate::scene::Light::Triangle { .. }))
+        .count() as f64;
+    let points = scene.lights.len() as f64 - triangles;
+    let rays = hit_count * (points + triangles * a.area_samples as f64);
+    let pairs = hit_count * scene.lights.len() as f64;
+    if rays > 4e9 || pairs > 2.5e8 {
+        bail!(
+            "{}: {} hits × {} lights ({:.1e} shadow rays) is too much work for the exact terms; raise --stride or lower --hits / --area-samples (at most 4e9 rays and 2.5e8 hit-light pairs)",
+            scene.source,
+            hit_count,
+            scene.lights.len(),
+            rays
+        );
+    }
     let hits = first_hits(&scene, &gpu, a);
     let settings = |sampler: LightSampler, depth: u32| RenderSettings {
         width: a.width,

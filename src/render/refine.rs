@@ -20,7 +20,7 @@
 //! render time 2.63× lower on strings, equal on hall, 0.86× on rooms16 and 0.75× on city
 //! (longer cuts cost 20–27 % a sample there for little), so it is off by default.
 
-use crate::gpu::layout::SlotStats;
+use crate::abi::SlotStats;
 use crate::lights::regions::Cuts;
 use crate::lights::tree::LightTree;
 

@@ -20,8 +20,8 @@
 
 use glam::Vec3;
 
+use crate::abi::SlotStats;
 use crate::accel::Bvh;
-use crate::gpu::layout::SlotStats;
 use crate::learning::{learned_weights, LearnSettings};
 use crate::lights::regions::{pmf_in_cut, slot_of, Cuts};
 use crate::lights::tree::LightTree;
