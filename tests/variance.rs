@@ -156,45 +156,44 @@ fn the_split_adds_up_to_the_measured_variance() {
     assert!(out.table.contains("| wang |") && out.table.contains("frozen"));
 }
 
-#[test]
-fn glossy_scenes_are_refused_with_the_material_named() {
+/// Runs `lightlearn ARGS` in the crate folder, expecting a refusal: its stderr (no panic).
+fn refused(args: &[&str]) -> String {
     let out = std::process::Command::new(common::exe())
-        .args(["variance", "scenes/cornell-glossy.glb", "--spp", "4"])
+        .args(args)
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .output()
         .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "{args:?} succeeded");
+    assert!(!err.contains("panicked"), "{err}");
+    err
+}
+
+#[test]
+fn glossy_scenes_are_refused_with_the_material_named() {
+    let err = refused(&["variance", "scenes/cornell-glossy.glb", "--spp", "4"]);
     assert!(
         err.contains("is glossy or textured") && err.contains("specularFactor 0"),
         "{err}"
     );
-    assert!(!err.contains("panicked"), "{err}");
 }
 
 /// Work that would take hours or tens of GB (every light traced from every hit) is refused
 /// before it starts, with the fix named.
 #[test]
 fn too_much_exact_work_is_refused_up_front() {
-    let out = std::process::Command::new(common::exe())
-        .args([
-            "variance",
-            "scenes/strings.glb",
-            "--stride",
-            "1",
-            "--hits",
-            "256",
-            "--spp",
-            "2",
-        ])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success());
+    let err = refused(&[
+        "variance",
+        "scenes/strings.glb",
+        "--stride",
+        "1",
+        "--hits",
+        "256",
+        "--spp",
+        "2",
+    ]);
     assert!(
         err.contains("too much work") && err.contains("--stride"),
         "{err}"
     );
-    assert!(!err.contains("panicked"), "{err}");
 }

@@ -201,7 +201,7 @@ fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> 
         ui.progress(sampler.name(), 0, 0.0);
         let s = settings(sampler, 1);
         let (pixels, first) = if sampler.learned() {
-            learning_terms(&ctx, &scene, &gpu, &s, &hits, ui)?
+            learning_terms(&ctx, &scene, &gpu, &s, a.spp, &hits, ui)?
         } else {
             let mut session = Session::new(&ctx, &scene, &gpu, &s)?;
             session.run_passes(a.spp)?;
@@ -362,11 +362,11 @@ fn learning_terms(
     scene: &Scene,
     gpu: &GpuScene,
     s: &RenderSettings,
+    spp: u32,
     hits: &[Vec<Option<HitTerms>>],
     ui: &mut dyn Ui,
 ) -> Result<(Vec<PixelTerms>, Vec<[f32; 3]>)> {
     let mut session = Session::new(ctx, scene, gpu, s)?;
-    let spp = s_spp(s);
     let cps = checkpoints(spp);
     let mut acc = vec![PixelTerms::default(); hits.len()];
     for (i, &c) in cps.iter().enumerate() {
@@ -389,13 +389,6 @@ fn learning_terms(
         ui.progress(s.sampler.name(), next, next as f64 / spp as f64);
     }
     Ok((acc, session.image()?))
-}
-
-fn s_spp(s: &RenderSettings) -> u32 {
-    match s.budget {
-        Budget::Samples(n) => n,
-        _ => unreachable!("variance renders by samples"),
-    }
 }
 
 /// The row: `first` (this sampler's render at `s`) against a second seed's, and at

@@ -164,21 +164,29 @@ impl LearnedState {
             for &(r, o) in &added {
                 fill_initial(&mut fresh, tree, &l.cuts, o, Some(r), &settings.learn);
             }
-            let slot = std::mem::size_of::<SlotStats>() as u64;
-            let stats = Buffer::zeroed(ctx, "learned statistics", new as u64 * slot)?;
-            stats.copy_from(&l.stats)?;
-            stats.write_at(old as u64 * slot, bytemuck::cast_slice(&fresh[old..]))?;
-            let delta = Buffer::zeroed(
-                ctx,
-                "learning window sums",
-                new as u64 * std::mem::size_of::<SlotDelta>() as u64,
-            )?;
-            delta.copy_from(&l.delta)?;
-            (l.stats, l.delta, l.slots) = (stats, delta, new as u32);
+            l.append_slots(ctx, &fresh[old..])?;
         }
         l.regions_added += added.len();
         l.cut_seconds += t0.elapsed().as_secs_f64();
         Ok(added.len())
+    }
+
+    /// Grows the statistics and window-sum buffers by `tail` (the totals of the slots
+    /// appended to `cuts`; their window sums start empty), keeping every existing slot.
+    fn append_slots(&mut self, ctx: &Arc<Context>, tail: &[SlotStats]) -> Result<()> {
+        let (old, new) = (self.slots as u64, self.slots as u64 + tail.len() as u64);
+        let slot = std::mem::size_of::<SlotStats>() as u64;
+        let stats = Buffer::zeroed(ctx, "learned statistics", new * slot)?;
+        stats.copy_from(&self.stats)?;
+        stats.write_at(old * slot, bytemuck::cast_slice(tail))?;
+        let delta = Buffer::zeroed(
+            ctx,
+            "learning window sums",
+            new * std::mem::size_of::<SlotDelta>() as u64,
+        )?;
+        delta.copy_from(&self.delta)?;
+        (self.stats, self.delta, self.slots) = (stats, delta, new as u32);
+        Ok(())
     }
 
     /// Learned cut refinement (src/render/refine.rs), at a fold boundary: every region whose
@@ -219,7 +227,6 @@ impl LearnedState {
             self.full = true;
             return Ok(0);
         }
-        let old = self.cuts.cuts.len();
         let mut fresh = Vec::with_capacity(grown);
         for (r, o, (cut, st)) in &plans {
             let offset = self.cuts.cuts.len() as u32;
@@ -234,20 +241,9 @@ impl LearnedState {
             self.cuts.offsets.push(offset);
         }
         self.cuts.offsets.sort_unstable();
-        let new = self.cuts.cuts.len();
         self.index.write(bytemuck::cast_slice(&self.cuts.index))?;
         self.cuts_buf = Buffer::from_slice(ctx, "cuts", &self.cuts.cuts)?;
-        let slot = std::mem::size_of::<SlotStats>() as u64;
-        let stats_buf = Buffer::zeroed(ctx, "learned statistics", new as u64 * slot)?;
-        stats_buf.copy_from(&self.stats)?;
-        stats_buf.write_at(old as u64 * slot, bytemuck::cast_slice(&fresh))?;
-        let delta = Buffer::zeroed(
-            ctx,
-            "learning window sums",
-            new as u64 * std::mem::size_of::<SlotDelta>() as u64,
-        )?;
-        delta.copy_from(&self.delta)?;
-        (self.stats, self.delta, self.slots) = (stats_buf, delta, new as u32);
+        self.append_slots(ctx, &fresh)?;
         self.regions_refined += plans.len();
         self.cut_seconds += t0.elapsed().as_secs_f64();
         Ok(plans.len())
