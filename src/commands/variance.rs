@@ -16,6 +16,7 @@ use rayon::prelude::*;
 use serde_json::json;
 
 use super::{check_depth, check_size, prepare, Ui};
+use crate::abi::SlotStats;
 use crate::gpu::{Context, ContextOptions};
 use crate::learning::LearnSettings;
 use crate::lights::regions::RegionSettings;
@@ -205,7 +206,8 @@ fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> 
         } else {
             let mut session = Session::new(&ctx, &scene, &gpu, &s)?;
             session.run_passes(a.spp)?;
-            let pixels = evaluate(&selection(&scene, &gpu, &session, sampler), &hits);
+            let sel = selection(&scene, &gpu, &session, sampler, &s.learn, &[]);
+            let pixels = evaluate(&sel, &hits);
             (pixels, session.image()?)
         };
         let row = measure(
@@ -237,15 +239,14 @@ fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> 
         let mut session = Session::new(&ctx, &scene, &gpu, &s)?;
         session.run_passes(a.spp)?;
         let stats = session.sampling_stats()?;
-        let sel = Selection::Cuts {
-            tree: &gpu.tree,
-            cuts: session.cuts(),
-            learned: Some(Learned {
-                stats: &stats,
-                settings: &s.learn,
-                donikian: false,
-            }),
-        };
+        let sel = selection(
+            &scene,
+            &gpu,
+            &session,
+            LightSampler::Bayes,
+            &s.learn,
+            &stats,
+        );
         let pixels = evaluate(&sel, &hits);
         let first = session.image()?;
         drop(session);
@@ -310,12 +311,15 @@ fn evaluate(sel: &Selection, hits: &[Vec<Option<HitTerms>>]) -> Vec<PixelTerms> 
     hits.par_iter().map(|h| pixel_terms(h, sel)).collect()
 }
 
-/// A non-learning sampler's pmfs (`wang` with the session's cuts).
+/// `sampler`'s pmfs as `session` samples now: `wang` with the session's cuts, a learned
+/// sampler also with `stats` (what its next pass samples by).
 fn selection<'a>(
     scene: &Scene,
     gpu: &'a GpuScene,
     session: &'a Session,
     sampler: LightSampler,
+    learn: &'a LearnSettings,
+    stats: &'a [SlotStats],
 ) -> Selection<'a> {
     match sampler {
         LightSampler::Uniform => Selection::Uniform {
@@ -327,14 +331,15 @@ fn selection<'a>(
             )),
         },
         LightSampler::Lightbvh => Selection::LightBvh { tree: &gpu.tree },
-        LightSampler::Wang => Selection::Cuts {
+        LightSampler::Wang | LightSampler::Donikian | LightSampler::Bayes => Selection::Cuts {
             tree: &gpu.tree,
             cuts: session.cuts(),
-            learned: None,
+            learned: sampler.learned().then_some(Learned {
+                stats,
+                settings: learn,
+                donikian: sampler == LightSampler::Donikian,
+            }),
         },
-        LightSampler::Donikian | LightSampler::Bayes => {
-            unreachable!("learned samplers: learning_terms")
-        }
     }
 }
 
@@ -372,15 +377,7 @@ fn learning_terms(
     for (i, &c) in cps.iter().enumerate() {
         let next = cps.get(i + 1).copied().unwrap_or(spp);
         let stats = session.sampling_stats()?;
-        let sel = Selection::Cuts {
-            tree: &gpu.tree,
-            cuts: session.cuts(),
-            learned: Some(Learned {
-                stats: &stats,
-                settings: &s.learn,
-                donikian: s.sampler == LightSampler::Donikian,
-            }),
-        };
+        let sel = selection(scene, gpu, &session, s.sampler, &s.learn, &stats);
         let w = (next - c) as f64 / spp as f64;
         for (a, p) in acc.iter_mut().zip(evaluate(&sel, hits)) {
             a.mix(&p, w);
