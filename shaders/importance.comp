@@ -6,7 +6,7 @@
 
 layout(local_size_x = 64) in;
 
-layout(std430, set = 0, binding = 0) readonly buffer Nodes { LightNode light_nodes[]; };
+layout(std430, set = 0, binding = 0) readonly buffer Nodes { GpuLightNode light_nodes[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Order { uint light_order[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Queries { LightQuery queries[]; };
 layout(std430, set = 0, binding = 3) writeonly buffer Values { float values[]; };

@@ -14,7 +14,7 @@ layout(constant_id = 1) const uint IN_CLUSTER = 0u;
 // The learned samplers' switches: learn[0].flags, fixed for the pipeline (learning.glsl).
 layout(constant_id = 3) const uint LEARN_FLAGS = 0u;
 
-layout(std430, set = 0, binding = 0) readonly buffer Nodes { LightNode light_nodes[]; };
+layout(std430, set = 0, binding = 0) readonly buffer Nodes { GpuLightNode light_nodes[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Order { uint light_order[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Queries { LightQuery queries[]; };
 layout(std430, set = 0, binding = 3) writeonly buffer Choices { LightChoice choices[]; };
@@ -31,7 +31,7 @@ layout(push_constant) uniform Push { uint query_count; };
 #include "light_pmf.glsl"
 
 // The CPU mirrors know no BRDF: the selection factor of --brdf-select is 1 here.
-float brdf_toward(LightNode nd, vec3 p, vec3 n) { return 1.0; }
+float brdf_toward(GpuLightNode nd, vec3 p, vec3 n) { return 1.0; }
 
 void main() {
     uint i = gl_GlobalInvocationID.x;

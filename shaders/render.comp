@@ -56,7 +56,7 @@ layout(std430, set = 2, binding = 0) buffer Accum { PixelAccum accum[]; };
 // [0]: samples dropped because they were NaN or Inf (reported, never averaged in).
 // [1]: learned-sampler samples taken in a region without its own cut (the shared fallback).
 layout(std430, set = 2, binding = 1) buffer Counters { uint counters[]; };
-layout(std430, set = 0, binding = 6) readonly buffer LightNodes { LightNode light_nodes[]; };
+layout(std430, set = 0, binding = 6) readonly buffer LightNodes { GpuLightNode light_nodes[]; };
 layout(std430, set = 0, binding = 7) readonly buffer LightOrder { uint light_order[]; };
 layout(std430, set = 1, binding = 0) readonly buffer Grid { GridParams grid[]; };
 layout(std430, set = 1, binding = 1) readonly buffer RegionIndex { uint region_index[]; };
@@ -131,13 +131,12 @@ void select_brdf(Bsdf b, vec3 v, vec3 n, bool on) {
 // the mirror direction (all of it from inside the sphere), plus a floor of 0.1 × albedo/π:
 // a factor > 0, so every cluster that can light x keeps a chance (unbiased), that favours
 // the clusters a glossy lobe points at. Depends on the shading point only.
-float brdf_toward(LightNode nd, vec3 p, vec3 n) {
+float brdf_toward(GpuLightNode nd, vec3 p, vec3 n) {
     if (!sel_on) return 1.0;
     vec3 r = sel_r;
-    vec3 to = 0.5 * (nd.bmin + nd.bmax) - p;
-    vec3 diag = nd.bmax - nd.bmin;
+    vec3 to = nd.centre - p;
     float d2 = dot(to, to);
-    float r2 = 0.25 * dot(diag, diag);
+    float r2 = nd.radius * nd.radius;
     vec3 l = r;
     if (d2 > r2) {
         vec3 wc = to * inversesqrt(d2);

@@ -99,6 +99,32 @@ pub struct LightNode {
     pub flags: u32,
 }
 
+/// A light-tree node as the kernels read it (`LightNode` in types.glsl): the box as its centre
+/// and bounding-sphere radius, and the cone's sine, computed once on the host
+/// (`LightNode::gpu`) instead of at every importance evaluation. The importance of a cut's
+/// slots was about a quarter of a `wang` pass on lavapipe (the cut loop with a trivial
+/// importance ran 24 % faster, default scene, depth 8, 320×240); this layout takes three
+/// square roots, two divisions and the box arithmetic out of each evaluation.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuLightNode {
+    /// Centre of the bounding box.
+    pub centre: [f32; 3],
+    pub phi: f32,
+    pub axis: [f32; 3],
+    pub cos_o: f32,
+    /// Half the box diagonal: the bounding sphere's radius, and pbrt-v4's clamp of d².
+    pub radius: f32,
+    /// sin θ_o, from cos_o.
+    pub sin_o: f32,
+    pub cos_e: f32,
+    pub flags: u32,
+    pub right: u32,
+    pub begin: u32,
+    pub count: u32,
+    pub pad: u32,
+}
+
 /// One query of `light_sample.comp` (tests): a shading point, its normal, a random number,
 /// and a light whose pmf to evaluate there (`u32::MAX`: none).
 #[repr(C)]

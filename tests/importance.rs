@@ -6,7 +6,7 @@ mod common;
 use glam::Vec3;
 use lightlearn::gpu::layout::{LightNode, LightQuery, LIGHT_NODE_TWO_SIDED};
 use lightlearn::gpu::{kernels, Buffer, ComputePipeline};
-use lightlearn::lights::tree::importance;
+use lightlearn::lights::tree::{gpu_node, importance};
 use lightlearn::rng::SplitMix64;
 
 #[test]
@@ -54,7 +54,8 @@ fn glsl_and_rust_importance_agree_on_random_inputs() {
             light: u32::MAX,
         });
     }
-    let nb = Buffer::from_slice(&ctx, "nodes", &nodes).unwrap();
+    let gpu_nodes: Vec<_> = nodes.iter().map(gpu_node).collect();
+    let nb = Buffer::from_slice(&ctx, "nodes", &gpu_nodes).unwrap();
     let ob = Buffer::from_slice(&ctx, "order", &[0u32]).unwrap();
     let qb = Buffer::from_slice(&ctx, "queries", &queries).unwrap();
     let vb = Buffer::zeroed(&ctx, "values", (count * 4) as u64).unwrap();

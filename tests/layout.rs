@@ -224,17 +224,19 @@ fn host_and_shader_structs_match() {
             view,
             bgra
         }),
-        rust_layout!(LightNode {
-            bmin,
+        rust_layout!(GpuLightNode {
+            centre,
             phi,
-            bmax,
-            cos_o,
             axis,
+            cos_o,
+            radius,
+            sin_o,
             cos_e,
+            flags,
             right,
             begin,
             count,
-            flags
+            pad
         }),
         rust_layout!(LightQuery { p, u, n, light }),
         rust_layout!(BsdfQuery {

@@ -26,7 +26,7 @@ const bool CV_ON = (BAYES_FLAGS & LEARN_CONTROL_VARIATES) != 0u;
 // node's cluster; every including kernel defines it (render.comp: the BRDF; the test kernel
 // light_sample.comp: 1). It must depend only on the shading point, never on the light drawn,
 // so that light_pmf repeats it exactly.
-float brdf_toward(LightNode nd, vec3 p, vec3 n);
+float brdf_toward(GpuLightNode nd, vec3 p, vec3 n);
 
 // Fixed point of the window sums: y / scale with 24 fraction bits, y / scale clamped to 4096
 // so that one observation adds at most 2^36 to Σ and 2^48 to Σ² (the 64-bit sums then hold
@@ -68,7 +68,7 @@ float predicted_mean(SlotStats s, float mu0, float di, float brdf) {
 float sel_prior_scale = 0.0;
 
 float bayes_slot_weight(uint o, uint i, vec3 p, vec3 n, float brdf, inout float cv_total) {
-    LightNode nd = light_nodes[cuts[o + 1u + i]];
+    GpuLightNode nd = light_nodes[cuts[o + 1u + i]];
     float dn;
     float imp = light_importance_d2(nd, p, n, dn);
     float w = 0.0;

@@ -1,6 +1,6 @@
 // The light tree's importance and the `lightbvh` sampler's stochastic descent. Mirror of
 // src/lights/tree.rs (`importance`, `LightTree::sample`), checked against it by
-// tests/light_tree.rs. The including kernel declares `light_nodes` (LightNode[]) and
+// tests/light_tree.rs. The including kernel declares `light_nodes` (GpuLightNode[]) and
 // `light_order` (uint[]).
 #ifndef LIGHT_TREE_GLSL
 #define LIGHT_TREE_GLSL
@@ -20,34 +20,32 @@ float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
 
 // The squared distance of the importance and of the learned regression (pbrt-v4's clamp:
 // at least half the box diagonal, so points inside a big node do not blow up).
-float node_d2(LightNode nd, vec3 p) {
-    vec3 to = p - 0.5 * (nd.bmin + nd.bmax);
-    return max(dot(to, to), 0.5 * length(nd.bmax - nd.bmin));
+float node_d2(GpuLightNode nd, vec3 p) {
+    vec3 to = p - nd.centre;
+    return max(dot(to, to), nd.radius);
 }
 
-// Unoccluded importance of a node at p for a receiver with normal n (see tree.rs); also
-// returns its clamped distance² (node_d2), which the learned samplers need.
-float light_importance_d2(LightNode nd, vec3 p, vec3 n, out float d2) {
-    vec3 pc = 0.5 * (nd.bmin + nd.bmax);
-    vec3 diag = nd.bmax - nd.bmin;
-    vec3 to = p - pc;
+// Unoccluded importance of a node at p for a receiver with normal n (see tree.rs
+// `node_importance`, operation for operation); also returns its clamped distance² (node_d2),
+// which the learned samplers need. The node's centre, radius and sin θ_o come precomputed
+// (GpuLightNode): one inverse square root gives the direction and the sphere's sine.
+float light_importance_d2(GpuLightNode nd, vec3 p, vec3 n, out float d2) {
+    vec3 to = p - nd.centre;
     float dist2 = dot(to, to);
-    d2 = max(dist2, 0.5 * length(diag));
-    vec3 wi = dist2 > 0.0 ? to / sqrt(dist2) : vec3(0.0);
+    d2 = max(dist2, nd.radius);
+    float inv_dist = dist2 > 0.0 ? 1.0 / sqrt(dist2) : 0.0;
+    vec3 wi = to * inv_dist;
     float cos_w = dot(nd.axis, wi);
     if ((nd.flags & LIGHT_NODE_TWO_SIDED) != 0u) cos_w = abs(cos_w);
     float sin_w = sqrt(max(1.0 - cos_w * cos_w, 0.0));
-    float r2 = 0.25 * dot(diag, diag);
     float cos_b = -1.0;
     float sin_b = 0.0;
-    if (dist2 > r2) {
-        float s2 = r2 / dist2;
-        cos_b = sqrt(max(1.0 - s2, 0.0));
-        sin_b = sqrt(s2);
+    if (dist2 > nd.radius * nd.radius) {
+        sin_b = nd.radius * inv_dist;
+        cos_b = sqrt(max(1.0 - sin_b * sin_b, 0.0));
     }
-    float sin_o = sqrt(max(1.0 - nd.cos_o * nd.cos_o, 0.0));
-    float cos_wo = cos_sub_clamped(sin_w, cos_w, sin_o, nd.cos_o);
-    float sin_wo = sin_sub_clamped(sin_w, cos_w, sin_o, nd.cos_o);
+    float cos_wo = cos_sub_clamped(sin_w, cos_w, nd.sin_o, nd.cos_o);
+    float sin_wo = sin_sub_clamped(sin_w, cos_w, nd.sin_o, nd.cos_o);
     float cos_p = cos_sub_clamped(sin_wo, cos_wo, sin_b, cos_b);
     if (cos_p <= nd.cos_e) return 0.0;
     float imp = nd.phi * cos_p / d2;
@@ -59,7 +57,7 @@ float light_importance_d2(LightNode nd, vec3 p, vec3 n, out float d2) {
     return max(imp, 0.0);
 }
 
-float light_importance(LightNode nd, vec3 p, vec3 n) {
+float light_importance(GpuLightNode nd, vec3 p, vec3 n) {
     float d2;
     return light_importance_d2(nd, p, n, d2);
 }
@@ -120,7 +118,7 @@ uint sample_light_tree(vec3 p, vec3 n, float u, out float pmf) {
             node = r;
         }
     }
-    LightNode leaf = light_nodes[node];
+    GpuLightNode leaf = light_nodes[node];
     if (light_importance(leaf, p, n) <= 0.0) return NO_LIGHT;
     return light_order[leaf.begin];
 }

@@ -44,14 +44,16 @@ struct AliasEntry {
 
 #define LIGHT_NODE_TWO_SIDED 1u
 
-struct LightNode {
-    vec3 bmin; float phi;
-    vec3 bmax; float cos_o;
-    vec3 axis; float cos_e;
+// A light-tree node with its box as centre and bounding-sphere radius and its cone's sine
+// precomputed (GpuLightNode in src/abi.rs, made by tree.rs `gpu_node`).
+struct GpuLightNode {
+    vec3 centre; float phi;
+    vec3 axis; float cos_o;
+    float radius; float sin_o; float cos_e; uint flags;
     uint right;
     uint begin;
     uint count;
-    uint flags;
+    uint pad;
 };
 
 struct LightQuery {

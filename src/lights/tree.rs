@@ -12,7 +12,7 @@ use std::f32::consts::PI;
 
 use glam::Vec3;
 
-use crate::abi::{LightNode, LIGHT_NODE_TWO_SIDED};
+use crate::abi::{GpuLightNode, LightNode, LIGHT_NODE_TWO_SIDED};
 use crate::scene::{Light, Scene};
 
 /// What a light (or a set of lights) can emit, and where to.
@@ -139,13 +139,43 @@ fn cone_union(a: Vec3, cos_a: f32, b: Vec3, cos_b: f32) -> (Vec3, f32) {
     (axis.normalize(), theta_o.cos())
 }
 
+/// A box's centre and half its diagonal (the bounding sphere's radius): what the importance
+/// and the regression distance need of it, computed once per node for the kernels
+/// (`gpu_node`) and by this same function wherever the CPU mirrors them.
+pub fn centre_radius(lo: Vec3, hi: Vec3) -> (Vec3, f32) {
+    (0.5 * (lo + hi), 0.5 * (hi - lo).length())
+}
+
+/// sin θ from cos θ (θ in [0, π]).
+pub fn sin_of_cos(c: f32) -> f32 {
+    (1.0 - c * c).max(0.0).sqrt()
+}
+
+/// The node as the kernels read it (`GpuLightNode`).
+pub fn gpu_node(n: &LightNode) -> GpuLightNode {
+    let (centre, radius) = centre_radius(Vec3::from(n.bmin), Vec3::from(n.bmax));
+    GpuLightNode {
+        centre: centre.to_array(),
+        phi: n.phi,
+        axis: n.axis,
+        cos_o: n.cos_o,
+        radius,
+        sin_o: sin_of_cos(n.cos_o),
+        cos_e: n.cos_e,
+        flags: n.flags,
+        right: n.right,
+        begin: n.begin,
+        count: n.count,
+        pad: 0,
+    }
+}
+
 /// The squared distance from p to a box's centre, at least half the box diagonal (pbrt-v4's
 /// clamp): the importance's distance and the learned samplers' regression distance
 /// (`node_d2` in light_tree.glsl).
 pub fn clamped_d2(lo: Vec3, hi: Vec3, p: Vec3) -> f32 {
-    (p - 0.5 * (lo + hi))
-        .length_squared()
-        .max(0.5 * (hi - lo).length())
+    let (centre, radius) = centre_radius(lo, hi);
+    (p - centre).length_squared().max(radius)
 }
 
 /// The importance function, argument by argument as in the GLSL.
@@ -161,38 +191,53 @@ pub fn importance(
     p: Vec3,
     n: Vec3,
 ) -> f32 {
-    let pc = 0.5 * (lo + hi);
-    let diag = hi - lo;
-    let d2 = clamped_d2(lo, hi, p);
-    let wi = (p - pc).normalize_or_zero();
-    let mut cos_w = axis.dot(wi);
-    if two_sided {
+    let (centre, radius) = centre_radius(lo, hi);
+    let g = GpuLightNode {
+        centre: centre.to_array(),
+        phi,
+        axis: axis.to_array(),
+        cos_o,
+        radius,
+        sin_o: sin_of_cos(cos_o),
+        cos_e,
+        flags: if two_sided { LIGHT_NODE_TWO_SIDED } else { 0 },
+        ..Default::default()
+    };
+    node_importance(&g, p, n)
+}
+
+/// Ĩ of a node at p for a receiver with normal n (0: none): the kernels' `light_importance`
+/// on the same precomputed node, operation for operation.
+pub fn node_importance(nd: &GpuLightNode, p: Vec3, n: Vec3) -> f32 {
+    let to = p - Vec3::from(nd.centre);
+    let dist2 = to.length_squared();
+    let d2 = dist2.max(nd.radius);
+    let inv_dist = if dist2 > 0.0 { 1.0 / dist2.sqrt() } else { 0.0 };
+    let wi = to * inv_dist;
+    let mut cos_w = Vec3::from(nd.axis).dot(wi);
+    if nd.flags & LIGHT_NODE_TWO_SIDED != 0 {
         cos_w = cos_w.abs();
     }
-    let sin_w = (1.0 - cos_w * cos_w).max(0.0).sqrt();
+    let sin_w = sin_of_cos(cos_w);
     // The half-angle the box subtends at p (a bounding sphere; the whole sphere if inside).
-    let r2 = 0.25 * diag.length_squared();
-    let dist2 = (p - pc).length_squared();
-    let (cos_b, sin_b) = if dist2 <= r2 {
+    let (cos_b, sin_b) = if dist2 <= nd.radius * nd.radius {
         (-1.0, 0.0)
     } else {
-        let s2 = r2 / dist2;
-        ((1.0 - s2).max(0.0).sqrt(), s2.sqrt())
+        let sin_b = nd.radius * inv_dist;
+        (sin_of_cos(sin_b), sin_b)
     };
     // cos(max(0, θ_w − θ_o − θ_b)) by angle-difference identities.
-    let sin_o = (1.0 - cos_o * cos_o).max(0.0).sqrt();
-    let cos_wo = cos_sub_clamped(sin_w, cos_w, sin_o, cos_o);
-    let sin_wo = sin_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+    let cos_wo = cos_sub_clamped(sin_w, cos_w, nd.sin_o, nd.cos_o);
+    let sin_wo = sin_sub_clamped(sin_w, cos_w, nd.sin_o, nd.cos_o);
     let cos_p = cos_sub_clamped(sin_wo, cos_wo, sin_b, cos_b);
-    if cos_p <= cos_e {
+    if cos_p <= nd.cos_e {
         return 0.0;
     }
-    let mut imp = phi * cos_p / d2;
+    let mut imp = nd.phi * cos_p / d2;
     // The receiver: cos(max(0, θ_i − θ_b)), θ_i between n and the direction to the box.
     if n != Vec3::ZERO {
         let cos_i = n.dot(-wi);
-        let sin_i = (1.0 - cos_i * cos_i).max(0.0).sqrt();
-        let c = cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
+        let c = cos_sub_clamped(sin_of_cos(cos_i), cos_i, sin_b, cos_b);
         imp *= c.max(0.0);
     }
     imp.max(0.0)
@@ -248,6 +293,11 @@ fn saoh_cost(b: &LightBounds, dim_extent: f32, max_extent: f32) -> f32 {
 }
 
 impl LightTree {
+    /// The nodes as the kernels read them (`gpu_node`).
+    pub fn gpu_nodes(&self) -> Vec<GpuLightNode> {
+        self.nodes.iter().map(gpu_node).collect()
+    }
+
     pub fn build(scene: &Scene) -> LightTree {
         let bounds: Vec<LightBounds> = scene
             .lights

@@ -313,7 +313,7 @@ impl GpuScene {
             materials: Buffer::from_slice(ctx, "materials", &materials)?,
             lights: Buffer::from_slice(ctx, "lights", &gpu_lights)?,
             alias: Buffer::from_slice(ctx, "light alias table", &alias)?,
-            light_nodes: Buffer::from_slice(ctx, "light tree", &tree.nodes)?,
+            light_nodes: Buffer::from_slice(ctx, "light tree", &tree.gpu_nodes())?,
             light_order: Buffer::from_slice(ctx, "light tree order", &tree.order)?,
             light_position: Buffer::from_slice(ctx, "light tree positions", &tree.position)?,
             tri_light: Buffer::from_slice(ctx, "triangle lights", &lights::triangle_lights(scene))?,

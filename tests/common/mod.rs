@@ -82,7 +82,7 @@ pub fn gpu_samples_and_pmfs(
         })
         .collect();
     let b = |name: &str, data: &[u32]| Buffer::from_slice(ctx, name, data).unwrap();
-    let nodes = Buffer::from_slice(ctx, "nodes", &tree.nodes).unwrap();
+    let nodes = Buffer::from_slice(ctx, "nodes", &tree.gpu_nodes()).unwrap();
     let order = b("order", &tree.order);
     let position = b("position", &tree.position);
     let qb = Buffer::from_slice(ctx, "queries", &q).unwrap();
