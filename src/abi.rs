@@ -99,9 +99,9 @@ pub struct LightNode {
     pub flags: u32,
 }
 
-/// A light-tree node as the kernels read it (`LightNode` in types.glsl): the box as its centre
-/// and bounding-sphere radius, and the cone's sine, computed once on the host
-/// (`LightNode::gpu`) instead of at every importance evaluation. The importance of a cut's
+/// A light-tree node as the kernels read it (`GpuLightNode` in types.glsl): the box as its
+/// centre and bounding-sphere radius, and the cone's sine, computed once on the host
+/// (`lights::tree::gpu_node`) instead of at every importance evaluation. The importance of a cut's
 /// slots was about a quarter of a `wang` pass on lavapipe (the cut loop with a trivial
 /// importance ran 24 % faster, default scene, depth 8, 320×240); this layout takes three
 /// square roots, two divisions and the box arithmetic out of each evaluation.
