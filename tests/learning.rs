@@ -1007,6 +1007,52 @@ fn image_mean(out: &Path) -> (Vec<f64>, f64, serde_json::Value) {
     (mean, var, json)
 }
 
+/// Renders `scene` path traced (depth 8, 256 spp) at `width`×`height` with `extra`
+/// arguments to dir/name.exr; returns that path.
+fn render_depth8(
+    dir: &Path,
+    scene: &Path,
+    size: (u32, u32),
+    name: &str,
+    extra: &[&str],
+) -> std::path::PathBuf {
+    let out = dir.join(format!("{name}.exr"));
+    let (w, h) = (size.0.to_string(), size.1.to_string());
+    let mut args = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "--spp",
+        "256",
+        "--width",
+        &w,
+        "--height",
+        &h,
+        "--max-depth",
+        "8",
+        "-q",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    ok(&lightlearn(&args));
+    out
+}
+
+/// Asserts that `what`'s image mean matches `lightbvh`'s within 5σ in every channel, σ from
+/// both renders' variances of the mean; prints each channel's z.
+fn assert_matches_lightbvh(what: &str, reference: (&[f64], f64), got: (&[f64], f64)) {
+    let sigma = (reference.1 + got.1).sqrt();
+    for c in 0..3 {
+        let (r, g) = (reference.0[c], got.0[c]);
+        let z = (g - r) / sigma;
+        println!(
+            "channel {c}: lightbvh {r:.5}, {what} {g:.5} ({:+.2} %), z = {z:+.2}",
+            100.0 * (g / r - 1.0)
+        );
+        assert!(z.abs() < 5.0, "channel {c}: {what} is biased (z = {z:.1})");
+    }
+}
+
 /// `--brdf-select` scales every cluster's weight by the BRDF towards it, at the vertex that
 /// samples a light and again in `light_pmf` when a BSDF ray hits an emitter: if the two
 /// disagree, the MIS weights no longer sum to one and the image is biased. On rooms16-glossy
@@ -1020,43 +1066,12 @@ fn brdf_select_stays_unbiased_with_mis_on_glossy_floors() {
     let dir = tempfile::tempdir().unwrap();
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/rooms16-glossy.glb");
     let render = |name: &str, extra: &[&str]| {
-        let out = dir.path().join(format!("{name}.exr"));
-        let mut args = vec![
-            "render",
-            scene.to_str().unwrap(),
-            "--spp",
-            "256",
-            "--width",
-            "64",
-            "--height",
-            "48",
-            "--max-depth",
-            "8",
-            "-q",
-            "--out",
-            out.to_str().unwrap(),
-        ];
-        args.extend_from_slice(extra);
-        ok(&lightlearn(&args));
-        let (mean, var, _) = image_mean(&out);
+        let (mean, var, _) = image_mean(&render_depth8(dir.path(), &scene, (64, 48), name, extra));
         (mean, var)
     };
     let (reference, var_r) = render("lightbvh", &["--sampler", "lightbvh", "--seed", "1"]);
     let (select, var_s) = render("select", &["--sampler", "bayes", "--seed", "2"]);
-    let sigma = (var_r + var_s).sqrt();
-    for c in 0..3 {
-        let z = (select[c] - reference[c]) / sigma;
-        println!(
-            "channel {c}: lightbvh {:.5}, bayes --brdf-select {:.5} ({:+.2} %), z = {z:+.2}",
-            reference[c],
-            select[c],
-            100.0 * (select[c] / reference[c] - 1.0)
-        );
-        assert!(
-            z.abs() < 5.0,
-            "channel {c}: --brdf-select is biased (z = {z:.1})"
-        );
-    }
+    assert_matches_lightbvh("bayes --brdf-select", (&reference, var_r), (&select, var_s));
 }
 
 /// `--refine-cuts` replaces clusters by their children between passes: the cut must still
@@ -1070,24 +1085,7 @@ fn refined_cuts_stay_unbiased_and_deterministic() {
     let dir = tempfile::tempdir().unwrap();
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/rooms16.glb");
     let render = |name: &str, extra: &[&str]| {
-        let out = dir.path().join(format!("{name}.exr"));
-        let mut args = vec![
-            "render",
-            scene.to_str().unwrap(),
-            "--spp",
-            "256",
-            "--width",
-            "48",
-            "--height",
-            "36",
-            "--max-depth",
-            "8",
-            "-q",
-            "--out",
-            out.to_str().unwrap(),
-        ];
-        args.extend_from_slice(extra);
-        ok(&lightlearn(&args));
+        let out = render_depth8(dir.path(), &scene, (48, 36), name, extra);
         let (mean, var, json) = image_mean(&out);
         (mean, var, json, std::fs::read(&out).unwrap())
     };
@@ -1098,20 +1096,12 @@ fn refined_cuts_stay_unbiased_and_deterministic() {
         .as_u64()
         .unwrap();
     assert!(refinements > 0, "no cut was refined: {json}");
-    let sigma = (var_r + var_s).sqrt();
-    for c in 0..3 {
-        let z = (refined[c] - reference[c]) / sigma;
-        println!(
-            "channel {c}: lightbvh {:.5}, bayes --refine-cuts 8 {:.5} ({:+.2} %), z = {z:+.2}; {refinements} refinements",
-            reference[c],
-            refined[c],
-            100.0 * (refined[c] / reference[c] - 1.0)
-        );
-        assert!(
-            z.abs() < 5.0,
-            "channel {c}: --refine-cuts is biased (z = {z:.1})"
-        );
-    }
+    println!("{refinements} refinements");
+    assert_matches_lightbvh(
+        "bayes --refine-cuts 8",
+        (&reference, var_r),
+        (&refined, var_s),
+    );
     let (_, _, _, again) = render("again", &refine);
     assert!(bytes == again, "--refine-cuts is not deterministic");
 }
