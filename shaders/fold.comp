@@ -1,8 +1,9 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 // Folds the window's fixed-point sums (SlotDelta) into the frozen totals (SlotStats), clears
-// them and recomputes the slot's weight coefficients; runs between passes (and once before
-// the first, to set the coefficients of fresh or loaded statistics), one invocation per slot.
+// them and recomputes the slot's weight coefficients; runs between passes over the slots the
+// window touched (render.comp lists them), and once before the first pass over every slot,
+// to set the coefficients of fresh or loaded statistics. One invocation per slot.
 // The next window's scale is the slot's root mean square of y so far, which keeps y / scale
 // near 1 and far from the fixed-point clamp. Mirror of src/learning/mod.rs `fold`.
 #include "types.glsl"
@@ -13,20 +14,39 @@ layout(local_size_x = 64) in;
 layout(std430, set = 0, binding = 0) buffer Stats { SlotStats slot_stats[]; };
 layout(std430, set = 0, binding = 1) buffer Delta { SlotDelta slot_delta[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Learn { LearnParams learn[]; };
+// The window's touched slots as render.comp's mark_touched lists them: [0] the workgroup
+// count of this dispatch (indirect), [1], [2] 1, [3] the count, then the slots, NO_SLOT
+// after the last (the list has room for every slot, rounded up to whole workgroups).
+layout(std430, set = 0, binding = 3) buffer Touched { uint touched_slots[]; };
 
-// force: recompute every slot's coefficients (fresh or loaded statistics); otherwise slots
-// whose window is empty are left alone (their coefficients cannot have changed). Most slots
-// see no sample in a pass, so this skips most of the memory traffic of a fold.
-layout(push_constant) uniform Push { uint slot_count; uint force; };
+// mode FOLD_TOUCHED (between passes, an indirect dispatch): the listed slots, and the list
+// emptied for the next window; lavapipe runs the body for every invocation of a dispatch,
+// even those that return at once, so visiting only the touched slots is what makes a fold
+// cheap. FOLD_ALL: every slot, coefficients recomputed (fresh or loaded statistics); the
+// list is left as it is.
+layout(push_constant) uniform Push { uint slot_count; uint mode; };
+#define FOLD_TOUCHED 0u
+#define FOLD_ALL 1u
+#define NO_SLOT 0xffffffffu
 
 const float FIX_ONE = 16777216.0;
 const float TWO_POW_32 = 4294967296.0;
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
+    if (mode == FOLD_TOUCHED) {
+        // The dispatch has read its size: the next window's list starts empty.
+        if (i == 0u) {
+            touched_slots[0] = 0u;
+            touched_slots[3] = 0u;
+        }
+        uint e = 4u + i;
+        i = touched_slots[e];
+        if (i == NO_SLOT) return;
+        touched_slots[e] = NO_SLOT;
+    }
     if (i >= slot_count) return;
     SlotDelta d = slot_delta[i];
-    if (force == 0u && d.n_zero + d.n_nonzero == 0u) return;
     SlotStats s = slot_stats[i];
     if (!(s.scale > 0.0)) s.scale = 1.0;
     if (d.n_zero + d.n_nonzero > 0u) {
@@ -37,8 +57,11 @@ void main() {
         s.sum += sum;
         s.sum_sq += sq;
         if (s.sum_sq > 0.0 && s.n_nonzero > 0.0) s.scale = sqrt(s.sum_sq / s.n_nonzero);
-        slot_delta[i] = SlotDelta(0u, 0u, 0u, 0u, 0u, 0u, 0u, 0u);
     }
+    // Cleared, and (FOLD_TOUCHED) off the list; FOLD_ALL keeps a listed slot listed, so the
+    // list never holds a slot twice.
+    uint listed = mode == FOLD_ALL ? d.touched : 0u;
+    slot_delta[i] = SlotDelta(0u, 0u, 0u, 0u, 0u, 0u, listed, 0u);
     vec3 c = weight_coefficients(s, learn[0]);
     s.coef_a = c.x;
     s.coef_b = c.y;

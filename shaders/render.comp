@@ -87,6 +87,22 @@ void flag_missing_region(uint r) {
 }
 #define FLAG_MISSING_REGIONS
 
+// The slots this learning window touched, for the fold (fold.comp), which then visits those
+// alone: [0] its workgroup count (an indirect dispatch, one group per 64 entries), [1] and
+// [2] 1, [3] the count, then the slots (NO_SLOT after the last). lavapipe runs a kernel's
+// body for every invocation, even one that returns at once, so a fold over all 47652 slots
+// of city cost as much as it did although a 128×96 direct pass touches at most 12288 of
+// them: the list made bayes on city 14-20 % faster (docs/results.md, 2026-12-02).
+layout(std430, set = 1, binding = 7) buffer Touched { uint touched_slots[]; };
+
+void mark_touched(uint slot) {
+    if (atomicExchange(slot_delta[slot].touched, 1u) != 0u) return;
+    uint k = atomicAdd(touched_slots[3], 1u);
+    touched_slots[4u + k] = slot;
+    if ((k & 63u) == 0u) atomicAdd(touched_slots[0], 1u);
+}
+#define TRACK_TOUCHED
+
 #include "bvh.glsl"
 #include "lights.glsl"
 #include "light_tree.glsl"

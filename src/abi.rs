@@ -189,7 +189,9 @@ pub struct SlotDelta {
     pub sum_hi: u32,
     pub sq_lo: u32,
     pub sq_hi: u32,
-    pub pad0: u32,
+    /// 1 while the slot is in the window's list of touched slots (render.comp
+    /// `mark_touched`); the fold of its window clears it.
+    pub touched: u32,
     pub pad1: u32,
 }
 

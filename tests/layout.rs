@@ -281,7 +281,7 @@ fn host_and_shader_structs_match() {
             sum_hi,
             sq_lo,
             sq_hi,
-            pad0,
+            touched,
             pad1
         }),
         rust_layout!(LearnParams {

@@ -429,22 +429,43 @@ fn fold_kernel_matches_its_cpu_mirror() {
     }
     let l = LearnSettings::default();
     let sb = Buffer::from_slice(&ctx, "stats", &st).unwrap();
-    let db = Buffer::from_slice(&ctx, "deltas", &de).unwrap();
     let lb = Buffer::from_slice(&ctx, "learn", &[l.gpu_params()]).unwrap();
-    let k = ComputePipeline::new(&ctx, "fold", kernels::FOLD, 3, 8, &[]).unwrap();
-    k.bind(&[&sb, &db, &lb]).unwrap();
-    // force = 0, as between passes: slots with an empty window are left untouched.
+    // The list of touched slots as render.comp's mark_touched leaves it (in a scrambled
+    // order, as atomics would): every slot with a non-empty window, flagged.
+    let mut listed: Vec<u32> = (0..n as u32)
+        .filter(|&i| de[i as usize].n_zero + de[i as usize].n_nonzero > 0)
+        .collect();
+    for i in (1..listed.len()).rev() {
+        listed.swap(i, (r.next_u64() % (i as u64 + 1)) as usize);
+    }
+    for &i in &listed {
+        de[i as usize].touched = 1;
+    }
+    let mut list = lightlearn::render::touched_list(n as u32);
+    list[0] = (listed.len() as u32).div_ceil(64);
+    list[3] = listed.len() as u32;
+    list[4..4 + listed.len()].copy_from_slice(&listed);
+    let db = Buffer::from_slice(&ctx, "deltas", &de).unwrap();
+    let tb = Buffer::indirect(&ctx, "touched", &list).unwrap();
+    let k = ComputePipeline::new(&ctx, "fold", kernels::FOLD, 4, 8, &[]).unwrap();
+    k.bind(&[&sb, &db, &lb, &tb]).unwrap();
+    // Mode 0, as between passes: the listed slots, by an indirect dispatch; the others
+    // are left alone.
     let push = [n as u32, 0];
-    ctx.submit(|cmd| {
-        k.dispatch(
-            cmd,
-            bytemuck::cast_slice(&push),
-            [push[0].div_ceil(64), 1, 1],
-        )
-    })
-    .unwrap();
+    ctx.submit(|cmd| k.dispatch_indirect(cmd, bytemuck::cast_slice(&push), &tb, 0))
+        .unwrap();
     let got: Vec<SlotStats> = sb.read().unwrap();
     let cleared: Vec<SlotDelta> = db.read().unwrap();
+    let emptied: Vec<u32> = tb.read().unwrap();
+    assert_eq!(
+        &emptied[..4],
+        &[0, 1, 1, 0],
+        "the list's header after the fold"
+    );
+    assert!(
+        emptied[4..].iter().all(|&e| e == u32::MAX),
+        "the list after the fold"
+    );
     let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * a.abs().max(b.abs()) + 1e-30;
     for i in 0..n {
         if de[i].n_zero + de[i].n_nonzero == 0 {

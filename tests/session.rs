@@ -305,3 +305,76 @@ fn regions_grow_at_fold_boundaries_with_update_every() {
     z.run_passes(5).unwrap();
     assert_eq!(y.image().unwrap(), z.image().unwrap());
 }
+
+/// The window's list of touched slots, which the fold visits instead of every slot: after
+/// each pass of an open window it holds every slot with observations exactly once (and no
+/// other), with the fold's workgroup count to match; the fold at the window's end empties
+/// it and clears every slot. A slot missing from the list would keep its window unfolded
+/// (and sample by stale coefficients); one listed twice would be folded twice at once.
+#[test]
+fn the_fold_visits_exactly_the_slots_the_window_touched() {
+    let ctx = common::ctx();
+    let s = scene("rooms16.glb");
+    let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
+    for depth in [1, 3] {
+        let mut set = settings(LightSampler::Bayes, 5);
+        set.learn.update_every = 3;
+        set.max_depth = depth;
+        let mut x = Session::new(&ctx, &s, &gpu, &set).unwrap();
+        let mut seen_zero_only = 0;
+        for pass in 1..=3 {
+            x.run_passes(1).unwrap();
+            let (delta, list) = x.open_window().unwrap();
+            let count = list[3] as usize;
+            if pass == 3 {
+                assert_eq!(
+                    &list[..4],
+                    &[0, 1, 1, 0],
+                    "depth {depth}: the fold empties the list"
+                );
+                assert!(
+                    list[4..].iter().all(|&e| e == u32::MAX),
+                    "depth {depth}: stale entries"
+                );
+                assert!(
+                    delta.iter().all(|d| *d == Default::default()),
+                    "depth {depth}: the fold clears every window"
+                );
+                continue;
+            }
+            let mut listed: Vec<u32> = list[4..4 + count].to_vec();
+            assert!(list[4 + count..].iter().all(|&e| e == u32::MAX));
+            listed.sort_unstable();
+            let before = listed.len();
+            listed.dedup();
+            assert_eq!(
+                listed.len(),
+                before,
+                "depth {depth}, pass {pass}: a slot listed twice"
+            );
+            let touched: Vec<u32> = (0..delta.len() as u32)
+                .filter(|&i| delta[i as usize].n_zero + delta[i as usize].n_nonzero > 0)
+                .collect();
+            assert_eq!(
+                listed, touched,
+                "depth {depth}, pass {pass}: list vs window"
+            );
+            for (i, d) in delta.iter().enumerate() {
+                let want = touched.binary_search(&(i as u32)).is_ok() as u32;
+                assert_eq!(
+                    d.touched, want,
+                    "depth {depth}, pass {pass}: slot {i}'s flag"
+                );
+                seen_zero_only += (d.n_zero > 0 && d.n_nonzero == 0) as usize;
+            }
+            assert_eq!(list[0] as usize, count.div_ceil(64), "workgroup count");
+            assert!(count > 0);
+            eprintln!(
+                "depth {depth}, pass {pass}: {count} of {} slots touched",
+                delta.len()
+            );
+        }
+        // Slots that saw only occluded samples must be listed too (their zeros count).
+        assert!(seen_zero_only > 0, "depth {depth}: no slot saw zeros alone");
+    }
+}

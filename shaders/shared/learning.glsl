@@ -172,12 +172,21 @@ uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint
 
 // Adds one observation y (≥ 0) of a slot to the window's sums (64-bit fixed point as two
 // 32-bit words: the carry of the low word goes into the high word, so the sum is exact).
+// A kernel that defines TRACK_TOUCHED (render.comp) lists the slot for the fold the first
+// time the window sees it: only the first observation of each count can find it 0, so the
+// list's atomics run at most twice per slot and window.
 void record_observation(uint slot, float y) {
     if (!(y > 0.0)) {
-        atomicAdd(slot_delta[slot].n_zero, 1u);
+        uint first = atomicAdd(slot_delta[slot].n_zero, 1u);
+#ifdef TRACK_TOUCHED
+        if (first == 0u) mark_touched(slot);
+#endif
         return;
     }
-    atomicAdd(slot_delta[slot].n_nonzero, 1u);
+    uint first = atomicAdd(slot_delta[slot].n_nonzero, 1u);
+#ifdef TRACK_TOUCHED
+    if (first == 0u) mark_touched(slot);
+#endif
     float q = min(y / slot_stats[slot].scale, FIX_CLAMP);
     // q · 2^24 is an integer-valued float after rounding; splitting it at 2^32 is exact.
     float v = floor(q * FIX_ONE + 0.5);

@@ -90,7 +90,9 @@ struct SlotDelta {
     uint n_zero; uint n_nonzero;
     uint sum_lo; uint sum_hi;
     uint sq_lo; uint sq_hi;
-    uint pad0; uint pad1;
+    // 1 once the slot is in the window's list of touched slots (render.comp mark_touched),
+    // until the fold that clears the window.
+    uint touched; uint pad1;
 };
 
 #define LEARN_REGRESSION 1u

@@ -90,6 +90,26 @@ impl Buffer {
         Ok(buf)
     }
 
+    /// A device-local storage buffer holding `data` that can also hold the workgroup counts
+    /// of an indirect dispatch ([`super::ComputePipeline::dispatch_indirect`]).
+    pub fn indirect<T: Pod>(ctx: &Arc<Context>, name: &str, data: &[T]) -> Result<Buffer> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let buf = Buffer::new(
+            ctx,
+            name,
+            bytes.len() as u64,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::INDIRECT_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        if !bytes.is_empty() {
+            buf.write(bytes)?;
+        }
+        Ok(buf)
+    }
+
     /// A zero-filled device-local storage buffer of `size` bytes.
     pub fn zeroed(ctx: &Arc<Context>, name: &str, size: u64) -> Result<Buffer> {
         let buf = Buffer::new(

@@ -287,20 +287,24 @@ impl Context {
         self.check_validation()
     }
 
-    /// A full memory barrier between compute dispatches (and transfers) in one command buffer.
+    /// A full memory barrier between compute dispatches (and transfers) in one command buffer;
+    /// also orders a dispatch's writes before an indirect dispatch that reads its size.
     pub fn barrier(&self, cmd: vk::CommandBuffer) {
         let barrier = [vk::MemoryBarrier::default()
             .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
             .dst_access_mask(
                 vk::AccessFlags::SHADER_READ
                     | vk::AccessFlags::SHADER_WRITE
-                    | vk::AccessFlags::TRANSFER_READ,
+                    | vk::AccessFlags::TRANSFER_READ
+                    | vk::AccessFlags::INDIRECT_COMMAND_READ,
             )];
         unsafe {
             self.device.cmd_pipeline_barrier(
                 cmd,
                 vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-                vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::COMPUTE_SHADER
+                    | vk::PipelineStageFlags::TRANSFER
+                    | vk::PipelineStageFlags::DRAW_INDIRECT,
                 vk::DependencyFlags::empty(),
                 &barrier,
                 &[],

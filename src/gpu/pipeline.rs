@@ -166,6 +166,28 @@ impl ComputePipeline {
 
     /// Records push constants and a dispatch of `groups` workgroups.
     pub fn dispatch(&self, cmd: vk::CommandBuffer, push: &[u8], groups: [u32; 3]) {
+        self.bind_for_dispatch(cmd, push);
+        unsafe {
+            self.ctx
+                .device
+                .cmd_dispatch(cmd, groups[0], groups[1], groups[2])
+        };
+    }
+
+    /// Records push constants and a dispatch whose workgroup counts an earlier dispatch
+    /// wrote: three u32 at byte `offset` of `args` (a buffer made by [`Buffer::indirect`]).
+    pub fn dispatch_indirect(
+        &self,
+        cmd: vk::CommandBuffer,
+        push: &[u8],
+        args: &Buffer,
+        offset: u64,
+    ) {
+        self.bind_for_dispatch(cmd, push);
+        unsafe { self.ctx.device.cmd_dispatch_indirect(cmd, args.raw, offset) };
+    }
+
+    fn bind_for_dispatch(&self, cmd: vk::CommandBuffer, push: &[u8]) {
         let d = &self.ctx.device;
         unsafe {
             d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
@@ -180,7 +202,6 @@ impl ComputePipeline {
             if !push.is_empty() {
                 d.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
             }
-            d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
         }
     }
 }

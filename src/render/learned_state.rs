@@ -25,6 +25,8 @@ pub struct LearnedState {
     pub cuts_buf: Buffer,
     pub stats: Buffer,
     pub delta: Buffer,
+    /// The slots the open window touched, for the fold ([`touched_list`]).
+    pub touched: Buffer,
     pub params: Buffer,
     /// Regions without a cut that samples reached (render.comp `missing_regions`): a count
     /// of newly set bits, then one bit per region.
@@ -96,6 +98,7 @@ impl LearnedState {
                 "learning window sums",
                 slots as u64 * std::mem::size_of::<SlotDelta>() as u64,
             )?,
+            touched: Buffer::indirect(ctx, "touched slots", &touched_list(slots))?,
             params: Buffer::from_slice(ctx, "learning parameters", &[settings.learn.gpu_params()])?,
             slots,
             passes: settings
@@ -185,7 +188,10 @@ impl LearnedState {
             new * std::mem::size_of::<SlotDelta>() as u64,
         )?;
         delta.copy_from(&self.delta)?;
-        (self.stats, self.delta, self.slots) = (stats, delta, new as u32);
+        // At a fold boundary the list is empty (and every slot's `touched` flag 0): a new,
+        // empty one with room for the new slots.
+        let touched = Buffer::indirect(ctx, "touched slots", &touched_list(new as u32))?;
+        (self.stats, self.delta, self.touched, self.slots) = (stats, delta, touched, new as u32);
         Ok(())
     }
 
@@ -279,4 +285,13 @@ impl LearnedState {
             upload_seconds: upload,
         })
     }
+}
+
+/// The empty list of touched slots (render.comp `mark_touched`, fold.comp) for `slots`
+/// slots: the fold's indirect workgroup counts (0, 1, 1), the count 0, then room for every
+/// slot rounded up to whole 64-wide workgroups, all NO_SLOT.
+pub fn touched_list(slots: u32) -> Vec<u32> {
+    let mut list = vec![0, 1, 1, 0];
+    list.resize(4 + slots.div_ceil(64) as usize * 64, u32::MAX);
+    list
 }

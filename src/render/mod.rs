@@ -25,7 +25,7 @@ mod session;
 pub use cuts::{
     build_cuts, check_region_index_fits, check_resume, initial_stats, stats_header, BOUNCE_RAYS,
 };
-pub use learned_state::HostReduction;
+pub use learned_state::{touched_list, HostReduction};
 pub use result::{Learned, RegionStats, RenderResult};
 pub use session::{Session, FOLD_BINDINGS, MAX_PASSES, RENDER_BINDINGS};
 

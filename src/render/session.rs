@@ -58,6 +58,7 @@ pub const RENDER_BINDINGS: [&[&str]; 3] = [
         "Delta",
         "Learn",
         "MissingRegions",
+        "Touched",
     ],
     &["Accum", "Counters"],
 ];
@@ -66,7 +67,12 @@ const LEARNED_SET: usize = 1;
 const FILM_SET: usize = 2;
 
 /// The storage blocks of `fold.comp` by binding number (set 0).
-pub const FOLD_BINDINGS: [&str; 3] = ["Stats", "Delta", "Learn"];
+pub const FOLD_BINDINGS: [&str; 4] = ["Stats", "Delta", "Learn", "Touched"];
+
+/// fold.comp's modes (its push constant `mode`): the slots the window listed (between
+/// passes, an indirect dispatch), or every slot with its coefficients recomputed.
+const FOLD_TOUCHED: u32 = 0;
+const FOLD_ALL: u32 = 1;
 
 /// The buffers of `named` in the order of `bindings` (each name once).
 fn in_binding_order<'b>(named: &[(&str, &'b Buffer)], bindings: &[&str]) -> Vec<&'b Buffer> {
@@ -197,7 +203,7 @@ impl<'a> Session<'a> {
         session.bind_film()?;
         if session.is_learning() {
             // The weight coefficients of fresh or loaded statistics (under these settings).
-            session.fold_all(true)?;
+            session.fold_all()?;
         }
         Ok(session)
     }
@@ -241,7 +247,7 @@ impl<'a> Session<'a> {
     /// Binds the learned state's buffers (again when cuts were added).
     fn bind_learned(&self) -> Result<()> {
         let l = &self.learned;
-        let learned: [(&str, &Buffer); 7] = [
+        let learned: [(&str, &Buffer); 8] = [
             ("Grid", &l.grid),
             ("RegionIndex", &l.index),
             ("Cuts", &l.cuts_buf),
@@ -249,13 +255,15 @@ impl<'a> Session<'a> {
             ("Delta", &l.delta),
             ("Learn", &l.params),
             ("MissingRegions", &l.missing),
+            ("Touched", &l.touched),
         ];
         let set = in_binding_order(&learned, RENDER_BINDINGS[LEARNED_SET]);
         self.render.bind_set(LEARNED_SET, &set)?;
-        let fold: [(&str, &Buffer); 3] = [
+        let fold: [(&str, &Buffer); 4] = [
             ("Stats", &l.stats),
             ("Delta", &l.delta),
             ("Learn", &l.params),
+            ("Touched", &l.touched),
         ];
         self.fold.bind(&in_binding_order(&fold, &FOLD_BINDINGS))
     }
@@ -268,10 +276,11 @@ impl<'a> Session<'a> {
         self.render.bind_set(FILM_SET, &set)
     }
 
-    /// Folds the window into the totals: every slot (`force`: also recomputes the
-    /// coefficients of slots with an empty window) or those the window touched.
-    fn fold_all(&self, force: bool) -> Result<()> {
-        let push = [self.learned.slots, force as u32];
+    /// Folds the window into the totals and recomputes every slot's coefficients (fresh or
+    /// loaded statistics, new slots); between passes the fold visits the touched slots alone
+    /// ([`Session::submit_passes`]).
+    fn fold_all(&self) -> Result<()> {
+        let push = [self.learned.slots, FOLD_ALL];
         let groups = [self.learned.slots.div_ceil(64), 1, 1];
         self.ctx
             .submit(|cmd| self.fold.dispatch(cmd, bytemuck::cast_slice(&push), groups))
@@ -348,8 +357,7 @@ impl<'a> Session<'a> {
         let groups = [self.film.width.div_ceil(8), self.film.height.div_ceil(8), 1];
         let learning = self.is_learning();
         let update_every = self.settings.learn.update_every;
-        let fold_push = [self.learned.slots, 0u32];
-        let fold_groups = [self.learned.slots.div_ceil(64), 1, 1];
+        let fold_push = [self.learned.slots, FOLD_TOUCHED];
         let t0 = Instant::now();
         self.ctx.submit(|cmd| {
             for i in 0..k {
@@ -358,8 +366,13 @@ impl<'a> Session<'a> {
                     .dispatch(cmd, bytemuck::bytes_of(&params), groups);
                 self.ctx.barrier(cmd);
                 if learning && (params.sample_index + 1).is_multiple_of(update_every) {
-                    self.fold
-                        .dispatch(cmd, bytemuck::cast_slice(&fold_push), fold_groups);
+                    // As many workgroups as the pass listed touched slots (render.comp).
+                    self.fold.dispatch_indirect(
+                        cmd,
+                        bytemuck::cast_slice(&fold_push),
+                        &self.learned.touched,
+                        0,
+                    );
                     self.ctx.barrier(cmd);
                 }
             }
@@ -401,7 +414,7 @@ impl<'a> Session<'a> {
             if self.is_learning() {
                 // The new slots' coefficients; the others are recomputed from unchanged
                 // totals.
-                self.fold_all(true)?;
+                self.fold_all()?;
             }
         }
         Ok(added)
@@ -471,6 +484,17 @@ impl<'a> Session<'a> {
             return Ok(Vec::new());
         }
         self.learned.stats.read()
+    }
+
+    /// The open learning window as the GPU holds it: every slot's window sums, and the list
+    /// of the slots it touched that the next fold visits (render.comp `mark_touched`:
+    /// the fold's workgroup count, 1, 1, the count, then the slots and NO_SLOT after them).
+    /// For tests and diagnostics; empty for the samplers that do not learn.
+    pub fn open_window(&self) -> Result<(Vec<SlotDelta>, Vec<u32>)> {
+        if !self.is_learning() {
+            return Ok((Vec::new(), Vec::new()));
+        }
+        Ok((self.learned.delta.read()?, self.learned.touched.read()?))
     }
 
     /// How much the region of each (point, normal) has learned: the observations summed

@@ -98,10 +98,17 @@ pub fn gpu_samples_and_pmfs(
     let sb = Buffer::from_slice(ctx, "stats", stats).unwrap();
     let db = Buffer::zeroed(ctx, "deltas", (stats.len() * 32) as u64).unwrap();
     let lb = Buffer::from_slice(ctx, "learn", &[params]).unwrap();
-    // The fold kernel with empty windows writes the weight coefficients.
+    // The fold kernel over every slot (mode 1) with empty windows writes the weight
+    // coefficients.
+    let tb = Buffer::indirect(
+        ctx,
+        "touched",
+        &lightlearn::render::touched_list(stats.len() as u32),
+    )
+    .unwrap();
     let fold =
-        ComputePipeline::new(ctx, "fold", lightlearn::gpu::kernels::FOLD, 3, 8, &[]).unwrap();
-    fold.bind(&[&sb, &db, &lb]).unwrap();
+        ComputePipeline::new(ctx, "fold", lightlearn::gpu::kernels::FOLD, 4, 8, &[]).unwrap();
+    fold.bind(&[&sb, &db, &lb, &tb]).unwrap();
     let slots = [stats.len() as u32, 1];
     ctx.submit(|cmd| {
         fold.dispatch(
