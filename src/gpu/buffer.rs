@@ -74,34 +74,31 @@ impl Buffer {
 
     /// A device-local storage buffer holding `data`.
     pub fn from_slice<T: Pod>(ctx: &Arc<Context>, name: &str, data: &[T]) -> Result<Buffer> {
-        let bytes: &[u8] = bytemuck::cast_slice(data);
-        let buf = Buffer::new(
-            ctx,
-            name,
-            bytes.len() as u64,
-            vk::BufferUsageFlags::STORAGE_BUFFER
-                | vk::BufferUsageFlags::TRANSFER_DST
-                | vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::GpuOnly,
-        )?;
-        if !bytes.is_empty() {
-            buf.write(bytes)?;
-        }
-        Ok(buf)
+        Buffer::holding(ctx, name, data, vk::BufferUsageFlags::empty())
     }
 
     /// A device-local storage buffer holding `data` that can also hold the workgroup counts
     /// of an indirect dispatch ([`super::ComputePipeline::dispatch_indirect`]).
     pub fn indirect<T: Pod>(ctx: &Arc<Context>, name: &str, data: &[T]) -> Result<Buffer> {
+        Buffer::holding(ctx, name, data, vk::BufferUsageFlags::INDIRECT_BUFFER)
+    }
+
+    /// A device-local storage buffer holding `data`, with `extra` usage.
+    fn holding<T: Pod>(
+        ctx: &Arc<Context>,
+        name: &str,
+        data: &[T],
+        extra: vk::BufferUsageFlags,
+    ) -> Result<Buffer> {
         let bytes: &[u8] = bytemuck::cast_slice(data);
         let buf = Buffer::new(
             ctx,
             name,
             bytes.len() as u64,
             vk::BufferUsageFlags::STORAGE_BUFFER
-                | vk::BufferUsageFlags::INDIRECT_BUFFER
                 | vk::BufferUsageFlags::TRANSFER_DST
-                | vk::BufferUsageFlags::TRANSFER_SRC,
+                | vk::BufferUsageFlags::TRANSFER_SRC
+                | extra,
             MemoryLocation::GpuOnly,
         )?;
         if !bytes.is_empty() {
