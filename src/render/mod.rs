@@ -18,6 +18,7 @@ use crate::scene::Scene;
 
 mod cuts;
 mod learned_state;
+mod passes;
 mod refine;
 mod result;
 mod session;
@@ -26,8 +27,9 @@ pub use cuts::{
     build_cuts, check_region_index_fits, check_resume, initial_stats, stats_header, BOUNCE_RAYS,
 };
 pub use learned_state::{touched_list, HostReduction};
+pub use passes::{FOLD_BINDINGS, RENDER_BINDINGS};
 pub use result::{Learned, RegionStats, RenderResult};
-pub use session::{Session, FOLD_BINDINGS, MAX_PASSES, RENDER_BINDINGS};
+pub use session::{Session, MAX_PASSES};
 
 /// The light samplers, a closed set: one value per `SAMPLER` case in `shaders/render.comp`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]

@@ -24,69 +24,13 @@ use anyhow::{bail, Result};
 
 use super::cuts::{check_region_index_fits, stats_header};
 use super::learned_state::{HostReduction, LearnedState};
+use super::passes::PassKernels;
 use super::result::mean_of;
 use super::{camera_vectors, GpuScene, Learned, RegionStats, RenderResult, RenderSettings};
 use crate::gpu::layout::{PixelAccum, RenderParams, SlotDelta, SlotStats};
-use crate::gpu::{kernels, Buffer, ComputePipeline, Context};
+use crate::gpu::{Buffer, Context};
 use crate::learning::stats_file::{SavedStats, StatsHeader};
 use crate::scene::{Camera, Scene};
-
-/// The storage blocks of `render.comp` by descriptor set and binding number, as the kernel
-/// names them; sets follow the lifetimes: the scene, the learned state, the film.
-/// `tests/layout.rs` reads the names and numbers from the compiled SPIR-V and checks them.
-pub const RENDER_BINDINGS: [&[&str]; 3] = [
-    &[
-        "Nodes",
-        "Tris",
-        "TriMaterial",
-        "Materials",
-        "Lights",
-        "Alias",
-        "LightNodes",
-        "LightOrder",
-        "LightPosition",
-        "TriLight",
-        "Textures",
-        "Texels",
-        "TriUv",
-    ],
-    &[
-        "Grid",
-        "RegionIndex",
-        "Cuts",
-        "Stats",
-        "Delta",
-        "Learn",
-        "MissingRegions",
-        "Touched",
-    ],
-    &["Accum", "Counters"],
-];
-const SCENE_SET: usize = 0;
-const LEARNED_SET: usize = 1;
-const FILM_SET: usize = 2;
-
-/// The storage blocks of `fold.comp` by binding number (set 0).
-pub const FOLD_BINDINGS: [&str; 4] = ["Stats", "Delta", "Learn", "Touched"];
-
-/// fold.comp's modes (its push constant `mode`): the slots the window listed (between
-/// passes, an indirect dispatch), or every slot with its coefficients recomputed.
-const FOLD_TOUCHED: u32 = 0;
-const FOLD_ALL: u32 = 1;
-
-/// The buffers of `named` in the order of `bindings` (each name once).
-fn in_binding_order<'b>(named: &[(&str, &'b Buffer)], bindings: &[&str]) -> Vec<&'b Buffer> {
-    bindings
-        .iter()
-        .map(|b| {
-            named
-                .iter()
-                .find(|(n, _)| n == b)
-                .map(|(_, buf)| *buf)
-                .expect("every binding has a buffer")
-        })
-        .collect()
-}
 
 /// The film: per-pixel sums and counters since the last reset.
 struct Film {
@@ -134,8 +78,7 @@ pub struct Session<'a> {
     camera: Camera,
     learned: LearnedState,
     film: Film,
-    render: ComputePipeline,
-    fold: ComputePipeline,
+    kernels: PassKernels,
     /// The camera or size changed since the session began (cuts grow on the film's schedule
     /// too).
     moved: bool,
@@ -174,15 +117,7 @@ impl<'a> Session<'a> {
             )?;
         }
         let learned = LearnedState::new(ctx, scene, gpu, settings, &scene.camera)?;
-        let render = render_pipeline(ctx, gpu, settings, 0)?;
-        let fold = ComputePipeline::new(
-            ctx,
-            "fold",
-            kernels::FOLD,
-            FOLD_BINDINGS.len() as u32,
-            8,
-            &[],
-        )?;
+        let kernels = PassKernels::new(ctx, gpu, settings)?;
         let session = Session {
             ctx: ctx.clone(),
             scene,
@@ -191,8 +126,7 @@ impl<'a> Session<'a> {
             camera: scene.camera,
             learned,
             film,
-            render,
-            fold,
+            kernels,
             moved: false,
             growth_due: false,
             growth_paused: false,
@@ -212,7 +146,8 @@ impl<'a> Session<'a> {
     /// [`crate::bench::stages`]): the images are then wrong, only the pass time means
     /// something. 0 restores the real kernel.
     pub fn knock_out(&mut self, mask: u32) -> Result<()> {
-        self.render = render_pipeline(&self.ctx, self.gpu, &self.settings, mask)?;
+        self.kernels
+            .knock_out(&self.ctx, self.gpu, &self.settings, mask)?;
         self.bind_scene()?;
         self.bind_learned()?;
         self.bind_film()
@@ -222,68 +157,21 @@ impl<'a> Session<'a> {
         self.settings.sampler.learned()
     }
 
-    /// Binds the scene's buffers (once).
     fn bind_scene(&self) -> Result<()> {
-        let g = self.gpu;
-        let scene: [(&str, &Buffer); 13] = [
-            ("Nodes", &g.nodes),
-            ("Tris", &g.tris),
-            ("TriMaterial", &g.tri_material),
-            ("Materials", &g.materials),
-            ("Lights", &g.lights),
-            ("Alias", &g.alias),
-            ("LightNodes", &g.light_nodes),
-            ("LightOrder", &g.light_order),
-            ("LightPosition", &g.light_position),
-            ("TriLight", &g.tri_light),
-            ("Textures", &g.textures),
-            ("Texels", &g.texels),
-            ("TriUv", &g.tri_uv),
-        ];
-        let set = in_binding_order(&scene, RENDER_BINDINGS[SCENE_SET]);
-        self.render.bind_set(SCENE_SET, &set)
+        self.kernels.bind_scene(self.gpu)
     }
 
-    /// Binds the learned state's buffers (again when cuts were added).
     fn bind_learned(&self) -> Result<()> {
-        let l = &self.learned;
-        let learned: [(&str, &Buffer); 8] = [
-            ("Grid", &l.grid),
-            ("RegionIndex", &l.index),
-            ("Cuts", &l.cuts_buf),
-            ("Stats", &l.stats),
-            ("Delta", &l.delta),
-            ("Learn", &l.params),
-            ("MissingRegions", &l.missing),
-            ("Touched", &l.touched),
-        ];
-        let set = in_binding_order(&learned, RENDER_BINDINGS[LEARNED_SET]);
-        self.render.bind_set(LEARNED_SET, &set)?;
-        let fold: [(&str, &Buffer); 4] = [
-            ("Stats", &l.stats),
-            ("Delta", &l.delta),
-            ("Learn", &l.params),
-            ("Touched", &l.touched),
-        ];
-        self.fold.bind(&in_binding_order(&fold, &FOLD_BINDINGS))
+        self.kernels.bind_learned(&self.learned)
     }
 
-    /// Binds the film's buffers (again after a resize).
     fn bind_film(&self) -> Result<()> {
-        let f = &self.film;
-        let film: [(&str, &Buffer); 2] = [("Accum", &f.accum), ("Counters", &f.counters)];
-        let set = in_binding_order(&film, RENDER_BINDINGS[FILM_SET]);
-        self.render.bind_set(FILM_SET, &set)
+        self.kernels
+            .bind_film(&self.film.accum, &self.film.counters)
     }
 
-    /// Folds the window into the totals and recomputes every slot's coefficients (fresh or
-    /// loaded statistics, new slots); between passes the fold visits the touched slots alone
-    /// ([`Session::submit_passes`]).
     fn fold_all(&self) -> Result<()> {
-        let push = [self.learned.slots, FOLD_ALL];
-        let groups = [self.learned.slots.div_ceil(64), 1, 1];
-        self.ctx
-            .submit(|cmd| self.fold.dispatch(cmd, bytemuck::cast_slice(&push), groups))
+        self.kernels.fold_all(&self.ctx, self.learned.slots)
     }
 
     /// The push constants of the next pass.
@@ -353,41 +241,17 @@ impl<'a> Session<'a> {
 
     /// `k` passes in one submission; their seconds.
     fn submit_passes(&mut self, k: u32) -> Result<f64> {
-        let mut params = self.pass_params();
-        let groups = [self.film.width.div_ceil(8), self.film.height.div_ceil(8), 1];
-        let learning = self.is_learning();
-        let update_every = self.settings.learn.update_every;
-        let fold_push = [self.learned.slots, FOLD_TOUCHED];
-        let t0 = Instant::now();
-        self.ctx.submit(|cmd| {
-            for i in 0..k {
-                params.sample_index = self.learned.passes + i;
-                self.render
-                    .dispatch(cmd, bytemuck::bytes_of(&params), groups);
-                self.ctx.barrier(cmd);
-                if learning && (params.sample_index + 1).is_multiple_of(update_every) {
-                    // As many workgroups as the pass listed touched slots (render.comp).
-                    self.fold.dispatch_indirect(
-                        cmd,
-                        bytemuck::cast_slice(&fold_push),
-                        &self.learned.touched,
-                        0,
-                    );
-                    self.ctx.barrier(cmd);
-                }
-            }
-        })?;
-        let dt = t0.elapsed().as_secs_f64();
+        let fold_every = self
+            .is_learning()
+            .then_some(self.settings.learn.update_every);
+        let dt =
+            self.kernels
+                .submit(&self.ctx, self.pass_params(), k, fold_every, &self.learned)?;
         self.learned.passes += k;
         self.film.spp += k;
         Ok(dt)
     }
 
-    /// Builds cuts (and, for the learned samplers, starting statistics) for the regions
-    /// that samples reached without one since the last frame, appends them and rebinds:
-    /// the regions a moved camera reaches then learn instead of using the shared fallback
-    /// cut. Only at a fold boundary (the window is empty), so the statistics grow by
-    /// appending totals alone. Returns how many regions got a cut.
     /// Whether the window is empty (samplers that do not learn: always).
     fn at_fold_boundary(&self) -> bool {
         !self.is_learning()
@@ -397,8 +261,12 @@ impl<'a> Session<'a> {
                 .is_multiple_of(self.settings.learn.update_every)
     }
 
-    /// Builds cuts for the regions that samples reached without one and rebinds the learned
-    /// state; the new slots get their coefficients. Returns how many regions got a cut.
+    /// Builds cuts (and, for the learned samplers, starting statistics) for the regions
+    /// that samples reached without one since the last frame, appends them and rebinds:
+    /// the regions a moved camera reaches then learn instead of using the shared fallback
+    /// cut. Only at a fold boundary (the window is empty), so the statistics grow by
+    /// appending totals alone; the new slots get their coefficients. Returns how many
+    /// regions got a cut.
     fn grow_regions(&mut self) -> Result<usize> {
         if !self.settings.sampler.uses_cuts() || !self.at_fold_boundary() {
             return Ok(0);
@@ -670,30 +538,6 @@ pub const MAX_PASSES: u32 = 1 << 31;
 
 /// Whether regions reached without a cut get one after `n` passes: 1, 2, 4, 8, 16, 32,
 /// then every 64th (soon after the start or a camera move, rarely once settled).
-/// `render.comp` for these settings, with the stages in `knock_out` left out (0: none).
-fn render_pipeline(
-    ctx: &Arc<Context>,
-    gpu: &GpuScene,
-    settings: &RenderSettings,
-    knock_out: u32,
-) -> Result<ComputePipeline> {
-    ComputePipeline::with_sets(
-        ctx,
-        "render",
-        kernels::RENDER,
-        &RENDER_BINDINGS.map(|set| set.len() as u32),
-        std::mem::size_of::<RenderParams>() as u32,
-        &[
-            settings.sampler.shader_id(),
-            settings.regions.in_cluster_importance as u32,
-            knock_out,
-            settings.learn.gpu_params().flags,
-            gpu.kernel_flags,
-            (settings.max_depth == 1) as u32,
-        ],
-    )
-}
-
 pub fn growth_point(n: u32) -> bool {
     n > 0 && (n <= 32 && n.is_power_of_two() || n.is_multiple_of(64))
 }
