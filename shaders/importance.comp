@@ -6,7 +6,8 @@
 
 layout(local_size_x = 64) in;
 
-layout(std430, set = 0, binding = 0) readonly buffer Nodes { GpuLightNode light_nodes[]; };
+// The light tree as texels (light_tree.glsl light_node).
+layout(set = 0, binding = 0) uniform usamplerBuffer light_node_texels;
 layout(std430, set = 0, binding = 1) readonly buffer Order { uint light_order[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Queries { LightQuery queries[]; };
 layout(std430, set = 0, binding = 3) writeonly buffer Values { float values[]; };
@@ -18,5 +19,5 @@ layout(push_constant) uniform Push { uint query_count; };
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= query_count) return;
-    values[i] = light_importance(light_nodes[i], queries[i].p, queries[i].n);
+    values[i] = light_importance(light_node(i), queries[i].p, queries[i].n);
 }

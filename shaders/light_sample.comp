@@ -14,14 +14,15 @@ layout(constant_id = 1) const uint IN_CLUSTER = 0u;
 // The learned samplers' switches: learn[0].flags, fixed for the pipeline (learning.glsl).
 layout(constant_id = 3) const uint LEARN_FLAGS = 0u;
 
-layout(std430, set = 0, binding = 0) readonly buffer Nodes { GpuLightNode light_nodes[]; };
+// The light tree as texels (light_tree.glsl light_node).
+layout(set = 0, binding = 0) uniform usamplerBuffer light_node_texels;
 layout(std430, set = 0, binding = 1) readonly buffer Order { uint light_order[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Queries { LightQuery queries[]; };
 layout(std430, set = 0, binding = 3) writeonly buffer Choices { LightChoice choices[]; };
 layout(std430, set = 0, binding = 4) readonly buffer Grid { GridParams grid[]; };
-layout(std430, set = 0, binding = 5) readonly buffer RegionIndex { uint region_index[]; };
-layout(std430, set = 0, binding = 6) readonly buffer Cuts { uint cuts[]; };
-layout(std430, set = 0, binding = 7) readonly buffer Stats { SlotStats slot_stats[]; };
+layout(set = 0, binding = 5) uniform usamplerBuffer region_index_texels;
+layout(set = 0, binding = 6) uniform usamplerBuffer cut_texels;
+layout(set = 0, binding = 7) uniform usamplerBuffer slot_stat_texels;
 layout(std430, set = 0, binding = 8) buffer Delta { SlotDelta slot_delta[]; };
 layout(std430, set = 0, binding = 9) readonly buffer Learn { LearnParams learn[]; };
 layout(std430, set = 0, binding = 10) readonly buffer Position { uint light_position[]; };

@@ -46,8 +46,9 @@ const bool SCENE_TEXTURED = (SCENE_FLAGS & 2u) != 0u;
 // too). The push constant max_depth stays the loop's bound.
 layout(constant_id = 5) const bool DIRECT_ONLY = false;
 
-layout(std430, set = 0, binding = 0) readonly buffer Nodes { BvhNode bvh_nodes[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Tris { BvhTri bvh_tris[]; };
+// The BVH as texels (bvh.glsl).
+layout(set = 0, binding = 0) uniform usamplerBuffer bvh_node_texels;
+layout(set = 0, binding = 1) uniform usamplerBuffer bvh_tri_texels;
 layout(std430, set = 0, binding = 2) readonly buffer TriMaterial { uint tri_material[]; };
 layout(std430, set = 0, binding = 3) readonly buffer Materials { GpuMaterial materials[]; };
 layout(std430, set = 0, binding = 4) readonly buffer Lights { GpuLight lights[]; };
@@ -56,12 +57,15 @@ layout(std430, set = 2, binding = 0) buffer Accum { PixelAccum accum[]; };
 // [0]: samples dropped because they were NaN or Inf (reported, never averaged in).
 // [1]: learned-sampler samples taken in a region without its own cut (the shared fallback).
 layout(std430, set = 2, binding = 1) buffer Counters { uint counters[]; };
-layout(std430, set = 0, binding = 6) readonly buffer LightNodes { GpuLightNode light_nodes[]; };
+// The light tree as texels (light_tree.glsl light_node).
+layout(set = 0, binding = 6) uniform usamplerBuffer light_node_texels;
 layout(std430, set = 0, binding = 7) readonly buffer LightOrder { uint light_order[]; };
 layout(std430, set = 1, binding = 0) readonly buffer Grid { GridParams grid[]; };
-layout(std430, set = 1, binding = 1) readonly buffer RegionIndex { uint region_index[]; };
-layout(std430, set = 1, binding = 2) readonly buffer Cuts { uint cuts[]; };
-layout(std430, set = 1, binding = 3) readonly buffer Stats { SlotStats slot_stats[]; };
+// The region index and the cuts as R32UI texels (regions.glsl).
+layout(set = 1, binding = 1) uniform usamplerBuffer region_index_texels;
+layout(set = 1, binding = 2) uniform usamplerBuffer cut_texels;
+// The statistics as texels (learning.glsl slot_stats_at).
+layout(set = 1, binding = 3) uniform usamplerBuffer slot_stat_texels;
 layout(std430, set = 1, binding = 4) buffer Delta { SlotDelta slot_delta[]; };
 layout(std430, set = 1, binding = 5) readonly buffer Learn { LearnParams learn[]; };
 // A light's position in the tree order (the inverse of light_order), for light_pmf.
@@ -216,7 +220,7 @@ void main() {
         float t;
         uint hit = trace_ray(origin, dir, 0.0, 3.0e38, false, t);
         if (hit == NO_HIT) break;
-        BvhTri tri = bvh_tris[hit];
+        BvhTri tri = bvh_tri(hit);
         vec3 ng = normalize(cross(tri.e1, tri.e2));
         bool front = dot(ng, dir) < 0.0;
         GpuMaterial m = materials[tri_material[tri.prim]];

@@ -6,8 +6,9 @@
 
 layout(local_size_x = 64) in;
 
-layout(std430, set = 0, binding = 0) readonly buffer Nodes { BvhNode bvh_nodes[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Tris { BvhTri bvh_tris[]; };
+// The BVH as texels (bvh.glsl).
+layout(set = 0, binding = 0) uniform usamplerBuffer bvh_node_texels;
+layout(set = 0, binding = 1) uniform usamplerBuffer bvh_tri_texels;
 layout(std430, set = 0, binding = 2) readonly buffer Rays { GpuRay rays[]; };
 layout(std430, set = 0, binding = 3) writeonly buffer Hits { GpuHit hits[]; };
 
@@ -23,6 +24,6 @@ void main() {
     uint slot = trace_ray(r.origin, r.dir, r.tmin, r.tmax, params.any_hit != 0u, t);
     GpuHit h;
     h.t = t;
-    h.prim = slot == NO_HIT ? NO_HIT : bvh_tris[slot].prim;
+    h.prim = slot == NO_HIT ? NO_HIT : bvh_tri(slot).prim;
     hits[i] = h;
 }

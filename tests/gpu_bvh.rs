@@ -14,8 +14,8 @@ fn gpu_and_cpu_bvh_agree_on_every_ray() {
     let ctx = common::ctx();
     let mesh = bench_mesh(20_000, 3);
     let bvh = Bvh::build(&mesh);
-    let nodes = Buffer::from_slice(&ctx, "nodes", &bvh.nodes).unwrap();
-    let tris = Buffer::from_slice(&ctx, "tris", &bvh.tris).unwrap();
+    let nodes = Buffer::texels(&ctx, "nodes", &bvh.nodes).unwrap();
+    let tris = Buffer::texels(&ctx, "tris", &bvh.tris).unwrap();
 
     let primary = primary_rays(64, 48);
     let incoherent = incoherent_rays(&bvh, &primary, 5);

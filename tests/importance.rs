@@ -55,7 +55,7 @@ fn glsl_and_rust_importance_agree_on_random_inputs() {
         });
     }
     let gpu_nodes: Vec<_> = nodes.iter().map(gpu_node).collect();
-    let nb = Buffer::from_slice(&ctx, "nodes", &gpu_nodes).unwrap();
+    let nb = Buffer::texels(&ctx, "nodes", &gpu_nodes).unwrap();
     let ob = Buffer::from_slice(&ctx, "order", &[0u32]).unwrap();
     let qb = Buffer::from_slice(&ctx, "queries", &queries).unwrap();
     let vb = Buffer::zeroed(&ctx, "values", (count * 4) as u64).unwrap();

@@ -9,11 +9,15 @@
 //! sampler switch; `OpCopyLogical`, SPIR-V 1.4, in trace.comp, fold.comp and bsdf.comp), so
 //! `naga_agrees_with_our_reader` compiles the last three for SPIR-V 1.0 and compares.
 
+mod common;
+
 use std::collections::HashMap;
 use std::mem::{offset_of, size_of};
 
 use lightlearn::gpu::kernels;
 use lightlearn::gpu::layout::*;
+use lightlearn::gpu::{Buffer, ComputePipeline};
+use lightlearn::rng::SplitMix64;
 
 /// What the SPIR-V says about one struct type: member (name, offset) and its array stride.
 #[derive(Debug, Default, Clone)]
@@ -139,6 +143,9 @@ fn host_and_shader_structs_match() {
     spv.extend(reflect(kernels::FOLD));
     spv.extend(reflect(kernels::BSDF));
     spv.extend(reflect(kernels::PREVIEW));
+    // The structs kernels read as texels have their explicit layout in texels.comp's output
+    // blocks; texel_fetches_rebuild_the_host_bytes checks that the fetches agree with it.
+    spv.extend(reflect(kernels::TEXELS));
     let rust = [
         rust_layout!(BvhNode {
             a_min,
@@ -336,7 +343,8 @@ fn layout_checker_detects_mismatch() {
     assert_ne!(bindings(kernels::FOLD), named(&swapped));
 }
 
-/// (set, binding) → the block (struct type) name of every storage buffer of a module.
+/// (set, binding) → the block (struct type) name of every storage buffer of a module, or
+/// the variable's name for a binding of no named type (a texel buffer).
 fn bindings(spv: &[u8]) -> Vec<((u32, u32), String)> {
     let words = spv_words(spv);
     let (mut names, mut set, mut binding) = (HashMap::new(), HashMap::new(), HashMap::new());
@@ -363,7 +371,10 @@ fn bindings(spv: &[u8]) -> Vec<((u32, u32), String)> {
         .iter()
         .filter_map(|(v, ptr)| {
             let b = *binding.get(v)?;
-            let block = names.get(pointee.get(ptr)?)?.clone();
+            let block = names
+                .get(pointee.get(ptr)?)
+                .or_else(|| names.get(v))?
+                .clone();
             Some(((set.get(v).copied().unwrap_or(0), b), block))
         })
         .collect();
@@ -458,20 +469,24 @@ fn glsl_defines_match_the_rust_constants() {
 /// can parse. naga 30 rejects OpCopyLogical (SPIR-V 1.4), which glslang emits for our
 /// vulkan1.2 builds, so those kernels are compiled here once more for SPIR-V 1.0 (the same
 /// source, so the same layouts); render.comp and light_sample.comp use OpSpecConstantOp,
-/// which naga rejects at any version, and stay with our reader alone.
+/// which naga rejects at any version, and trace.comp texel buffers (SampledBuffer), which
+/// naga rejects too: they stay with our reader alone.
 #[test]
 fn naga_agrees_with_our_reader() {
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = tempfile::tempdir().unwrap();
     let mut checked = 0;
-    for (name, shipped) in [
-        ("fold", kernels::FOLD),
-        ("trace", kernels::TRACE),
-        ("bsdf", kernels::BSDF),
+    // texels.comp without its texel buffers (LAYOUT_ONLY): naga 30 refuses the SampledBuffer
+    // capability, which also keeps trace.comp out.
+    for (name, shipped, defines) in [
+        ("fold", kernels::FOLD, &[][..]),
+        ("texels", kernels::TEXELS, &["-DLAYOUT_ONLY"][..]),
+        ("bsdf", kernels::BSDF, &[][..]),
     ] {
         let out = dir.path().join(format!("{name}.spv"));
         let status = std::process::Command::new("glslangValidator")
             .args(["-V", "--target-env", "vulkan1.0"])
+            .args(defines)
             .arg(format!("-I{}", root.join("shaders/shared").display()))
             .arg(root.join(format!("shaders/{name}.comp")))
             .arg("-o")
@@ -512,4 +527,83 @@ fn naga_agrees_with_our_reader() {
     }
     eprintln!("naga and our reader agree on {checked} structs");
     assert!(checked >= 6, "only {checked} structs compared");
+}
+
+/// The kernels read the BVH, the light tree, the cuts, the region index and the statistics
+/// as texels (src/gpu/buffer.rs `Buffer::texels`, `Buffer::words`): each fetch function must
+/// rebuild the host's struct bit for bit. texels.comp fetches random bytes through every one
+/// and writes the structs to storage buffers with the layout host_and_shader_structs_match
+/// checks; the bytes must come back unchanged (a swapped member or texel fails this).
+#[test]
+fn texel_fetches_rebuild_the_host_bytes() {
+    let ctx = common::ctx();
+    let mut r = SplitMix64(7);
+    const N: usize = 200;
+    // Random words that are normal floats when read as floats (a NaN or denormal could be
+    // changed by a float move on some devices; the fetches never do arithmetic).
+    let mut words = |n: usize| -> Vec<u32> {
+        (0..n)
+            .map(|_| {
+                let w = (r.next_u64() >> 32) as u32;
+                let exponent = 1 + (w >> 23 & 0xff) % 254;
+                (w & 0x807f_ffff) | exponent << 23
+            })
+            .collect()
+    };
+    let nodes = words(N * size_of::<BvhNode>() / 4);
+    let tris = words(N * size_of::<BvhTri>() / 4);
+    let light_nodes = words(N * size_of::<GpuLightNode>() / 4);
+    let stats = words(N * size_of::<SlotStats>() / 4);
+    let cut = words(N);
+    let index = words(N);
+    let texels = |name: &str, w: &[u32]| {
+        Buffer::texels(&ctx, name, bytemuck::cast_slice::<u32, [u32; 4]>(w)).unwrap()
+    };
+    let ins = [
+        texels("nodes", &nodes),
+        texels("tris", &tris),
+        texels("light nodes", &light_nodes),
+        texels("stats", &stats),
+        Buffer::words(&ctx, "cuts", &cut).unwrap(),
+        Buffer::words(&ctx, "region index", &index).unwrap(),
+    ];
+    let out = |w: &[u32]| Buffer::zeroed(&ctx, "out", 4 * w.len() as u64).unwrap();
+    let outs = [
+        out(&nodes),
+        out(&tris),
+        out(&light_nodes),
+        out(&stats),
+        out(&[0; 2 * N]),
+    ];
+    let order = Buffer::from_slice(&ctx, "order", &[0u32]).unwrap();
+    let k = ComputePipeline::new(&ctx, "texels", kernels::TEXELS, 12, 20, &[]).unwrap();
+    let mut bound: Vec<&Buffer> = ins.iter().chain(outs.iter()).collect();
+    bound.push(&order);
+    k.bind(&bound).unwrap();
+    let counts = [N as u32; 5];
+    ctx.submit(|cmd| {
+        k.dispatch(
+            cmd,
+            bytemuck::cast_slice(&counts),
+            [(N as u32).div_ceil(64), 1, 1],
+        )
+    })
+    .unwrap();
+    for (name, want, got) in [
+        ("BvhNode", &nodes, &outs[0]),
+        ("BvhTri", &tris, &outs[1]),
+        ("GpuLightNode", &light_nodes, &outs[2]),
+        ("SlotStats", &stats, &outs[3]),
+    ] {
+        assert_eq!(
+            &got.read::<u32>().unwrap(),
+            want,
+            "{name}: the texel fetch changed the bytes"
+        );
+    }
+    let pairs: Vec<u32> = outs[4].read().unwrap();
+    let cut_back: Vec<u32> = pairs.iter().step_by(2).copied().collect();
+    let index_back: Vec<u32> = pairs.iter().skip(1).step_by(2).copied().collect();
+    assert_eq!(cut_back, cut, "cut words");
+    assert_eq!(index_back, index, "region index words");
 }

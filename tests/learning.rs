@@ -428,7 +428,7 @@ fn fold_kernel_matches_its_cpu_mirror() {
         });
     }
     let l = LearnSettings::default();
-    let sb = Buffer::from_slice(&ctx, "stats", &st).unwrap();
+    let sb = Buffer::texels(&ctx, "stats", &st).unwrap();
     let lb = Buffer::from_slice(&ctx, "learn", &[l.gpu_params()]).unwrap();
     // The list of touched slots as render.comp's mark_touched leaves it (in a scrambled
     // order, as atomics would): every slot with a non-empty window, flagged.

@@ -1,5 +1,6 @@
-// BVH traversal. The including kernel declares `bvh_nodes` (BvhNode[]) and `bvh_tris`
-// (BvhTri[]). Same loop as Bvh::traverse in src/accel/bvh.rs (here both children's leaves
+// BVH traversal. The including kernel declares `bvh_node_texels` and `bvh_tri_texels`
+// (usamplerBuffer: BvhNode[] and BvhTri[] as RGBA32UI texels, src/gpu/buffer.rs
+// Buffer::texels, which says why texels and not storage buffers). Same loop as Bvh::traverse in src/accel/bvh.rs (here both children's leaves
 // in one inner loop, tested in the same order: the same hits).
 #ifndef BVH_GLSL
 #define BVH_GLSL
@@ -10,6 +11,42 @@
 // (src/accel/bvh.rs MAX_DEPTH).
 #define STACK_SIZE 48
 #define NO_HIT 0xffffffffu
+
+// Node i of the BVH: four texels, in the order of BvhNode's members (tests/layout.rs checks
+// the round trip against the host's bytes).
+BvhNode bvh_node(uint i) {
+    int t = int(4u * i);
+    uvec4 a = texelFetch(bvh_node_texels, t);
+    uvec4 b = texelFetch(bvh_node_texels, t + 1);
+    uvec4 c = texelFetch(bvh_node_texels, t + 2);
+    uvec4 d = texelFetch(bvh_node_texels, t + 3);
+    BvhNode n;
+    n.a_min = uintBitsToFloat(a.xyz);
+    n.a_ref = a.w;
+    n.a_max = uintBitsToFloat(b.xyz);
+    n.a_count = b.w;
+    n.b_min = uintBitsToFloat(c.xyz);
+    n.b_ref = c.w;
+    n.b_max = uintBitsToFloat(d.xyz);
+    n.b_count = d.w;
+    return n;
+}
+
+// Triangle i of the BVH's order: three texels, as BvhTri.
+BvhTri bvh_tri(uint i) {
+    int t = int(3u * i);
+    uvec4 a = texelFetch(bvh_tri_texels, t);
+    uvec4 b = texelFetch(bvh_tri_texels, t + 1);
+    uvec4 c = texelFetch(bvh_tri_texels, t + 2);
+    BvhTri tri;
+    tri.v0 = uintBitsToFloat(a.xyz);
+    tri.prim = a.w;
+    tri.e1 = uintBitsToFloat(b.xyz);
+    tri.pad0 = b.w;
+    tri.e2 = uintBitsToFloat(c.xyz);
+    tri.pad1 = c.w;
+    return tri;
+}
 
 // Entry distance of the box if hit within [tmin, tmax], else -1 (callers keep tmin >= 0).
 // `oi` = o * inv, so each plane distance is one fused multiply-add.
@@ -40,7 +77,7 @@ float intersect_tri(BvhTri tri, vec3 o, vec3 d, float tmin, float tmax) {
 }
 
 // Closest hit (any_hit = false) or the first hit found (shadow rays) with t in (tmin, tmax).
-// Returns the index into bvh_tris of the hit triangle or NO_HIT; its distance in t_hit.
+// Returns the index into the BVH's triangles of the hit triangle or NO_HIT; its distance in t_hit.
 uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t_hit) {
     // A zero direction component would make o * inv = 0 * inf = NaN: nudge it to ±1e-20.
     vec3 dd = mix(d, mix(vec3(1e-20), vec3(-1e-20), lessThan(d, vec3(0.0))), lessThan(abs(d), vec3(1e-20)));
@@ -54,7 +91,7 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
     uint sp = 0u;
     uint node = 0u;
     for (;;) {
-        BvhNode n = bvh_nodes[node];
+        BvhNode n = bvh_node(node);
         float ta = slab(n.a_min, n.a_max, oi, inv, tmin, best_t);
         float tb = slab(n.b_min, n.b_max, oi, inv, tmin, best_t);
         bool hit_a = ta >= 0.0;
@@ -69,7 +106,7 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
             uint fb = n.b_ref & ~BVH_LEAF_BIT;
             for (uint k = 0u; k < na + nb; ++k) {
                 uint i = k < na ? fa + k : fb + (k - na);
-                float t = intersect_tri(bvh_tris[i], o, d, tmin, best_t);
+                float t = intersect_tri(bvh_tri(i), o, d, tmin, best_t);
                 if (t >= 0.0) { best_t = t; best = i; }
                 if (any_hit && best != NO_HIT) break;
             }

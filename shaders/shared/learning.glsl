@@ -1,8 +1,8 @@
 // The learned cluster samplers: `bayes` (Vévoda et al. 2018, docs/method.md §3–§4) and `donikian`
 // (Donikian et al. 2006, docs/method.md §8), and the recording of their observations.
 // Mirror of src/learning/mod.rs (`slot_weight`, `donikian_weights`); tests/learning.rs checks
-// GPU against CPU. The including kernel declares the region buffers, `slot_stats`
-// (SlotStats[], parallel to `cuts`), `slot_delta` (SlotDelta[], same), `learn`
+// GPU against CPU. The including kernel declares the region buffers, `slot_stat_texels`
+// (SlotStats[] as texels, parallel to `cuts`), `slot_delta` (SlotDelta[], same), `learn`
 // (LearnParams[1]) and the specialization constant LEARN_FLAGS (= learn[0].flags, fixed for
 // the pipeline: on lavapipe a branch costs its body even where no lane takes it, so a switch
 // that is off must be compiled out, not tested per slot; `lightlearn profile` measured the
@@ -14,6 +14,7 @@
 #include "posterior.glsl"
 
 #define NO_SLOT 0xffffffffu
+
 
 // The switches as specialization-constant expressions without && or ||: glslang 11 emits
 // `A && B` of specialization constants as a branch whose result does not dominate its uses
@@ -68,7 +69,7 @@ float predicted_mean(SlotStats s, float mu0, float di, float brdf) {
 float sel_prior_scale = 0.0;
 
 float bayes_slot_weight(uint o, uint i, vec3 p, vec3 n, float brdf, inout float cv_total) {
-    GpuLightNode nd = light_nodes[cuts[o + 1u + i]];
+    GpuLightNode nd = light_node(cut_word(o + 1u + i));
     float dn;
     float imp = light_importance_d2(nd, p, n, dn);
     float w = 0.0;
@@ -78,7 +79,7 @@ float bayes_slot_weight(uint o, uint i, vec3 p, vec3 n, float brdf, inout float 
         // observation's units (prior_scale: 1/π maps a one-sided emitter's power
         // Φ = π A L to A L). Before any data w ∝ Ĩ: bayes starts as wang.
         float mu0 = imp * di * brdf * sel_prior_scale;
-        SlotStats st = slot_stats[o + 1u + i];
+        SlotStats st = slot_stats_at(o + 1u + i);
         w = bayes_weight(st, mu0) / di;
         if ((LEARN_FLAGS & LEARN_BRDF_SELECT) != 0u) w *= brdf_toward(nd, p, n);
         if (CV_ON && w > 0.0) cv_total += predicted_mean(st, mu0, di, brdf);
@@ -89,7 +90,7 @@ float bayes_slot_weight(uint o, uint i, vec3 p, vec3 n, float brdf, inout float 
 // Fills cut_w with the learned weights of the cut at offset o at (p, n) and returns their
 // sum (0: no cluster can light x); cv_total as in sample_learned.
 float learned_weights(uint o, vec3 p, vec3 n, float brdf, out float cv_total) {
-    uint count = cuts[o];
+    uint count = cut_word(o);
     const bool regression = REGRESSION_ON;
     const bool cv = CV_ON;
     float total = 0.0;
@@ -102,17 +103,17 @@ float learned_weights(uint o, vec3 p, vec3 n, float brdf, out float cv_total) {
         float sum_mean = 0.0;
         float sum_imp = 0.0;
         for (uint i = 0u; i < count; ++i) {
-            SlotStats s = slot_stats[o + 1u + i];
+            SlotStats s = slot_stats_at(o + 1u + i);
             seen += s.n_zero + s.n_nonzero;
             sum_mean += s.n_zero + s.n_nonzero > 0.0 ? s.sum / (s.n_zero + s.n_nonzero) : 0.0;
-            cut_w[i] = light_importance(light_nodes[cuts[o + 1u + i]], p, n);
+            cut_w[i] = light_importance(light_node(cut_word(o + 1u + i)), p, n);
             sum_imp += cut_w[i];
         }
         if (sum_imp <= 0.0) return 0.0;
         if (seen >= float(count) && sum_mean > 0.0) {
             float lambda = learn[0].lambda;
             for (uint i = 0u; i < count; ++i) {
-                SlotStats s = slot_stats[o + 1u + i];
+                SlotStats s = slot_stats_at(o + 1u + i);
                 float mean = s.n_zero + s.n_nonzero > 0.0 ? s.sum / (s.n_zero + s.n_nonzero) : 0.0;
                 // Ĩ = 0 proves the slot gives nothing here: never spend a sample on it.
                 cut_w[i] = cut_w[i] > 0.0 ? (1.0 - lambda) * mean / sum_mean + lambda * cut_w[i] / sum_imp : 0.0;
@@ -141,7 +142,7 @@ float learned_weights(uint o, vec3 p, vec3 n, float brdf, out float cv_total) {
 uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint slot,
                     out float p_slot, out float d2, out float cv_total, out float cv_chosen) {
     uint o = region_cut(p, n);
-    uint count = cuts[o];
+    uint count = cut_word(o);
     const bool regression = REGRESSION_ON;
     const bool cv = CV_ON;
     pmf = 0.0;
@@ -157,15 +158,15 @@ uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint
     uint li = pick_in_cut(o, count, total, u, p, n, pmf, k, p_slot);
     if (o != 0u) {
         slot = o + 1u + k;
-        if (regression && SAMPLER == SAMPLER_BAYES) d2 = node_d2(light_nodes[cuts[slot]], p);
+        if (regression && SAMPLER == SAMPLER_BAYES) d2 = node_d2(light_node(cut_word(slot)), p);
     }
     if (cv) {
         // The chosen slot's g again, by the same arithmetic as in the sum above (the
         // estimator is unbiased only if this g is the one that Σ counted).
         float dn;
-        float imp = light_importance_d2(light_nodes[cuts[o + 1u + k]], p, n, dn);
+        float imp = light_importance_d2(light_node(cut_word(o + 1u + k)), p, n, dn);
         float di = regression ? dn : 1.0;
-        cv_chosen = predicted_mean(slot_stats[o + 1u + k], imp * di * brdf * learn[0].prior_scale, di, brdf);
+        cv_chosen = predicted_mean(slot_stats_at(o + 1u + k), imp * di * brdf * learn[0].prior_scale, di, brdf);
     }
     return li;
 }
@@ -187,7 +188,7 @@ void record_observation(uint slot, float y) {
 #ifdef TRACK_TOUCHED
     if (first == 0u) mark_touched(slot);
 #endif
-    float q = min(y / slot_stats[slot].scale, FIX_CLAMP);
+    float q = min(y / slot_stats_at(slot).scale, FIX_CLAMP);
     // q · 2^24 is an integer-valued float after rounding; splitting it at 2^32 is exact.
     float v = floor(q * FIX_ONE + 0.5);
     float hi = floor(v / TWO_POW_32);

@@ -17,7 +17,7 @@ float light_pmf(vec3 p, vec3 n, uint li, uint count, float brdf) {
 #endif
     uint pos = light_position[li];
     if (SAMPLER == SAMPLER_LIGHTBVH) return light_tree_pmf(pos, p, n);
-    uint o = region_index[region_of(p, n)];
+    uint o = region_index_at(region_of(p, n));
     float total;
     if (SAMPLER == SAMPLER_WANG) {
         total = wang_weights(o, p, n);
@@ -41,7 +41,7 @@ float light_pmf_of_cut(uint o, float total, vec3 p, vec3 n, uint li, uint count,
     if (k == NO_SLOT_IN_CUT) return 0.0;
     float w;
     if (SAMPLER == SAMPLER_WANG) {
-        w = light_importance(light_nodes[cuts[o + 1u + k]], p, n);
+        w = light_importance(light_node(cut_word(o + 1u + k)), p, n);
     } else {
         float cv = 0.0;
         sel_prior_scale = learn[0].prior_scale;

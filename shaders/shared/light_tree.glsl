@@ -1,11 +1,37 @@
 // The light tree's importance and the `lightbvh` sampler's stochastic descent. Mirror of
 // src/lights/tree.rs (`importance`, `LightTree::sample`), checked against it by
-// tests/light_tree.rs. The including kernel declares `light_nodes` (GpuLightNode[]) and
-// `light_order` (uint[]).
+// tests/light_tree.rs. The including kernel declares `light_node_texels` (usamplerBuffer:
+// GpuLightNode[] as RGBA32UI texels, src/gpu/buffer.rs Buffer::texels) and `light_order`
+// (uint[]).
 #ifndef LIGHT_TREE_GLSL
 #define LIGHT_TREE_GLSL
 
 #include "types.glsl"
+
+// Node i of the light tree: four texels, in the order of GpuLightNode's members (the round
+// trip against the host's bytes: tests/layout.rs). Only the members a caller uses are
+// fetched (the compiler drops the other texel fetches).
+GpuLightNode light_node(uint i) {
+    int t = int(4u * i);
+    uvec4 a = texelFetch(light_node_texels, t);
+    uvec4 b = texelFetch(light_node_texels, t + 1);
+    uvec4 c = texelFetch(light_node_texels, t + 2);
+    uvec4 d = texelFetch(light_node_texels, t + 3);
+    GpuLightNode nd;
+    nd.centre = uintBitsToFloat(a.xyz);
+    nd.phi = uintBitsToFloat(a.w);
+    nd.axis = uintBitsToFloat(b.xyz);
+    nd.cos_o = uintBitsToFloat(b.w);
+    nd.radius = uintBitsToFloat(c.x);
+    nd.sin_o = uintBitsToFloat(c.y);
+    nd.cos_e = uintBitsToFloat(c.z);
+    nd.flags = c.w;
+    nd.right = d.x;
+    nd.begin = d.y;
+    nd.count = d.z;
+    nd.pad = d.w;
+    return nd;
+}
 
 #define NO_LIGHT 0xffffffffu
 #define ONE_MINUS_EPSILON 0.99999994
@@ -69,19 +95,19 @@ float light_importance(GpuLightNode nd, vec3 p, vec3 n) {
 float descent_pmf(uint node, uint pos, vec3 p, vec3 n, bool by_importance, out uint leaf) {
     float pmf = 1.0;
     leaf = node;
-    while (light_nodes[node].count > 1u && pmf > 0.0) {
+    while (light_node(node).count > 1u && pmf > 0.0) {
         uint l = node + 1u;
-        uint r = light_nodes[node].right;
+        uint r = light_node(node).right;
         float pl;
         if (by_importance) {
-            float il = light_importance(light_nodes[l], p, n);
-            float ir = light_importance(light_nodes[r], p, n);
+            float il = light_importance(light_node(l), p, n);
+            float ir = light_importance(light_node(r), p, n);
             if (il + ir <= 0.0) return 0.0;
             pl = il / (il + ir);
         } else {
-            pl = light_nodes[l].phi / (light_nodes[l].phi + light_nodes[r].phi);
+            pl = light_node(l).phi / (light_node(l).phi + light_node(r).phi);
         }
-        bool left = pos < light_nodes[r].begin;
+        bool left = pos < light_node(r).begin;
         pmf *= left ? pl : 1.0 - pl;
         node = left ? l : r;
         leaf = node;
@@ -94,18 +120,18 @@ float descent_pmf(uint node, uint pos, vec3 p, vec3 n, bool by_importance, out u
 float light_tree_pmf(uint pos, vec3 p, vec3 n) {
     uint leaf;
     float pmf = descent_pmf(0u, pos, p, n, true, leaf);
-    return pmf > 0.0 && light_importance(light_nodes[leaf], p, n) > 0.0 ? pmf : 0.0;
+    return pmf > 0.0 && light_importance(light_node(leaf), p, n) > 0.0 ? pmf : 0.0;
 }
 
 // One descent by importance: the light index (or NO_LIGHT) and its pmf.
 uint sample_light_tree(vec3 p, vec3 n, float u, out float pmf) {
     uint node = 0u;
     pmf = 1.0;
-    while (light_nodes[node].count > 1u) {
+    while (light_node(node).count > 1u) {
         uint l = node + 1u;
-        uint r = light_nodes[node].right;
-        float il = light_importance(light_nodes[l], p, n);
-        float ir = light_importance(light_nodes[r], p, n);
+        uint r = light_node(node).right;
+        float il = light_importance(light_node(l), p, n);
+        float ir = light_importance(light_node(r), p, n);
         if (il == 0.0 && ir == 0.0) return NO_LIGHT;
         float pl = il / (il + ir);
         if (u < pl) {
@@ -118,7 +144,7 @@ uint sample_light_tree(vec3 p, vec3 n, float u, out float pmf) {
             node = r;
         }
     }
-    GpuLightNode leaf = light_nodes[node];
+    GpuLightNode leaf = light_node(node);
     if (light_importance(leaf, p, n) <= 0.0) return NO_LIGHT;
     return light_order[leaf.begin];
 }

@@ -1,10 +1,13 @@
 // Region lookup and the `wang` sampler (cluster of the region's cut ∝ Ĩ_C(x), light inside
 // by power). Mirror of src/lights/regions.rs. The including kernel declares `grid`
-// (GridParams[1]), `region_index` (uint[]), `cuts` (uint[]) and the light tree buffers.
+// (GridParams[1]), `region_index_texels` and `cut_texels` (usamplerBuffer: the region index
+// and the cuts, uint[], as R32UI texels: src/gpu/buffer.rs Buffer::words) and the light tree
+// buffers.
 #ifndef REGIONS_GLSL
 #define REGIONS_GLSL
 
 #include "light_tree.glsl"
+#include "learned_texels.glsl"
 
 uint region_of(vec3 p, vec3 n) {
     GridParams g = grid[0];
@@ -25,7 +28,7 @@ uint region_of(vec3 p, vec3 n) {
 // so the host builds one between frames (src/render/session.rs).
 uint region_cut(vec3 p, vec3 n) {
     uint r = region_of(p, n);
-    uint o = region_index[r];
+    uint o = region_index_at(r);
 #ifdef FLAG_MISSING_REGIONS
     if (o == 0u) flag_missing_region(r);
 #endif
@@ -61,23 +64,23 @@ uint pick_in_cut(uint o, uint count, float total, float u, vec3 p, vec3 n, out f
         }
     }
     float v = clamp((target - acc_k) / cut_w[k], 0.0, ONE_MINUS_EPSILON);
-    uint node = cuts[o + 1u + k];
+    uint node = cut_word(o + 1u + k);
     p_slot = cut_w[k] / total;
     pmf = p_slot;
-    while (light_nodes[node].count > 1u) {
+    while (light_node(node).count > 1u) {
         uint l = node + 1u;
-        uint r = light_nodes[node].right;
+        uint r = light_node(node).right;
         float pl;
         if (IN_CLUSTER == 1u) {
-            float il = light_importance(light_nodes[l], p, n);
-            float ir = light_importance(light_nodes[r], p, n);
+            float il = light_importance(light_node(l), p, n);
+            float ir = light_importance(light_node(r), p, n);
             if (il + ir <= 0.0) {
                 pmf = 0.0;
                 return NO_LIGHT;
             }
             pl = il / (il + ir);
         } else {
-            pl = light_nodes[l].phi / (light_nodes[l].phi + light_nodes[r].phi);
+            pl = light_node(l).phi / (light_node(l).phi + light_node(r).phi);
         }
         if (v < pl) {
             v = min(v / pl, ONE_MINUS_EPSILON);
@@ -89,15 +92,15 @@ uint pick_in_cut(uint o, uint count, float total, float u, vec3 p, vec3 n, out f
             node = r;
         }
     }
-    return light_order[light_nodes[node].begin];
+    return light_order[light_node(node).begin];
 }
 
 // Fills cut_w with the `wang` weights (Ĩ_C(x)) of the cut at offset o; returns their sum.
 float wang_weights(uint o, vec3 p, vec3 n) {
-    uint count = cuts[o];
+    uint count = cut_word(o);
     float total = 0.0;
     for (uint i = 0u; i < count; ++i) {
-        cut_w[i] = light_importance(light_nodes[cuts[o + 1u + i]], p, n);
+        cut_w[i] = light_importance(light_node(cut_word(o + 1u + i)), p, n);
         total += cut_w[i];
     }
     return total;
@@ -105,7 +108,7 @@ float wang_weights(uint o, vec3 p, vec3 n) {
 
 uint sample_wang(vec3 p, vec3 n, float u, out float pmf) {
     uint o = region_cut(p, n);
-    uint count = cuts[o];
+    uint count = cut_word(o);
     float total = wang_weights(o, p, n);
     sel_cut = o;
     sel_total = total;
@@ -123,16 +126,16 @@ uint sample_wang(vec3 p, vec3 n, float u, out float pmf) {
 // NO_SLOT_IN_CUT if none does.
 uint slot_holding(uint o, uint pos) {
     uint lo = 0u;
-    uint hi = cuts[o];
+    uint hi = cut_word(o);
     // The first slot whose range starts after pos; the one before it is the candidate.
     while (lo < hi) {
         uint mid = (lo + hi) / 2u;
-        if (light_nodes[cuts[o + 1u + mid]].begin <= pos) lo = mid + 1u;
+        if (light_node(cut_word(o + 1u + mid)).begin <= pos) lo = mid + 1u;
         else hi = mid;
     }
     if (lo == 0u) return NO_SLOT_IN_CUT;
-    uint node = cuts[o + lo];
-    return pos < light_nodes[node].begin + light_nodes[node].count ? lo - 1u : NO_SLOT_IN_CUT;
+    uint node = cut_word(o + lo);
+    return pos < light_node(node).begin + light_node(node).count ? lo - 1u : NO_SLOT_IN_CUT;
 }
 
 // The probability that pick_in_cut returns the light at position pos given that slot k (of
@@ -140,7 +143,7 @@ uint slot_holding(uint o, uint pos) {
 float pmf_in_slot(uint o, uint k, float w, float total, uint pos, vec3 p, vec3 n) {
     if (!(total > 0.0) || !(w > 0.0)) return 0.0;
     uint leaf;
-    return w / total * descent_pmf(cuts[o + 1u + k], pos, p, n, IN_CLUSTER == 1u, leaf);
+    return w / total * descent_pmf(cut_word(o + 1u + k), pos, p, n, IN_CLUSTER == 1u, leaf);
 }
 
 // The probability that pick_in_cut (cut at offset o, weights cut_w summing to total) returns

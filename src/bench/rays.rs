@@ -172,8 +172,8 @@ pub fn run(
         bvh.nodes.len(),
         t0.elapsed().as_secs_f64()
     ));
-    let nodes = Buffer::from_slice(ctx, "bvh nodes", &bvh.nodes)?;
-    let tris = Buffer::from_slice(ctx, "bvh triangles", &bvh.tris)?;
+    let nodes = Buffer::texels(ctx, "bvh nodes", &bvh.nodes)?;
+    let tris = Buffer::texels(ctx, "bvh triangles", &bvh.tris)?;
     let primary = primary_rays(width, height);
     let incoherent = incoherent_rays(&bvh, &primary, 11);
     let mut rows = Vec::new();

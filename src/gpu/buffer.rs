@@ -17,6 +17,9 @@ pub struct Buffer {
     pub raw: vk::Buffer,
     allocation: Option<Allocation>,
     pub size: u64,
+    /// The whole buffer as texels (RGBA32UI or R32UI), for kernels that read it as a
+    /// uniform texel buffer ([`Buffer::texels`], [`Buffer::words`]).
+    pub view: Option<vk::BufferView>,
 }
 
 impl Buffer {
@@ -69,6 +72,7 @@ impl Buffer {
             raw,
             allocation: Some(allocation),
             size,
+            view: None,
         })
     }
 
@@ -81,6 +85,67 @@ impl Buffer {
     /// of an indirect dispatch ([`super::ComputePipeline::dispatch_indirect`]).
     pub fn indirect<T: Pod>(ctx: &Arc<Context>, name: &str, data: &[T]) -> Result<Buffer> {
         Buffer::holding(ctx, name, data, vk::BufferUsageFlags::INDIRECT_BUFFER)
+    }
+
+    /// A device-local buffer holding `data` that kernels can read as RGBA32UI texels
+    /// (`uniform usamplerBuffer`, one texel per 16 bytes) besides as a storage buffer.
+    /// lavapipe (Mesa 22.3) loads each word of a storage buffer with a loop over the SIMD
+    /// lanes and a bounds-check branch per lane, and a texel with one 16-byte load per lane:
+    /// one more 64-byte BVH node load per traversal step made `bench-rays` 1.6× slower, so the
+    /// hot read-only data (BVH, light tree) is read as texels. `T` must be a multiple of 16
+    /// bytes.
+    pub fn texels<T: Pod>(ctx: &Arc<Context>, name: &str, data: &[T]) -> Result<Buffer> {
+        assert!(
+            std::mem::size_of::<T>().is_multiple_of(16),
+            "texel buffers hold whole 16-byte texels"
+        );
+        let texels = check_texels(ctx, name, std::mem::size_of_val(data) as u64 / 16)?;
+        let buf = Buffer::holding(ctx, name, data, vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER)?;
+        buf.with_view(vk::Format::R32G32B32A32_UINT, texels)
+    }
+
+    /// A device-local buffer holding `data` that kernels can read as R32UI texels (one word
+    /// each) besides as a storage buffer: the per-lane gather of [`Buffer::texels`] for
+    /// arrays of words (cuts, region index).
+    pub fn words(ctx: &Arc<Context>, name: &str, data: &[u32]) -> Result<Buffer> {
+        let texels = check_texels(ctx, name, data.len() as u64)?;
+        let buf = Buffer::holding(ctx, name, data, vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER)?;
+        buf.with_view(vk::Format::R32_UINT, texels)
+    }
+
+    /// A zero-filled device-local buffer of `size` bytes (a multiple of 16) that kernels can
+    /// read as texels, as [`Buffer::texels`].
+    pub fn zeroed_texels(ctx: &Arc<Context>, name: &str, size: u64) -> Result<Buffer> {
+        assert!(size.is_multiple_of(16), "texel buffers hold whole 16-byte texels");
+        let texels = check_texels(ctx, name, size / 16)?;
+        let buf = Buffer::new(
+            ctx,
+            name,
+            size,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::TRANSFER_SRC
+                | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
+            MemoryLocation::GpuOnly,
+        )?;
+        buf.clear()?;
+        buf.with_view(vk::Format::R32G32B32A32_UINT, texels)
+    }
+
+    /// The buffer with a view of its first `texels` texels of `format` (RGBA32UI, R32UI).
+    fn with_view(mut self, format: vk::Format, texels: u64) -> Result<Buffer> {
+        let bytes = if format == vk::Format::R32_UINT {
+            4
+        } else {
+            16
+        };
+        let info = vk::BufferViewCreateInfo::default()
+            .buffer(self.raw)
+            .format(format)
+            .offset(0)
+            .range(texels * bytes);
+        self.view = Some(unsafe { self.ctx.device.create_buffer_view(&info, None) }?);
+        Ok(self)
     }
 
     /// A device-local storage buffer holding `data`, with `extra` usage.
@@ -218,8 +283,22 @@ impl Buffer {
     }
 }
 
+/// `texels` (at least 1: a buffer is never empty) if the device's texel buffers hold them.
+fn check_texels(ctx: &Context, name: &str, texels: u64) -> Result<u64> {
+    let max = ctx.properties.limits.max_texel_buffer_elements as u64;
+    if texels > max {
+        anyhow::bail!(
+            "buffer '{name}' needs {texels} texels but this device allows texel buffers of at most {max}; use a smaller scene"
+        );
+    }
+    Ok(texels.max(1))
+}
+
 impl Drop for Buffer {
     fn drop(&mut self) {
+        if let Some(view) = self.view.take() {
+            unsafe { self.ctx.device.destroy_buffer_view(view, None) };
+        }
         if let Some(a) = self.allocation.take() {
             let _ = self.ctx.allocator.lock().map(|mut al| al.free(a));
         }

@@ -7,6 +7,7 @@ pub mod context;
 /// for the device code and the tests.
 pub use crate::abi as layout;
 pub mod pipeline;
+pub mod spirv;
 pub mod swapchain;
 
 pub use buffer::Buffer;
@@ -22,4 +23,5 @@ pub mod kernels {
     pub const BSDF: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/bsdf.spv"));
     pub const IMPORTANCE: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/importance.spv"));
     pub const PREVIEW: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/preview.spv"));
+    pub const TEXELS: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/texels.spv"));
 }

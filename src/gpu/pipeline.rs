@@ -1,4 +1,5 @@
-//! A compute pipeline whose descriptor sets hold storage buffers (set k: bindings 0..N_k),
+//! A compute pipeline whose descriptor sets hold buffers (set k: bindings 0..N_k), each a
+//! storage buffer or a uniform texel buffer as the kernel declares it (src/gpu/spirv.rs),
 //! with push constants and u32 specialization constants (constant_id = index). Each set is
 //! bound on its own, so a caller rebinds only the set whose buffers changed.
 
@@ -9,6 +10,7 @@ use ash::vk;
 
 use super::buffer::Buffer;
 use super::context::Context;
+use super::spirv;
 
 pub struct ComputePipeline {
     ctx: Arc<Context>,
@@ -18,12 +20,12 @@ pub struct ComputePipeline {
     pipeline: vk::Pipeline,
     pool: vk::DescriptorPool,
     sets: Vec<vk::DescriptorSet>,
-    /// Bindings of each set.
-    bindings: Vec<u32>,
+    /// The descriptor type of each binding of each set.
+    kinds: Vec<Vec<vk::DescriptorType>>,
 }
 
 impl ComputePipeline {
-    /// One set of `bindings` storage buffers.
+    /// One set of `bindings` buffers.
     pub fn new(
         ctx: &Arc<Context>,
         name: &str,
@@ -35,7 +37,7 @@ impl ComputePipeline {
         Self::with_sets(ctx, name, spirv, &[bindings], push_size, specialization)
     }
 
-    /// Set k holds `bindings[k]` storage buffers.
+    /// Set k holds `bindings[k]` buffers (bindings 0..`bindings[k]`).
     pub fn with_sets(
         ctx: &Arc<Context>,
         name: &str,
@@ -47,16 +49,31 @@ impl ComputePipeline {
         let d = &ctx.device;
         let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv))
             .with_context(|| format!("kernel '{name}' is not valid SPIR-V"))?;
+        let declared = spirv::bindings(&code).with_context(|| format!("kernel '{name}'"))?;
+        let kinds: Vec<Vec<vk::DescriptorType>> = (0..bindings.len() as u32)
+            .map(|set| {
+                (0..bindings[set as usize])
+                    .map(|b| {
+                        declared
+                            .iter()
+                            .find(|d| d.set == set && d.binding == b)
+                            .map_or(vk::DescriptorType::STORAGE_BUFFER, |d| d.kind)
+                    })
+                    .collect()
+            })
+            .collect();
         unsafe {
             let module =
                 d.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&code), None)?;
             let mut set_layouts = Vec::new();
-            for &n in bindings {
-                let binding_info: Vec<_> = (0..n)
-                    .map(|b| {
+            for set in &kinds {
+                let binding_info: Vec<_> = set
+                    .iter()
+                    .enumerate()
+                    .map(|(b, &kind)| {
                         vk::DescriptorSetLayoutBinding::default()
-                            .binding(b)
-                            .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                            .binding(b as u32)
+                            .descriptor_type(kind)
                             .descriptor_count(1)
                             .stage_flags(vk::ShaderStageFlags::COMPUTE)
                     })
@@ -99,9 +116,15 @@ impl ComputePipeline {
                 .create_compute_pipelines(vk::PipelineCache::null(), &info, None)
                 .map_err(|(_, e)| e)
                 .with_context(|| format!("cannot create the '{name}' compute pipeline"))?[0];
-            let sizes = [vk::DescriptorPoolSize::default()
-                .ty(vk::DescriptorType::STORAGE_BUFFER)
-                .descriptor_count(bindings.iter().sum::<u32>().max(1))];
+            let count = |kind| kinds.iter().flatten().filter(|&&k| k == kind).count() as u32;
+            let sizes = [
+                vk::DescriptorPoolSize::default()
+                    .ty(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_count(count(vk::DescriptorType::STORAGE_BUFFER).max(1)),
+                vk::DescriptorPoolSize::default()
+                    .ty(vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
+                    .descriptor_count(count(vk::DescriptorType::UNIFORM_TEXEL_BUFFER).max(1)),
+            ];
             let pool = d.create_descriptor_pool(
                 &vk::DescriptorPoolCreateInfo::default()
                     .max_sets(bindings.len() as u32)
@@ -121,7 +144,7 @@ impl ComputePipeline {
                 pipeline,
                 pool,
                 sets,
-                bindings: bindings.to_vec(),
+                kinds,
             };
             ctx.check_validation()?;
             Ok(p)
@@ -133,13 +156,11 @@ impl ComputePipeline {
         self.bind_set(0, buffers)
     }
 
-    /// Points bindings 0..N of `set` at `buffers` (in order).
+    /// Points bindings 0..N of `set` at `buffers` (in order). A texel-buffer binding needs a
+    /// buffer made by [`Buffer::texels`].
     pub fn bind_set(&self, set: usize, buffers: &[&Buffer]) -> Result<()> {
-        assert_eq!(
-            buffers.len() as u32,
-            self.bindings[set],
-            "one buffer per binding"
-        );
+        let kinds = &self.kinds[set];
+        assert_eq!(buffers.len(), kinds.len(), "one buffer per binding");
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
             .iter()
             .map(|b| {
@@ -149,15 +170,30 @@ impl ComputePipeline {
                     .range(vk::WHOLE_SIZE)]
             })
             .collect();
+        let mut views: Vec<[vk::BufferView; 1]> = Vec::new();
+        for (i, (b, &kind)) in buffers.iter().zip(kinds).enumerate() {
+            if kind == vk::DescriptorType::UNIFORM_TEXEL_BUFFER {
+                let Some(view) = b.view else {
+                    anyhow::bail!("binding {i} of set {set} reads texels, but its buffer was made without a texel view (internal error: use Buffer::texels)");
+                };
+                views.push([view]);
+            }
+        }
+        let mut views = views.iter();
         let writes: Vec<_> = infos
             .iter()
+            .zip(kinds)
             .enumerate()
-            .map(|(i, info)| {
-                vk::WriteDescriptorSet::default()
+            .map(|(i, (info, &kind))| {
+                let w = vk::WriteDescriptorSet::default()
                     .dst_set(self.sets[set])
                     .dst_binding(i as u32)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                    .buffer_info(info)
+                    .descriptor_type(kind);
+                if kind == vk::DescriptorType::UNIFORM_TEXEL_BUFFER {
+                    w.texel_buffer_view(views.next().expect("one view per texel binding"))
+                } else {
+                    w.buffer_info(info)
+                }
             })
             .collect();
         unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };

@@ -90,9 +90,9 @@ impl LearnedState {
             regions_refined: 0,
             full: false,
             grid: Buffer::from_slice(ctx, "region grid", &[cuts.grid.params])?,
-            index: Buffer::from_slice(ctx, "region index", &cuts.index)?,
-            cuts_buf: Buffer::from_slice(ctx, "cuts", &cuts.cuts)?,
-            stats: Buffer::from_slice(ctx, "learned statistics", &stats)?,
+            index: Buffer::words(ctx, "region index", &cuts.index)?,
+            cuts_buf: Buffer::words(ctx, "cuts", &cuts.cuts)?,
+            stats: Buffer::texels(ctx, "learned statistics", &stats)?,
             delta: Buffer::zeroed(
                 ctx,
                 "learning window sums",
@@ -160,7 +160,7 @@ impl LearnedState {
             return Ok(0);
         }
         l.index.write(bytemuck::cast_slice(&l.cuts.index))?;
-        l.cuts_buf = Buffer::from_slice(ctx, "cuts", &l.cuts.cuts)?;
+        l.cuts_buf = Buffer::words(ctx, "cuts", &l.cuts.cuts)?;
         if learning {
             let (old, new) = (l.slots as usize, l.cuts.cuts.len());
             let mut fresh = vec![SlotStats::default(); new];
@@ -179,7 +179,7 @@ impl LearnedState {
     fn append_slots(&mut self, ctx: &Arc<Context>, tail: &[SlotStats]) -> Result<()> {
         let (old, new) = (self.slots as u64, self.slots as u64 + tail.len() as u64);
         let slot = std::mem::size_of::<SlotStats>() as u64;
-        let stats = Buffer::zeroed(ctx, "learned statistics", new * slot)?;
+        let stats = Buffer::zeroed_texels(ctx, "learned statistics", new * slot)?;
         stats.copy_from(&self.stats)?;
         stats.write_at(old * slot, bytemuck::cast_slice(tail))?;
         let delta = Buffer::zeroed(
@@ -248,7 +248,7 @@ impl LearnedState {
         }
         self.cuts.offsets.sort_unstable();
         self.index.write(bytemuck::cast_slice(&self.cuts.index))?;
-        self.cuts_buf = Buffer::from_slice(ctx, "cuts", &self.cuts.cuts)?;
+        self.cuts_buf = Buffer::words(ctx, "cuts", &self.cuts.cuts)?;
         self.append_slots(ctx, &fresh)?;
         self.regions_refined += plans.len();
         self.cut_seconds += t0.elapsed().as_secs_f64();

@@ -309,13 +309,13 @@ impl GpuScene {
         let light_tree_seconds = t0.elapsed().as_secs_f64();
         let kernel_flags = kernel_flags(&materials);
         Ok(GpuScene {
-            nodes: Buffer::from_slice(ctx, "bvh nodes", &bvh.nodes)?,
-            tris: Buffer::from_slice(ctx, "bvh triangles", &bvh.tris)?,
+            nodes: Buffer::texels(ctx, "bvh nodes", &bvh.nodes)?,
+            tris: Buffer::texels(ctx, "bvh triangles", &bvh.tris)?,
             tri_material: Buffer::from_slice(ctx, "triangle materials", &scene.triangle_material)?,
             materials: Buffer::from_slice(ctx, "materials", &materials)?,
             lights: Buffer::from_slice(ctx, "lights", &gpu_lights)?,
             alias: Buffer::from_slice(ctx, "light alias table", &alias)?,
-            light_nodes: Buffer::from_slice(ctx, "light tree", &tree.gpu_nodes())?,
+            light_nodes: Buffer::texels(ctx, "light tree", &tree.gpu_nodes())?,
             light_order: Buffer::from_slice(ctx, "light tree order", &tree.order)?,
             light_position: Buffer::from_slice(ctx, "light tree positions", &tree.position)?,
             tri_light: Buffer::from_slice(ctx, "triangle lights", &lights::triangle_lights(scene))?,

@@ -13,18 +13,20 @@ use super::{GpuScene, RenderSettings};
 use crate::gpu::layout::RenderParams;
 use crate::gpu::{kernels, Buffer, ComputePipeline, Context};
 
-/// The storage blocks of `render.comp` by descriptor set and binding number, as the kernel
-/// names them; sets follow the lifetimes: the scene, the learned state, the film.
-/// `tests/layout.rs` reads the names and numbers from the compiled SPIR-V and checks them.
+/// The bindings of `render.comp` by descriptor set and binding number, as the kernel names
+/// them (a storage buffer by its block, a texel buffer by its variable, `…_texels`: made by
+/// `Buffer::texels` or `Buffer::words`); sets follow the lifetimes: the scene, the learned
+/// state, the film. `tests/layout.rs` reads the names and numbers from the compiled SPIR-V
+/// and checks them.
 pub const RENDER_BINDINGS: [&[&str]; 3] = [
     &[
-        "Nodes",
-        "Tris",
+        "bvh_node_texels",
+        "bvh_tri_texels",
         "TriMaterial",
         "Materials",
         "Lights",
         "Alias",
-        "LightNodes",
+        "light_node_texels",
         "LightOrder",
         "LightPosition",
         "TriLight",
@@ -34,9 +36,9 @@ pub const RENDER_BINDINGS: [&[&str]; 3] = [
     ],
     &[
         "Grid",
-        "RegionIndex",
-        "Cuts",
-        "Stats",
+        "region_index_texels",
+        "cut_texels",
+        "slot_stat_texels",
         "Delta",
         "Learn",
         "MissingRegions",
@@ -111,13 +113,13 @@ impl PassKernels {
     /// Binds the scene's buffers (once).
     pub(super) fn bind_scene(&self, g: &GpuScene) -> Result<()> {
         let scene: [(&str, &Buffer); 13] = [
-            ("Nodes", &g.nodes),
-            ("Tris", &g.tris),
+            ("bvh_node_texels", &g.nodes),
+            ("bvh_tri_texels", &g.tris),
             ("TriMaterial", &g.tri_material),
             ("Materials", &g.materials),
             ("Lights", &g.lights),
             ("Alias", &g.alias),
-            ("LightNodes", &g.light_nodes),
+            ("light_node_texels", &g.light_nodes),
             ("LightOrder", &g.light_order),
             ("LightPosition", &g.light_position),
             ("TriLight", &g.tri_light),
@@ -133,9 +135,9 @@ impl PassKernels {
     pub(super) fn bind_learned(&self, l: &LearnedState) -> Result<()> {
         let learned: [(&str, &Buffer); 8] = [
             ("Grid", &l.grid),
-            ("RegionIndex", &l.index),
-            ("Cuts", &l.cuts_buf),
-            ("Stats", &l.stats),
+            ("region_index_texels", &l.index),
+            ("cut_texels", &l.cuts_buf),
+            ("slot_stat_texels", &l.stats),
             ("Delta", &l.delta),
             ("Learn", &l.params),
             ("MissingRegions", &l.missing),

@@ -82,7 +82,7 @@ pub fn gpu_samples_and_pmfs(
         })
         .collect();
     let b = |name: &str, data: &[u32]| Buffer::from_slice(ctx, name, data).unwrap();
-    let nodes = Buffer::from_slice(ctx, "nodes", &tree.gpu_nodes()).unwrap();
+    let nodes = Buffer::texels(ctx, "nodes", &tree.gpu_nodes()).unwrap();
     let order = b("order", &tree.order);
     let position = b("position", &tree.position);
     let qb = Buffer::from_slice(ctx, "queries", &q).unwrap();
@@ -93,9 +93,9 @@ pub fn gpu_samples_and_pmfs(
     )
     .unwrap();
     let grid = Buffer::from_slice(ctx, "grid", &[cuts.grid.params]).unwrap();
-    let index = b("region index", &cuts.index);
-    let cut = b("cuts", &cuts.cuts);
-    let sb = Buffer::from_slice(ctx, "stats", stats).unwrap();
+    let index = Buffer::words(ctx, "region index", &cuts.index).unwrap();
+    let cut = Buffer::words(ctx, "cuts", &cuts.cuts).unwrap();
+    let sb = Buffer::texels(ctx, "stats", stats).unwrap();
     let db = Buffer::zeroed(ctx, "deltas", (stats.len() * 32) as u64).unwrap();
     let lb = Buffer::from_slice(ctx, "learn", &[params]).unwrap();
     // The fold kernel over every slot (mode 1) with empty windows writes the weight

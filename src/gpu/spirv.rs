@@ -1,0 +1,102 @@
+//! What kind of descriptor each (set, binding) of a compute kernel is, read from its SPIR-V,
+//! so a pipeline's layout follows the kernel: storage buffers, and uniform texel buffers
+//! (`uniform usamplerBuffer`), which kernels read hot data through because lavapipe loads a
+//! storage-buffer word with a per-lane loop and a branch, and a texel of four words with one
+//! vector load per lane (src/gpu/buffer.rs `Buffer::texels`).
+
+use std::collections::HashMap;
+
+use anyhow::{bail, Result};
+use ash::vk;
+
+const OP_NAME: u32 = 5;
+const OP_TYPE_IMAGE: u32 = 25;
+const OP_TYPE_SAMPLED_IMAGE: u32 = 27;
+const OP_TYPE_POINTER: u32 = 32;
+const OP_VARIABLE: u32 = 59;
+const OP_DECORATE: u32 = 71;
+const DECORATION_BINDING: u32 = 33;
+const DECORATION_DESCRIPTOR_SET: u32 = 34;
+const DIM_BUFFER: u32 = 5;
+
+/// One binding of a kernel: its set, number, descriptor type and variable name.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Binding {
+    pub set: u32,
+    pub binding: u32,
+    pub kind: vk::DescriptorType,
+    pub name: String,
+}
+
+/// The bindings of a module, sorted by (set, binding). Anything but storage buffers and
+/// uniform texel buffers is refused: the device layer makes no other descriptors.
+pub fn bindings(spirv: &[u32]) -> Result<Vec<Binding>> {
+    if spirv.len() < 5 || spirv[0] != 0x0723_0203 {
+        bail!("not a SPIR-V module");
+    }
+    let mut names: HashMap<u32, String> = HashMap::new();
+    let mut set: HashMap<u32, u32> = HashMap::new();
+    let mut binding: HashMap<u32, u32> = HashMap::new();
+    let mut pointee: HashMap<u32, u32> = HashMap::new();
+    // Image types by id: (dim, sampled); sampled images by id: their image type.
+    let mut images: HashMap<u32, (u32, u32)> = HashMap::new();
+    let mut sampled: HashMap<u32, u32> = HashMap::new();
+    let mut vars = Vec::new();
+    let mut i = 5;
+    while i < spirv.len() {
+        let count = (spirv[i] >> 16) as usize;
+        if count == 0 || i + count > spirv.len() {
+            bail!("SPIR-V instruction at word {i} overruns the module");
+        }
+        let ins = &spirv[i..i + count];
+        match (ins[0] & 0xffff, count) {
+            (OP_NAME, 3..) => {
+                let bytes: Vec<u8> = ins[2..].iter().flat_map(|w| w.to_le_bytes()).collect();
+                let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
+                names.insert(ins[1], String::from_utf8_lossy(&bytes[..end]).into_owned());
+            }
+            (OP_DECORATE, 4..) if ins[2] == DECORATION_DESCRIPTOR_SET => {
+                set.insert(ins[1], ins[3]);
+            }
+            (OP_DECORATE, 4..) if ins[2] == DECORATION_BINDING => {
+                binding.insert(ins[1], ins[3]);
+            }
+            // OpTypeImage: result, sampled type, dim, depth, arrayed, ms, sampled, format.
+            (OP_TYPE_IMAGE, 9..) => {
+                images.insert(ins[1], (ins[3], ins[7]));
+            }
+            (OP_TYPE_SAMPLED_IMAGE, 3..) => {
+                sampled.insert(ins[1], ins[2]);
+            }
+            (OP_TYPE_POINTER, 4..) => {
+                pointee.insert(ins[1], ins[3]);
+            }
+            (OP_VARIABLE, 4..) => vars.push((ins[2], ins[1])),
+            _ => {}
+        }
+        i += count;
+    }
+    let mut out = Vec::new();
+    for (var, ptr) in vars {
+        let Some(&b) = binding.get(&var) else {
+            continue;
+        };
+        let ty = pointee.get(&ptr).copied().unwrap_or(0);
+        let image = sampled.get(&ty).copied().unwrap_or(ty);
+        let kind = match images.get(&image) {
+            None => vk::DescriptorType::STORAGE_BUFFER,
+            Some(&(DIM_BUFFER, 1)) => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
+            Some(&(dim, s)) => bail!(
+                "binding {b} is an image (dim {dim}, sampled {s}); only storage buffers and uniform texel buffers are supported"
+            ),
+        };
+        out.push(Binding {
+            set: set.get(&var).copied().unwrap_or(0),
+            binding: b,
+            kind,
+            name: names.get(&var).cloned().unwrap_or_default(),
+        });
+    }
+    out.sort_by_key(|b| (b.set, b.binding));
+    Ok(out)
+}
