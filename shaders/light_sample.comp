@@ -19,7 +19,7 @@ layout(set = 0, binding = 0) uniform usamplerBuffer light_node_texels;
 layout(std430, set = 0, binding = 1) readonly buffer Order { uint light_order[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Queries { LightQuery queries[]; };
 layout(std430, set = 0, binding = 3) writeonly buffer Choices { LightChoice choices[]; };
-layout(std430, set = 0, binding = 4) readonly buffer Grid { GridParams grid[]; };
+layout(set = 0, binding = 4) uniform usamplerBuffer grid_texels;
 layout(set = 0, binding = 5) uniform usamplerBuffer region_index_texels;
 layout(set = 0, binding = 6) uniform usamplerBuffer cut_texels;
 layout(set = 0, binding = 7) uniform usamplerBuffer slot_stat_texels;

@@ -50,8 +50,9 @@ layout(constant_id = 5) const bool DIRECT_ONLY = false;
 layout(set = 0, binding = 0) uniform usamplerBuffer bvh_node_texels;
 layout(set = 0, binding = 1) uniform usamplerBuffer bvh_tri_texels;
 layout(std430, set = 0, binding = 2) readonly buffer TriMaterial { uint tri_material[]; };
-layout(std430, set = 0, binding = 3) readonly buffer Materials { GpuMaterial materials[]; };
-layout(std430, set = 0, binding = 4) readonly buffer Lights { GpuLight lights[]; };
+// The materials and the lights as texels (scene_texels.glsl).
+layout(set = 0, binding = 3) uniform usamplerBuffer material_texels;
+layout(set = 0, binding = 4) uniform usamplerBuffer light_texels;
 layout(std430, set = 0, binding = 5) readonly buffer Alias { AliasEntry alias_table[]; };
 layout(std430, set = 2, binding = 0) buffer Accum { PixelAccum accum[]; };
 // [0]: samples dropped because they were NaN or Inf (reported, never averaged in).
@@ -60,7 +61,7 @@ layout(std430, set = 2, binding = 1) buffer Counters { uint counters[]; };
 // The light tree as texels (light_tree.glsl light_node).
 layout(set = 0, binding = 6) uniform usamplerBuffer light_node_texels;
 layout(std430, set = 0, binding = 7) readonly buffer LightOrder { uint light_order[]; };
-layout(std430, set = 1, binding = 0) readonly buffer Grid { GridParams grid[]; };
+layout(set = 1, binding = 0) uniform usamplerBuffer grid_texels;
 // The region index and the cuts as R32UI texels (regions.glsl).
 layout(set = 1, binding = 1) uniform usamplerBuffer region_index_texels;
 layout(set = 1, binding = 2) uniform usamplerBuffer cut_texels;
@@ -108,6 +109,7 @@ void mark_touched(uint slot) {
 #define TRACK_TOUCHED
 
 #include "bvh.glsl"
+#include "scene_texels.glsl"
 #include "lights.glsl"
 #include "light_tree.glsl"
 #include "regions.glsl"
@@ -223,7 +225,7 @@ void main() {
         BvhTri tri = bvh_tri(hit);
         vec3 ng = normalize(cross(tri.e1, tri.e2));
         bool front = dot(ng, dir) < 0.0;
-        GpuMaterial m = materials[tri_material[tri.prim]];
+        GpuMaterial m = material_at(tri_material[tri.prim]);
         if ((front || (m.flags & MATERIAL_TWO_SIDED) != 0u) && any(greaterThan(m.emission, vec3(0.0)))) {
             float w = 1.0;
             uint li = tri_light[tri.prim];
@@ -235,7 +237,7 @@ void main() {
                     : light_pmf_of_cut(prev_cut, prev_cut_total, prev_x, prev_n, li, params.light_count, prev_brdf);
                 vec3 to = origin + t * dir - prev_x;
                 float cos_l = abs(dot(ng, dir));
-                float p_light = cos_l > 0.0 ? p_sel * dot(to, to) / (lights[li].area * cos_l) : 0.0;
+                float p_light = cos_l > 0.0 ? p_sel * dot(to, to) / (light_at(li).area * cos_l) : 0.0;
                 w = power_heuristic(prev_bsdf_pdf, p_light);
             }
             L += beta * m.emission * w;
@@ -280,7 +282,7 @@ void main() {
         float dist;
         vec2 u = vec2(sample_rand(seed, pixel, s, dim0 + DIM_LIGHT_U), sample_rand(seed, pixel, s, dim0 + DIM_LIGHT_V));
         // NO_LIGHT: no light can reach the front of n here (zero contribution, exactly).
-        GpuLight light = lights[li == NO_LIGHT ? 0u : li];
+        GpuLight light = light_at(li == NO_LIGHT ? 0u : li);
         vec3 Li = li == NO_LIGHT ? vec3(0.0) : sample_light_point(light, x, u, wi, dist);
         float cos_x = dot(n, wi);
         if (li != NO_LIGHT && cos_x > 0.0 && any(greaterThan(Li, vec3(0.0)))) {

@@ -556,6 +556,9 @@ fn texel_fetches_rebuild_the_host_bytes() {
     let stats = words(N * size_of::<SlotStats>() / 4);
     let cut = words(N);
     let index = words(N);
+    let lights = words(N * size_of::<GpuLight>() / 4);
+    let materials = words(N * size_of::<GpuMaterial>() / 4);
+    let grid = words(size_of::<GridParams>() / 4);
     let texels = |name: &str, w: &[u32]| {
         Buffer::texels(&ctx, name, bytemuck::cast_slice::<u32, [u32; 4]>(w)).unwrap()
     };
@@ -576,11 +579,18 @@ fn texel_fetches_rebuild_the_host_bytes() {
         out(&[0; 2 * N]),
     ];
     let order = Buffer::from_slice(&ctx, "order", &[0u32]).unwrap();
-    let k = ComputePipeline::new(&ctx, "texels", kernels::TEXELS, 12, 20, &[]).unwrap();
+    let scene_ins = [
+        texels("lights", &lights),
+        texels("materials", &materials),
+        texels("grid", &grid),
+    ];
+    let scene_outs = [out(&lights), out(&materials), out(&grid)];
+    let k = ComputePipeline::new(&ctx, "texels", kernels::TEXELS, 18, 28, &[]).unwrap();
     let mut bound: Vec<&Buffer> = ins.iter().chain(outs.iter()).collect();
     bound.push(&order);
+    bound.extend(scene_ins.iter().chain(scene_outs.iter()));
     k.bind(&bound).unwrap();
-    let counts = [N as u32; 5];
+    let counts = [N as u32; 7];
     ctx.submit(|cmd| {
         k.dispatch(
             cmd,
@@ -594,6 +604,9 @@ fn texel_fetches_rebuild_the_host_bytes() {
         ("BvhTri", &tris, &outs[1]),
         ("GpuLightNode", &light_nodes, &outs[2]),
         ("SlotStats", &stats, &outs[3]),
+        ("GpuLight", &lights, &scene_outs[0]),
+        ("GpuMaterial", &materials, &scene_outs[1]),
+        ("GridParams", &grid, &scene_outs[2]),
     ] {
         assert_eq!(
             &got.read::<u32>().unwrap(),

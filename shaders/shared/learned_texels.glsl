@@ -1,11 +1,23 @@
-// The learned state as the render kernels read it: the region index, the cuts and the
-// statistics, each a uniform texel buffer (src/gpu/buffer.rs Buffer::texels and
-// Buffer::words say why). The including kernel declares `region_index_texels`, `cut_texels`
-// (R32UI) and `slot_stat_texels` (RGBA32UI).
+// The learned state as the render kernels read it: the region grid, the region index, the
+// cuts and the statistics, each a uniform texel buffer (src/gpu/buffer.rs Buffer::texels and
+// Buffer::words say why). The including kernel declares `grid_texels` (RGBA32UI),
+// `region_index_texels`, `cut_texels` (R32UI) and `slot_stat_texels` (RGBA32UI).
 #ifndef LEARNED_TEXELS_GLSL
 #define LEARNED_TEXELS_GLSL
 
 #include "types.glsl"
+
+// The region grid: two texels, as GridParams.
+GridParams grid_params() {
+    uvec4 a = texelFetch(grid_texels, 0);
+    uvec4 b = texelFetch(grid_texels, 1);
+    GridParams g;
+    g.lo = uintBitsToFloat(a.xyz);
+    g.cell = uintBitsToFloat(a.w);
+    g.dims = b.xyz;
+    g.bins = b.w;
+    return g;
+}
 
 // Word i of the cuts (a cut: its length, then its nodes) and of the region index.
 uint cut_word(uint i) { return texelFetch(cut_texels, int(i)).x; }

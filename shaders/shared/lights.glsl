@@ -1,5 +1,5 @@
 // Light selection (uniform, power) and light evaluation. The including kernel declares
-// `lights` (GpuLight[]) and `alias_table` (AliasEntry[]) and the SAMPLER constant.
+// `alias_table` (AliasEntry[]) and the SAMPLER constant.
 #ifndef LIGHTS_GLSL
 #define LIGHTS_GLSL
 

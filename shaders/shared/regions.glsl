@@ -1,8 +1,6 @@
 // Region lookup and the `wang` sampler (cluster of the region's cut ∝ Ĩ_C(x), light inside
-// by power). Mirror of src/lights/regions.rs. The including kernel declares `grid`
-// (GridParams[1]), `region_index_texels` and `cut_texels` (usamplerBuffer: the region index
-// and the cuts, uint[], as R32UI texels: src/gpu/buffer.rs Buffer::words) and the light tree
-// buffers.
+// by power). Mirror of src/lights/regions.rs. The including kernel declares the learned
+// state's texel buffers (learned_texels.glsl) and the light tree buffers.
 #ifndef REGIONS_GLSL
 #define REGIONS_GLSL
 
@@ -10,7 +8,7 @@
 #include "learned_texels.glsl"
 
 uint region_of(vec3 p, vec3 n) {
-    GridParams g = grid[0];
+    GridParams g = grid_params();
     vec3 c = floor((p - g.lo) / g.cell);
     uvec3 cell = min(uvec3(max(c, vec3(0.0))), g.dims - 1u);
     uint flat_cell = (cell.z * g.dims.y + cell.y) * g.dims.x + cell.x;

@@ -116,7 +116,10 @@ impl Buffer {
     /// A zero-filled device-local buffer of `size` bytes (a multiple of 16) that kernels can
     /// read as texels, as [`Buffer::texels`].
     pub fn zeroed_texels(ctx: &Arc<Context>, name: &str, size: u64) -> Result<Buffer> {
-        assert!(size.is_multiple_of(16), "texel buffers hold whole 16-byte texels");
+        assert!(
+            size.is_multiple_of(16),
+            "texel buffers hold whole 16-byte texels"
+        );
         let texels = check_texels(ctx, name, size / 16)?;
         let buf = Buffer::new(
             ctx,

@@ -89,7 +89,7 @@ impl LearnedState {
             regions_added: 0,
             regions_refined: 0,
             full: false,
-            grid: Buffer::from_slice(ctx, "region grid", &[cuts.grid.params])?,
+            grid: Buffer::texels(ctx, "region grid", &[cuts.grid.params])?,
             index: Buffer::words(ctx, "region index", &cuts.index)?,
             cuts_buf: Buffer::words(ctx, "cuts", &cuts.cuts)?,
             stats: Buffer::texels(ctx, "learned statistics", &stats)?,

@@ -23,8 +23,8 @@ pub const RENDER_BINDINGS: [&[&str]; 3] = [
         "bvh_node_texels",
         "bvh_tri_texels",
         "TriMaterial",
-        "Materials",
-        "Lights",
+        "material_texels",
+        "light_texels",
         "Alias",
         "light_node_texels",
         "LightOrder",
@@ -35,7 +35,7 @@ pub const RENDER_BINDINGS: [&[&str]; 3] = [
         "TriUv",
     ],
     &[
-        "Grid",
+        "grid_texels",
         "region_index_texels",
         "cut_texels",
         "slot_stat_texels",
@@ -116,8 +116,8 @@ impl PassKernels {
             ("bvh_node_texels", &g.nodes),
             ("bvh_tri_texels", &g.tris),
             ("TriMaterial", &g.tri_material),
-            ("Materials", &g.materials),
-            ("Lights", &g.lights),
+            ("material_texels", &g.materials),
+            ("light_texels", &g.lights),
             ("Alias", &g.alias),
             ("light_node_texels", &g.light_nodes),
             ("LightOrder", &g.light_order),
@@ -134,7 +134,7 @@ impl PassKernels {
     /// Binds the learned state's buffers (again when cuts were added).
     pub(super) fn bind_learned(&self, l: &LearnedState) -> Result<()> {
         let learned: [(&str, &Buffer); 8] = [
-            ("Grid", &l.grid),
+            ("grid_texels", &l.grid),
             ("region_index_texels", &l.index),
             ("cut_texels", &l.cuts_buf),
             ("slot_stat_texels", &l.stats),

@@ -92,7 +92,7 @@ pub fn gpu_samples_and_pmfs(
         (q.len() * std::mem::size_of::<lightlearn::gpu::layout::LightChoice>()) as u64,
     )
     .unwrap();
-    let grid = Buffer::from_slice(ctx, "grid", &[cuts.grid.params]).unwrap();
+    let grid = Buffer::texels(ctx, "grid", &[cuts.grid.params]).unwrap();
     let index = Buffer::words(ctx, "region index", &cuts.index).unwrap();
     let cut = Buffer::words(ctx, "cuts", &cuts.cuts).unwrap();
     let sb = Buffer::texels(ctx, "stats", stats).unwrap();
