@@ -121,18 +121,8 @@ impl Buffer {
             "texel buffers hold whole 16-byte texels"
         );
         let texels = check_texels(ctx, name, size / 16)?;
-        let buf = Buffer::new(
-            ctx,
-            name,
-            size,
-            vk::BufferUsageFlags::STORAGE_BUFFER
-                | vk::BufferUsageFlags::TRANSFER_DST
-                | vk::BufferUsageFlags::TRANSFER_SRC
-                | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
-            MemoryLocation::GpuOnly,
-        )?;
-        buf.clear()?;
-        buf.with_view(vk::Format::R32G32B32A32_UINT, texels)
+        Buffer::zeroed_with(ctx, name, size, vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER)?
+            .with_view(vk::Format::R32G32B32A32_UINT, texels)
     }
 
     /// The buffer with a view of its first `texels` texels of `format` (RGBA32UI, R32UI).
@@ -177,13 +167,24 @@ impl Buffer {
 
     /// A zero-filled device-local storage buffer of `size` bytes.
     pub fn zeroed(ctx: &Arc<Context>, name: &str, size: u64) -> Result<Buffer> {
+        Buffer::zeroed_with(ctx, name, size, vk::BufferUsageFlags::empty())
+    }
+
+    /// A zero-filled device-local storage buffer of `size` bytes, with `extra` usage.
+    fn zeroed_with(
+        ctx: &Arc<Context>,
+        name: &str,
+        size: u64,
+        extra: vk::BufferUsageFlags,
+    ) -> Result<Buffer> {
         let buf = Buffer::new(
             ctx,
             name,
             size,
             vk::BufferUsageFlags::STORAGE_BUFFER
                 | vk::BufferUsageFlags::TRANSFER_DST
-                | vk::BufferUsageFlags::TRANSFER_SRC,
+                | vk::BufferUsageFlags::TRANSFER_SRC
+                | extra,
             MemoryLocation::GpuOnly,
         )?;
         buf.clear()?;
