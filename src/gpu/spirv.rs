@@ -100,3 +100,44 @@ pub fn bindings(spirv: &[u32]) -> Result<Vec<Binding>> {
     out.sort_by_key(|b| (b.set, b.binding));
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn words(spv: &[u8]) -> Vec<u32> {
+        ash::util::read_spv(&mut std::io::Cursor::new(spv)).unwrap()
+    }
+
+    /// Fails if texel buffers were taken for storage buffers (checked by that mutation).
+    #[test]
+    fn texel_and_storage_bindings_are_told_apart() {
+        let b = bindings(&words(crate::gpu::kernels::TEXELS)).unwrap();
+        let kind = |n: u32| {
+            b.iter()
+                .find(|x| x.set == 0 && x.binding == n)
+                .map(|x| x.kind)
+        };
+        assert_eq!(kind(0), Some(vk::DescriptorType::UNIFORM_TEXEL_BUFFER));
+        assert_eq!(b[0].name, "bvh_node_texels");
+        assert_eq!(kind(6), Some(vk::DescriptorType::STORAGE_BUFFER));
+        let texel = |k: &[u8]| {
+            bindings(&words(k))
+                .unwrap()
+                .iter()
+                .filter(|x| x.kind == vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
+                .count()
+        };
+        assert_eq!(texel(crate::gpu::kernels::TEXELS), 9);
+        assert_eq!(texel(crate::gpu::kernels::FOLD), 0);
+    }
+
+    #[test]
+    fn a_damaged_module_is_an_error() {
+        assert!(bindings(&[1, 2, 3]).is_err());
+        let mut w = words(crate::gpu::kernels::FOLD);
+        w.truncate(w.len() - 1);
+        w.push(0x00ff_0000); // an instruction that claims 255 words
+        assert!(bindings(&w).is_err());
+    }
+}
