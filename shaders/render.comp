@@ -45,6 +45,9 @@ const bool SCENE_TEXTURED = (SCENE_FLAGS & 2u) != 0u;
 // BSDF sampling and MIS code compiled out (lavapipe runs the code after a uniform `break`
 // too). The push constant max_depth stays the loop's bound.
 layout(constant_id = 5) const bool DIRECT_ONLY = false;
+// Paths traced one bounce per dispatch through queues (main() says why); false: every
+// vertex of a path in one invocation.
+layout(constant_id = 6) const bool WAVEFRONT = false;
 
 // The BVH as texels (bvh.glsl).
 layout(set = 0, binding = 0) uniform usamplerBuffer bvh_node_texels;
@@ -65,6 +68,8 @@ layout(set = 1, binding = 0) uniform usamplerBuffer grid_texels;
 // The region index and the cuts as R32UI texels (regions.glsl).
 layout(set = 1, binding = 1) uniform usamplerBuffer region_index_texels;
 layout(set = 1, binding = 2) uniform usamplerBuffer cut_texels;
+// Each cut word's light-tree node (learned_texels.glsl cut_node).
+layout(set = 1, binding = 8) uniform usamplerBuffer cut_node_texels;
 // The statistics as texels (learning.glsl slot_stats_at).
 layout(set = 1, binding = 3) uniform usamplerBuffer slot_stat_texels;
 layout(std430, set = 1, binding = 4) buffer Delta { SlotDelta slot_delta[]; };
@@ -183,187 +188,322 @@ float power_heuristic(float a, float b) {
     return a2 + b2 > 0.0 ? a2 / (a2 + b2) : 0.0;
 }
 
-void main() {
-    uvec2 px = gl_GlobalInvocationID.xy;
-    if (px.x >= params.width || px.y >= params.height) return;
-    uint pixel = px.y * params.width + px.x;
+// One path between vertices: what the next vertex needs of the ones before it. In the
+// wavefront (WAVEFRONT) it waits in a queue between the dispatches of two bounces.
+struct Path {
+    uint pixel;
+    vec3 origin;
+    vec3 dir;
+    vec3 beta;  // the path throughput
+    vec3 L;
+    float zero_samples;
+    float light_samples;
+    // The previous vertex, for the MIS weight of an emitter the BSDF ray from it hits.
+    vec3 prev_x;
+    vec3 prev_n;
+    float prev_brdf;
+    vec3 prev_wo;
+    float prev_bsdf_pdf;
+    // The cut and weight total of the previous vertex's light choice (light_pmf_of_cut).
+    uint prev_cut;
+    float prev_cut_total;
+    Bsdf prev_bsdf;  // only with --brdf-select (select_brdf at an emitter hit)
+};
+
+// --brdf-select changes a choice only at a glossy material (select_brdf): on a scene without
+// one its BSDF need not wait in the queues (3 texels a path fewer each way).
+const uint GLOSSY_BAYES_FLAGS = (SCENE_FLAGS & 1u) != 0u ? BAYES_FLAGS : 0u;
+const bool BRDF_SELECT = (GLOSSY_BAYES_FLAGS & LEARN_BRDF_SELECT) != 0u;
+
+// A path's first ray: the camera ray through a uniform point in the pixel (box filter;
+// stratified over passes, or independent).
+Path camera_path(uvec2 px) {
+    Path st;
+    st.pixel = px.y * params.width + px.x;
     uint s = params.sample_index;
     uint seed = params.seed;
-
-    // Box filter: a uniform point in the pixel (stratified over passes, or independent).
     vec2 jitter = params.stratified != 0u
-        ? pixel_jitter_r2(seed, pixel, s)
-        : vec2(sample_rand(seed, pixel, s, DIM_JITTER_X), sample_rand(seed, pixel, s, DIM_JITTER_Y));
+        ? pixel_jitter_r2(seed, st.pixel, s)
+        : vec2(sample_rand(seed, st.pixel, s, DIM_JITTER_X), sample_rand(seed, st.pixel, s, DIM_JITTER_Y));
     vec2 ndc = vec2((float(px.x) + jitter.x) / float(params.width) * 2.0 - 1.0,
                     1.0 - (float(px.y) + jitter.y) / float(params.height) * 2.0);
-    vec3 dir = normalize(params.cam_w.xyz + ndc.x * params.cam_u.xyz + ndc.y * params.cam_v.xyz);
-    vec3 origin = params.cam_pos.xyz;
+    st.dir = normalize(params.cam_w.xyz + ndc.x * params.cam_u.xyz + ndc.y * params.cam_v.xyz);
+    st.origin = params.cam_pos.xyz;
+    st.beta = vec3(1.0);
+    st.L = vec3(0.0);
+    st.zero_samples = 0.0;
+    st.light_samples = 0.0;
+    st.prev_x = vec3(0.0);
+    st.prev_n = vec3(0.0);
+    st.prev_brdf = 1.0;
+    st.prev_wo = vec3(0.0);
+    st.prev_bsdf_pdf = 0.0;
+    st.prev_cut = 0u;
+    st.prev_cut_total = 0.0;
+    st.prev_bsdf = Bsdf(vec3(0.0), 0.0, vec3(0.0), 0.0, 0.0, 0.0, 0.0, true);
+    return st;
+}
 
+// Vertex `depth` of a path: the surface its ray hits (the emitter there, with its MIS
+// weight), then for depth < max_depth one next-event sample and the BSDF ray on. False when
+// the path ends here. Vertices 0 … max_depth − 1 sample a light and the BSDF; the ray after
+// the last one only looks for the emitter it hits (its MIS weight completes that vertex's
+// light sample).
+bool path_vertex(inout Path st, uint depth) {
+    uint pixel = st.pixel;
+    uint s = params.sample_index;
+    uint seed = params.seed;
     const bool learned = SAMPLER == SAMPLER_BAYES || SAMPLER == SAMPLER_DONIKIAN;
     const bool mis = params.max_depth > (DIRECT_ONLY ? 0xffffffffu : 1u);
-    vec3 L = vec3(0.0);
-    vec3 beta = vec3(1.0);  // the path throughput
-    float zero_samples = 0.0;
-    float light_samples = 0.0;
-    // The previous vertex, for the MIS weight of an emitter the BSDF ray from it hits.
-    vec3 prev_x = vec3(0.0);
-    vec3 prev_n = vec3(0.0);
-    float prev_brdf = 1.0;
-    Bsdf prev_bsdf;
-    vec3 prev_wo = vec3(0.0);
-    const bool brdf_select = (BAYES_FLAGS & LEARN_BRDF_SELECT) != 0u;
-    float prev_bsdf_pdf = 0.0;
-    // The cut and weight total of the previous vertex's light choice (light_pmf_of_cut).
-    uint prev_cut = 0u;
-    float prev_cut_total = 0.0;
-    // Vertices 0 … max_depth − 1 sample a light and the BSDF; the ray after the last one
-    // only looks for the emitter it hits (its MIS weight completes that vertex's light sample).
-    for (uint depth = 0u; depth <= params.max_depth; ++depth) {
-        float t;
-        uint hit = trace_ray(origin, dir, 0.0, 3.0e38, false, t);
-        if (hit == NO_HIT) break;
-        BvhTri tri = bvh_tri(hit);
-        vec3 ng = normalize(cross(tri.e1, tri.e2));
-        bool front = dot(ng, dir) < 0.0;
-        GpuMaterial m = material_at(tri_material[tri.prim]);
-        if ((front || (m.flags & MATERIAL_TWO_SIDED) != 0u) && any(greaterThan(m.emission, vec3(0.0)))) {
+    const bool brdf_select = BRDF_SELECT;
+    float t;
+    uint hit = trace_ray(st.origin, st.dir, 0.0, 3.0e38, false, t);
+    if (hit == NO_HIT) return false;
+    BvhTri tri = bvh_tri(hit);
+    vec3 ng = normalize(cross(tri.e1, tri.e2));
+    bool front = dot(ng, st.dir) < 0.0;
+    GpuMaterial m = material_at(tri_material[tri.prim]);
+    if ((front || (m.flags & MATERIAL_TWO_SIDED) != 0u) && any(greaterThan(m.emission, vec3(0.0)))) {
+        float w = 1.0;
+        uint li = tri_light[tri.prim];
+        if (depth > 0u && li != NO_LIGHT) {
+            // The light sampler's pdf of this point, in solid angle at prev_x.
+            select_brdf(st.prev_bsdf, st.prev_wo, st.prev_n, brdf_select);
+            float p_sel = (KNOCK_OUT & KNOCK_MIS_PMF) != 0u
+                ? 1.0 / float(params.light_count)
+                : light_pmf_of_cut(st.prev_cut, st.prev_cut_total, st.prev_x, st.prev_n, li, params.light_count, st.prev_brdf);
+            vec3 to = st.origin + t * st.dir - st.prev_x;
+            float cos_l = abs(dot(ng, st.dir));
+            float p_light = cos_l > 0.0 ? p_sel * dot(to, to) / (light_at(li).area * cos_l) : 0.0;
+            w = power_heuristic(st.prev_bsdf_pdf, p_light);
+        }
+        st.L += st.beta * m.emission * w;
+    }
+    if (depth == params.max_depth) return false;
+
+    // Reflection is two-sided: shade the side the ray came from.
+    vec3 n = front ? ng : -ng;
+    vec3 x = st.origin + t * st.dir;
+    uint dim0 = depth * DIMS_PER_VERTEX;
+    // glTF: base colour = factor × texture.
+    if (SCENE_TEXTURED && m.texture != NO_TEXTURE) {
+        m.base_color *= sample_texture(m.texture, triangle_uv(tri.prim, x, tri.v0, tri.e1, tri.e2));
+    }
+    vec3 wo = -st.dir;
+    Bsdf bsdf = make_bsdf(m, m.base_color, n, wo);
+    select_brdf(bsdf, wo, n, brdf_select);
+    float pmf;
+    float u_light = sample_rand(seed, pixel, s, dim0 + DIM_LIGHT);
+    uint li;
+    uint slot = NO_SLOT;
+    float p_slot = 1.0;
+    float d2_slot = 1.0;
+    float cv_total = 0.0;
+    float cv_chosen = 0.0;
+    // --brdf-aware: the observation includes the BRDF towards the light as luminance; its
+    // prior (and light_pmf) take the BRDF's albedo / π, the Lambertian f of equal albedo.
+    const bool brdf_aware = (BAYES_FLAGS & LEARN_BRDF) != 0u;
+    float brdf = brdf_aware ? bsdf.albedo / PI : 1.0;
+    if ((KNOCK_OUT & KNOCK_SELECT) != 0u) li = pick_light(u_light, params.light_count, pmf);
+    else if (SAMPLER == SAMPLER_LIGHTBVH) li = sample_light_tree(x, n, u_light, pmf);
+    else if (SAMPLER == SAMPLER_WANG) li = sample_wang(x, n, u_light, pmf);
+    else if (learned) li = sample_learned(x, n, u_light, brdf, pmf, slot, p_slot, d2_slot, cv_total, cv_chosen);
+    else li = pick_light(u_light, params.light_count, pmf);
+    if (learned && li != NO_LIGHT && slot == NO_SLOT && (KNOCK_OUT & KNOCK_SELECT) == 0u) atomicAdd(counters[1], 1u);
+    // The observation of the chosen cluster: Î_C = L_e G V / (P(l|C) p(y|l)) as
+    // luminance (not divided by P(C|x)); zero when occluded or facing away. Learning
+    // models the light-sampling estimator, so it takes no MIS weight (docs/method.md §5).
+    float observed = 0.0;
+    vec3 Ic = vec3(0.0);  // Î_C in RGB, for the control variate
+    vec3 wi;
+    float dist;
+    vec2 u = vec2(sample_rand(seed, pixel, s, dim0 + DIM_LIGHT_U), sample_rand(seed, pixel, s, dim0 + DIM_LIGHT_V));
+    // NO_LIGHT: no light can reach the front of n here (zero contribution, exactly).
+    GpuLight light = light_at(li == NO_LIGHT ? 0u : li);
+    vec3 Li = li == NO_LIGHT ? vec3(0.0) : sample_light_point(light, x, u, wi, dist);
+    float cos_x = dot(n, wi);
+    if (li != NO_LIGHT && cos_x > 0.0 && any(greaterThan(Li, vec3(0.0)))) {
+        // The shadow ray starts just off the surface and aims at the light point itself:
+        // keeping wi and dist from x made a surface parallel to an area light (a floor under
+        // a ceiling panel) meet the light's own plane before tmax, i.e. shadow itself
+        // (found by the Mitsuba cross-check, tests/mitsuba.rs: floor 48 % too dark).
+        float eps = params.ray_eps;
+        vec3 so = x + n * eps;
+        vec3 to_light = wi * dist - n * eps;
+        float sdist = length(to_light);
+        bool area = (light.kind & 0xffu) == LIGHT_TRIANGLE;
+        // Stop short of an area light's own surface; a point light has none.
+        float tmax = area ? sdist - eps : sdist;
+        float ts;
+        if ((KNOCK_OUT & KNOCK_SHADOW) != 0u || trace_ray(so, to_light / sdist, 0.0, tmax, true, ts) == NO_HIT) {
+            // Evaluated only for visible samples (GGX costs tens of operations).
+            vec3 f = bsdf_eval(bsdf, n, wo, wi);
             float w = 1.0;
-            uint li = tri_light[tri.prim];
-            if (depth > 0u && li != NO_LIGHT) {
-                // The light sampler's pdf of this point, in solid angle at prev_x.
-                select_brdf(prev_bsdf, prev_wo, prev_n, brdf_select);
-                float p_sel = (KNOCK_OUT & KNOCK_MIS_PMF) != 0u
-                    ? 1.0 / float(params.light_count)
-                    : light_pmf_of_cut(prev_cut, prev_cut_total, prev_x, prev_n, li, params.light_count, prev_brdf);
-                vec3 to = origin + t * dir - prev_x;
-                float cos_l = abs(dot(ng, dir));
-                float p_light = cos_l > 0.0 ? p_sel * dot(to, to) / (light_at(li).area * cos_l) : 0.0;
-                w = power_heuristic(prev_bsdf_pdf, p_light);
+            if (mis && area) {
+                // The light sample's pdf in solid angle: pmf · d² / (cos_y A).
+                float cos_y = abs(dot(normalize(cross(light.p1 - light.p0, light.p2 - light.p0)), wi));
+                float p_light = pmf * dist * dist / (cos_y * light.area);
+                w = power_heuristic(p_light, bsdf_pdf(bsdf, n, wo, wi));
             }
-            L += beta * m.emission * w;
+            st.L += st.beta * f * Li * (cos_x / pmf * w);
+            Ic = Li * (cos_x * p_slot / pmf);
+            observed = luminance(Li) * cos_x * (p_slot / pmf) * (brdf_aware ? luminance(f) : 1.0);
         }
-        if (depth == params.max_depth) break;
-
-        // Reflection is two-sided: shade the side the ray came from.
-        vec3 n = front ? ng : -ng;
-        vec3 x = origin + t * dir;
-        uint dim0 = depth * DIMS_PER_VERTEX;
-        // glTF: base colour = factor × texture.
-        if (SCENE_TEXTURED && m.texture != NO_TEXTURE) {
-            m.base_color *= sample_texture(m.texture, triangle_uv(tri.prim, x, tri.v0, tri.e1, tri.e2));
-        }
-        vec3 wo = -dir;
-        Bsdf bsdf = make_bsdf(m, m.base_color, n, wo);
-        select_brdf(bsdf, wo, n, brdf_select);
-        float pmf;
-        float u_light = sample_rand(seed, pixel, s, dim0 + DIM_LIGHT);
-        uint li;
-        uint slot = NO_SLOT;
-        float p_slot = 1.0;
-        float d2_slot = 1.0;
-        float cv_total = 0.0;
-        float cv_chosen = 0.0;
-        // --brdf-aware: the observation includes the BRDF towards the light as luminance; its
-        // prior (and light_pmf) take the BRDF's albedo / π, the Lambertian f of equal albedo.
-        const bool brdf_aware = (BAYES_FLAGS & LEARN_BRDF) != 0u;
-        float brdf = brdf_aware ? bsdf.albedo / PI : 1.0;
-        if ((KNOCK_OUT & KNOCK_SELECT) != 0u) li = pick_light(u_light, params.light_count, pmf);
-        else if (SAMPLER == SAMPLER_LIGHTBVH) li = sample_light_tree(x, n, u_light, pmf);
-        else if (SAMPLER == SAMPLER_WANG) li = sample_wang(x, n, u_light, pmf);
-        else if (learned) li = sample_learned(x, n, u_light, brdf, pmf, slot, p_slot, d2_slot, cv_total, cv_chosen);
-        else li = pick_light(u_light, params.light_count, pmf);
-        if (learned && li != NO_LIGHT && slot == NO_SLOT && (KNOCK_OUT & KNOCK_SELECT) == 0u) atomicAdd(counters[1], 1u);
-        // The observation of the chosen cluster: Î_C = L_e G V / (P(l|C) p(y|l)) as
-        // luminance (not divided by P(C|x)); zero when occluded or facing away. Learning
-        // models the light-sampling estimator, so it takes no MIS weight (docs/method.md §5).
-        float observed = 0.0;
-        vec3 Ic = vec3(0.0);  // Î_C in RGB, for the control variate
-        vec3 wi;
-        float dist;
-        vec2 u = vec2(sample_rand(seed, pixel, s, dim0 + DIM_LIGHT_U), sample_rand(seed, pixel, s, dim0 + DIM_LIGHT_V));
-        // NO_LIGHT: no light can reach the front of n here (zero contribution, exactly).
-        GpuLight light = light_at(li == NO_LIGHT ? 0u : li);
-        vec3 Li = li == NO_LIGHT ? vec3(0.0) : sample_light_point(light, x, u, wi, dist);
-        float cos_x = dot(n, wi);
-        if (li != NO_LIGHT && cos_x > 0.0 && any(greaterThan(Li, vec3(0.0)))) {
-            // The shadow ray starts just off the surface and aims at the light point itself:
-            // keeping wi and dist from x made a surface parallel to an area light (a floor under
-            // a ceiling panel) meet the light's own plane before tmax, i.e. shadow itself
-            // (found by the Mitsuba cross-check, tests/mitsuba.rs: floor 48 % too dark).
-            float eps = params.ray_eps;
-            vec3 so = x + n * eps;
-            vec3 to_light = wi * dist - n * eps;
-            float sdist = length(to_light);
-            bool area = (light.kind & 0xffu) == LIGHT_TRIANGLE;
-            // Stop short of an area light's own surface; a point light has none.
-            float tmax = area ? sdist - eps : sdist;
-            float ts;
-            if ((KNOCK_OUT & KNOCK_SHADOW) != 0u || trace_ray(so, to_light / sdist, 0.0, tmax, true, ts) == NO_HIT) {
-                // Evaluated only for visible samples (GGX costs tens of operations).
-                vec3 f = bsdf_eval(bsdf, n, wo, wi);
-                float w = 1.0;
-                if (mis && area) {
-                    // The light sample's pdf in solid angle: pmf · d² / (cos_y A).
-                    float cos_y = abs(dot(normalize(cross(light.p1 - light.p0, light.p2 - light.p0)), wi));
-                    float p_light = pmf * dist * dist / (cos_y * light.area);
-                    w = power_heuristic(p_light, bsdf_pdf(bsdf, n, wo, wi));
-                }
-                L += beta * f * Li * (cos_x / pmf * w);
-                Ic = Li * (cos_x * p_slot / pmf);
-                observed = luminance(Li) * cos_x * (p_slot / pmf) * (brdf_aware ? luminance(f) : 1.0);
-            }
-        }
-        if (learned && slot != NO_SLOT && (KNOCK_OUT & KNOCK_OBSERVE) == 0u) record_observation(slot, observed * d2_slot);
-        light_samples += 1.0;
-        zero_samples += any(greaterThan(Ic, vec3(0.0))) ? 0.0 : 1.0;
-        // --control-variates (docs/method.md §6): Σ_C g_C + (Î_C − g_C) / P(C) instead of
-        // Î_C / P(C), with g_C the model's predicted mean of Î_C (gray: the model learns
-        // luminance). Unbiased for any g fixed within the pass (with MIS too: g need not
-        // predict the weighted term); also where the sample was occluded or a dead end
-        // (Î_C = 0), which is why it is added here, outside the shadow-ray branch.
-        // p_slot = 0 only where no cluster can light x (g's all 0). The factor that turns g
-        // into radiance must not depend on the light drawn: the diffuse lobe at normal
-        // incidence (the BRDF itself for a Lambertian material; 0 for a metal, where the
-        // control variate is then off).
-        if (cv_total > 0.0 && p_slot > 0.0) {
-            vec3 f_cv = (1.0 - bsdf.metallic) * (1.0 - bsdf.specular * max3(bsdf.f0_d)) * bsdf.base / PI;
-            L += beta * f_cv * (vec3(cv_total) - vec3(cv_chosen) / p_slot);
-        }
-
-        if (!mis) break;
-        // The BSDF ray: also taken after the last vertex, to find the emitter it hits.
-        vec2 ub = vec2(sample_rand(seed, pixel, s, dim0 + DIM_BSDF_U), sample_rand(seed, pixel, s, dim0 + DIM_BSDF_V));
-        float bsdf_pdf_o;
-        vec3 wn = bsdf_sample(bsdf, n, wo, ub, bsdf_pdf_o);
-        float cos_o = dot(n, wn);
-        if (cos_o <= 0.0 || !(bsdf_pdf_o > 0.0)) break;
-        // f cos / pdf (the albedo exactly for a Lambertian BRDF sampled by cos θ / π).
-        beta *= bsdf.lambert ? bsdf.base : bsdf_eval(bsdf, n, wo, wn) * (cos_o / bsdf_pdf_o);
-        // The light sample above was drawn at x itself: light_pmf must see the same point.
-        prev_x = x;
-        prev_n = n;
-        prev_brdf = brdf;
-        prev_bsdf = bsdf;
-        prev_wo = wo;
-        prev_bsdf_pdf = bsdf_pdf_o;
-        prev_cut = sel_cut;
-        prev_cut_total = sel_total;
-        origin = x + n * params.ray_eps;
-        dir = wn;
-        if (depth + 1u >= 3u) {
-            float q = max(0.0, 1.0 - max(beta.x, max(beta.y, beta.z)));
-            if (sample_rand(seed, pixel, s, dim0 + DIM_RR) < q) break;
-            beta /= 1.0 - q;
-        }
-        if (!any(greaterThan(beta, vec3(0.0)))) break;
+    }
+    if (learned && slot != NO_SLOT && (KNOCK_OUT & KNOCK_OBSERVE) == 0u) record_observation(slot, observed * d2_slot);
+    st.light_samples += 1.0;
+    st.zero_samples += any(greaterThan(Ic, vec3(0.0))) ? 0.0 : 1.0;
+    // --control-variates (docs/method.md §6): Σ_C g_C + (Î_C − g_C) / P(C) instead of
+    // Î_C / P(C), with g_C the model's predicted mean of Î_C (gray: the model learns
+    // luminance). Unbiased for any g fixed within the pass (with MIS too: g need not
+    // predict the weighted term); also where the sample was occluded or a dead end
+    // (Î_C = 0), which is why it is added here, outside the shadow-ray branch.
+    // p_slot = 0 only where no cluster can light x (g's all 0). The factor that turns g
+    // into radiance must not depend on the light drawn: the diffuse lobe at normal
+    // incidence (the BRDF itself for a Lambertian material; 0 for a metal, where the
+    // control variate is then off).
+    if (cv_total > 0.0 && p_slot > 0.0) {
+        vec3 f_cv = (1.0 - bsdf.metallic) * (1.0 - bsdf.specular * max3(bsdf.f0_d)) * bsdf.base / PI;
+        st.L += st.beta * f_cv * (vec3(cv_total) - vec3(cv_chosen) / p_slot);
     }
 
+    if (!mis) return false;
+    // The BSDF ray: also taken after the last vertex, to find the emitter it hits.
+    vec2 ub = vec2(sample_rand(seed, pixel, s, dim0 + DIM_BSDF_U), sample_rand(seed, pixel, s, dim0 + DIM_BSDF_V));
+    float bsdf_pdf_o;
+    vec3 wn = bsdf_sample(bsdf, n, wo, ub, bsdf_pdf_o);
+    float cos_o = dot(n, wn);
+    if (cos_o <= 0.0 || !(bsdf_pdf_o > 0.0)) return false;
+    // f cos / pdf (the albedo exactly for a Lambertian BRDF sampled by cos θ / π).
+    st.beta *= bsdf.lambert ? bsdf.base : bsdf_eval(bsdf, n, wo, wn) * (cos_o / bsdf_pdf_o);
+    // The light sample above was drawn at x itself: light_pmf must see the same point.
+    st.prev_x = x;
+    st.prev_n = n;
+    st.prev_brdf = brdf;
+    st.prev_bsdf = bsdf;
+    st.prev_wo = wo;
+    st.prev_bsdf_pdf = bsdf_pdf_o;
+    st.prev_cut = sel_cut;
+    st.prev_cut_total = sel_total;
+    st.origin = x + n * params.ray_eps;
+    st.dir = wn;
+    if (depth + 1u >= 3u) {
+        float q = max(0.0, 1.0 - max(st.beta.x, max(st.beta.y, st.beta.z)));
+        if (sample_rand(seed, pixel, s, dim0 + DIM_RR) < q) return false;
+        st.beta /= 1.0 - q;
+    }
+    return any(greaterThan(st.beta, vec3(0.0)));
+}
+
+// The wavefront's path queues (set 2, with the film they belong to): two queues of params.queue_cap paths each, PATH_TEXELS
+// RGBA32UI texels a path, in one buffer read as texels (path_texels) and written as a
+// storage texel buffer (path_image: the same view); queue_head[4q…4q+3] is queue q's
+// indirect dispatch (its workgroups, 1, 1) and its length. Bounce d ≥ 1 reads queue d & 1
+// and appends the paths that go on to queue (d + 1) & 1, whose head the host reset before.
+#define PATH_TEXELS 10u
+layout(std430, set = 2, binding = 2) buffer QueueHeads { uint queue_head[8]; };
+layout(set = 2, binding = 3) uniform usamplerBuffer path_texels;
+layout(set = 2, binding = 4, rgba32ui) uniform writeonly uimageBuffer path_image;
+
+Path load_path(uint q, uint i) {
+    int t = int((q * params.queue_cap + i) * PATH_TEXELS);
+    uvec4 a = texelFetch(path_texels, t);
+    uvec4 b = texelFetch(path_texels, t + 1);
+    uvec4 c = texelFetch(path_texels, t + 2);
+    uvec4 d = texelFetch(path_texels, t + 3);
+    uvec4 e = texelFetch(path_texels, t + 4);
+    uvec4 f = texelFetch(path_texels, t + 5);
+    uvec4 g = texelFetch(path_texels, t + 6);
+    Path st;
+    st.origin = uintBitsToFloat(a.xyz);
+    st.pixel = a.w;
+    st.dir = uintBitsToFloat(b.xyz);
+    st.zero_samples = uintBitsToFloat(b.w);
+    st.beta = uintBitsToFloat(c.xyz);
+    st.light_samples = uintBitsToFloat(c.w);
+    st.L = uintBitsToFloat(d.xyz);
+    st.prev_cut = d.w;
+    st.prev_x = uintBitsToFloat(e.xyz);
+    st.prev_cut_total = uintBitsToFloat(e.w);
+    st.prev_n = uintBitsToFloat(f.xyz);
+    st.prev_brdf = uintBitsToFloat(f.w);
+    st.prev_wo = uintBitsToFloat(g.xyz);
+    st.prev_bsdf_pdf = uintBitsToFloat(g.w);
+    st.prev_bsdf = Bsdf(vec3(0.0), 0.0, vec3(0.0), 0.0, 0.0, 0.0, 0.0, true);
+    if (BRDF_SELECT) {
+        uvec4 h = texelFetch(path_texels, t + 7);
+        uvec4 j = texelFetch(path_texels, t + 8);
+        uvec4 k = texelFetch(path_texels, t + 9);
+        st.prev_bsdf = Bsdf(uintBitsToFloat(h.xyz), uintBitsToFloat(h.w), uintBitsToFloat(j.xyz),
+                            uintBitsToFloat(j.w), uintBitsToFloat(k.x), uintBitsToFloat(k.y),
+                            uintBitsToFloat(k.z), k.w != 0u);
+    }
+    return st;
+}
+
+void push_path(Path st) {
+    uint q = (params.bounce + 1u) & 1u;
+    uint i = atomicAdd(queue_head[4u * q + 3u], 1u);
+    if ((i & 63u) == 0u) atomicAdd(queue_head[4u * q], 1u);
+    int t = int((q * params.queue_cap + i) * PATH_TEXELS);
+    imageStore(path_image, t, uvec4(floatBitsToUint(st.origin), st.pixel));
+    imageStore(path_image, t + 1, uvec4(floatBitsToUint(st.dir), floatBitsToUint(st.zero_samples)));
+    imageStore(path_image, t + 2, uvec4(floatBitsToUint(st.beta), floatBitsToUint(st.light_samples)));
+    imageStore(path_image, t + 3, uvec4(floatBitsToUint(st.L), st.prev_cut));
+    imageStore(path_image, t + 4, uvec4(floatBitsToUint(st.prev_x), floatBitsToUint(st.prev_cut_total)));
+    imageStore(path_image, t + 5, uvec4(floatBitsToUint(st.prev_n), floatBitsToUint(st.prev_brdf)));
+    imageStore(path_image, t + 6, uvec4(floatBitsToUint(st.prev_wo), floatBitsToUint(st.prev_bsdf_pdf)));
+    if (BRDF_SELECT) {
+        Bsdf b = st.prev_bsdf;
+        imageStore(path_image, t + 7, uvec4(floatBitsToUint(b.base), floatBitsToUint(b.metallic)));
+        imageStore(path_image, t + 8, uvec4(floatBitsToUint(b.f0_d), floatBitsToUint(b.specular)));
+        imageStore(path_image, t + 9, uvec4(floatBitsToUint(b.alpha), floatBitsToUint(b.p_spec),
+                                            floatBitsToUint(b.albedo), b.lambert ? 1u : 0u));
+    }
+}
+
+// A finished path into the film: its sample, its square, and the light-sample counts.
+void finish_path(Path st) {
+    vec3 L = st.L;
     if (any(isnan(L)) || any(isinf(L))) {
         atomicAdd(counters[0], 1u);
         L = vec3(0.0);
     }
-    PixelAccum a = accum[pixel];
-    a.sum += vec4(L, zero_samples);
-    a.sum_sq += vec4(L * L, light_samples);
-    accum[pixel] = a;
+    PixelAccum a = accum[st.pixel];
+    a.sum += vec4(L, st.zero_samples);
+    a.sum_sq += vec4(L * L, st.light_samples);
+    accum[st.pixel] = a;
+}
+
+// WAVEFRONT (paths, max_depth ≥ 2): one dispatch per bounce. Bounce 0 starts the paths of
+// rows row0 … of the film and takes their first vertex; bounce d ≥ 1 takes vertex d of the
+// paths queued by bounce d − 1 (an indirect dispatch over the queue). A path that ends goes
+// into the film at once. Lanes of a SIMD group then work on live paths only: in one loop
+// over the vertices (direct light, and the preview's reduced film) a lane whose path ended
+// waits for the longest of its group.
+void main() {
+    Path st;
+    uint depth = 0u;
+    if (WAVEFRONT && params.bounce > 0u) {
+        uint q = params.bounce & 1u;
+        uint i = gl_WorkGroupID.x * 64u + gl_LocalInvocationIndex;
+        if (i >= queue_head[4u * q + 3u]) return;
+        st = load_path(q, i);
+        depth = params.bounce;
+    } else {
+        uvec2 px = uvec2(gl_GlobalInvocationID.x, gl_GlobalInvocationID.y + params.row0);
+        if (px.x >= params.width || px.y >= params.height) return;
+        st = camera_path(px);
+    }
+    if (WAVEFRONT) {
+        if (path_vertex(st, depth)) {
+            push_path(st);
+            return;
+        }
+    } else {
+        for (; depth <= params.max_depth; ++depth) {
+            if (!path_vertex(st, depth)) break;
+        }
+    }
+    finish_path(st);
 }

@@ -297,6 +297,14 @@ pub struct RenderParams {
     pub stratified: u32,
     /// Surface vertices of a path (1: direct light by light sampling alone).
     pub max_depth: u32,
+    /// The wavefront's bounce (`render.comp` WAVEFRONT): 0 starts paths, d ≥ 1 takes
+    /// vertex d of the queued ones.
+    pub bounce: u32,
+    /// The first film row of a dispatch that starts paths.
+    pub row0: u32,
+    /// Paths per queue of the wavefront.
+    pub queue_cap: u32,
+    pub pad: u32,
 }
 
 /// A ray for `trace.comp`.

@@ -205,7 +205,11 @@ fn host_and_shader_structs_match() {
             light_count,
             ray_eps,
             stratified,
-            max_depth
+            max_depth,
+            bounce,
+            row0,
+            queue_cap,
+            pad
         }),
         rust_layout!(GpuRay {
             origin,

@@ -270,6 +270,28 @@ fn resize_gives_a_new_film_and_keeps_the_learning() {
     assert!(x.resize(0, 10).is_err());
 }
 
+/// The path tracer (one dispatch per bounce, paths queued between them) gives the same
+/// image bit for bit when its queues are small and the film's paths start in bands of rows:
+/// fails if a band starts at the wrong row or a queue mixes two bands' paths.
+#[test]
+fn path_queue_bands_give_the_same_image() {
+    let ctx = common::ctx();
+    let s = scene("rooms16.glb");
+    let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
+    let mut set = settings(LightSampler::Bayes, 5);
+    set.max_depth = 4;
+    let mut one = Session::new(&ctx, &s, &gpu, &set).unwrap();
+    one.run_passes(3).unwrap();
+    let mut banded = Session::new(&ctx, &s, &gpu, &set).unwrap();
+    // 160 bytes a path, two queues: 8 rows of 48 pixels, 36 rows in 5 bands.
+    banded.set_path_queue_bytes(2 * 160 * 48 * 8).unwrap();
+    banded.run_passes(3).unwrap();
+    let (a, b) = (one.image().unwrap(), banded.image().unwrap());
+    assert!(a.iter().flatten().any(|&v| v > 0.0));
+    assert_eq!(a, b);
+    assert!(banded.set_path_queue_bytes(1000).is_err());
+}
+
 /// With `--update-every` above 1 the cuts still grow, at the first fold boundary after each
 /// growth point (before, growth was skipped unless the two coincided: with 3, not before
 /// pass 192).

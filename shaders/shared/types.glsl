@@ -136,6 +136,10 @@ struct RenderParams {
     float ray_eps;
     uint stratified;
     uint max_depth;
+    uint bounce;     // the wavefront's bounce (render.comp WAVEFRONT), 0 otherwise
+    uint row0;       // the first film row of a dispatch that starts paths
+    uint queue_cap;  // paths per queue (render.comp set 3)
+    uint pad;
 };
 
 struct GpuRay {

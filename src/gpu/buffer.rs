@@ -125,6 +125,62 @@ impl Buffer {
             .with_view(vk::Format::R32G32B32A32_UINT, texels)
     }
 
+    /// A device-local buffer holding `data` that kernels read as RGBA32UI texels alone (no
+    /// storage-buffer view, so no storage-buffer size limit: only the device's texel
+    /// count). `T` must be a multiple of 16 bytes.
+    pub fn read_only_texels<T: Pod>(ctx: &Arc<Context>, name: &str, data: &[T]) -> Result<Buffer> {
+        assert!(
+            std::mem::size_of::<T>().is_multiple_of(16),
+            "texel buffers hold whole 16-byte texels"
+        );
+        let texels = check_texels(ctx, name, std::mem::size_of_val(data) as u64 / 16)?;
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let buf = Buffer::new(
+            ctx,
+            name,
+            bytes.len() as u64,
+            vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )?;
+        buf.write(bytes)?;
+        buf.with_view(vk::Format::R32G32B32A32_UINT, texels)
+    }
+
+    /// A zero-filled device-local buffer of `size` bytes (a multiple of 16) that kernels read
+    /// as RGBA32UI texels and write as a storage texel buffer (`uimageBuffer`) through the
+    /// same view: scratch data one dispatch writes and the next reads (a wavefront's
+    /// queues), read with the vector loads of [`Buffer::texels`].
+    pub fn scratch_texels(ctx: &Arc<Context>, name: &str, size: u64) -> Result<Buffer> {
+        assert!(
+            size.is_multiple_of(16),
+            "texel buffers hold whole 16-byte texels"
+        );
+        let texels = check_texels(ctx, name, size / 16)?;
+        Buffer::zeroed_with(
+            ctx,
+            name,
+            size,
+            vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER,
+        )?
+        .with_view(vk::Format::R32G32B32A32_UINT, texels)
+    }
+
+    /// A zero-filled device-local storage buffer of `size` bytes that indirect dispatches
+    /// can read their workgroup counts from.
+    pub fn zeroed_indirect(ctx: &Arc<Context>, name: &str, size: u64) -> Result<Buffer> {
+        Buffer::zeroed_with(ctx, name, size, vk::BufferUsageFlags::INDIRECT_BUFFER)
+    }
+
+    /// Records a write of `bytes` (at most 65536, a multiple of 4) at `offset` into a
+    /// command buffer: ordered with the dispatches around it by [`Context::barrier`].
+    pub fn record_write(&self, cmd: vk::CommandBuffer, offset: u64, bytes: &[u8]) {
+        unsafe {
+            self.ctx
+                .device
+                .cmd_update_buffer(cmd, self.raw, offset, bytes)
+        };
+    }
+
     /// The buffer with a view of its first `texels` texels of `format` (RGBA32UI, R32UI).
     fn with_view(mut self, format: vk::Format, texels: u64) -> Result<Buffer> {
         let bytes = if format == vk::Format::R32_UINT {

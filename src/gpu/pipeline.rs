@@ -1,5 +1,5 @@
 //! A compute pipeline whose descriptor sets hold buffers (set k: bindings 0..N_k), each a
-//! storage buffer or a uniform texel buffer as the kernel declares it (src/gpu/spirv.rs),
+//! storage buffer or a uniform or storage texel buffer as the kernel declares it (src/gpu/spirv.rs),
 //! with push constants and u32 specialization constants (constant_id = index). Each set is
 //! bound on its own, so a caller rebinds only the set whose buffers changed.
 
@@ -124,6 +124,9 @@ impl ComputePipeline {
                 vk::DescriptorPoolSize::default()
                     .ty(vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
                     .descriptor_count(count(vk::DescriptorType::UNIFORM_TEXEL_BUFFER).max(1)),
+                vk::DescriptorPoolSize::default()
+                    .ty(vk::DescriptorType::STORAGE_TEXEL_BUFFER)
+                    .descriptor_count(count(vk::DescriptorType::STORAGE_TEXEL_BUFFER).max(1)),
             ];
             let pool = d.create_descriptor_pool(
                 &vk::DescriptorPoolCreateInfo::default()
@@ -170,9 +173,13 @@ impl ComputePipeline {
                     .range(vk::WHOLE_SIZE)]
             })
             .collect();
+        let texel = |kind| {
+            kind == vk::DescriptorType::UNIFORM_TEXEL_BUFFER
+                || kind == vk::DescriptorType::STORAGE_TEXEL_BUFFER
+        };
         let mut views: Vec<[vk::BufferView; 1]> = Vec::new();
         for (i, (b, &kind)) in buffers.iter().zip(kinds).enumerate() {
-            if kind == vk::DescriptorType::UNIFORM_TEXEL_BUFFER {
+            if texel(kind) {
                 let Some(view) = b.view else {
                     anyhow::bail!("binding {i} of set {set} reads texels, but its buffer was made without a texel view (internal error: use Buffer::texels)");
                 };
@@ -189,7 +196,7 @@ impl ComputePipeline {
                     .dst_set(self.sets[set])
                     .dst_binding(i as u32)
                     .descriptor_type(kind);
-                if kind == vk::DescriptorType::UNIFORM_TEXEL_BUFFER {
+                if texel(kind) {
                     w.texel_buffer_view(views.next().expect("one view per texel binding"))
                 } else {
                     w.buffer_info(info)

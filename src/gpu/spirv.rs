@@ -29,7 +29,8 @@ pub struct Binding {
 }
 
 /// The bindings of a module, sorted by (set, binding). Anything but storage buffers and
-/// uniform texel buffers is refused: the device layer makes no other descriptors.
+/// uniform or storage texel buffers (`uimageBuffer`, which the wavefront's path queues are
+/// written through) is refused: the device layer makes no other descriptors.
 pub fn bindings(spirv: &[u32]) -> Result<Vec<Binding>> {
     if spirv.len() < 5 || spirv[0] != 0x0723_0203 {
         bail!("not a SPIR-V module");
@@ -86,8 +87,9 @@ pub fn bindings(spirv: &[u32]) -> Result<Vec<Binding>> {
         let kind = match images.get(&image) {
             None => vk::DescriptorType::STORAGE_BUFFER,
             Some(&(DIM_BUFFER, 1)) => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
+            Some(&(DIM_BUFFER, 2)) => vk::DescriptorType::STORAGE_TEXEL_BUFFER,
             Some(&(dim, s)) => bail!(
-                "binding {b} is an image (dim {dim}, sampled {s}); only storage buffers and uniform texel buffers are supported"
+                "binding {b} is an image (dim {dim}, sampled {s}); only storage buffers and texel buffers are supported"
             ),
         };
         out.push(Binding {
@@ -128,8 +130,24 @@ mod tests {
                 .filter(|x| x.kind == vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
                 .count()
         };
-        assert_eq!(texel(crate::gpu::kernels::TEXELS), 9);
+        assert_eq!(texel(crate::gpu::kernels::TEXELS), 10);
         assert_eq!(texel(crate::gpu::kernels::FOLD), 0);
+    }
+
+    /// Fails if a storage texel buffer (`uimageBuffer`, the path queues' writes) were taken
+    /// for a uniform texel buffer or refused.
+    #[test]
+    fn storage_texel_buffers_are_recognised() {
+        let b = bindings(&words(crate::gpu::kernels::RENDER)).unwrap();
+        let kind = |name: &str| b.iter().find(|x| x.name == name).map(|x| x.kind);
+        assert_eq!(
+            kind("path_image"),
+            Some(vk::DescriptorType::STORAGE_TEXEL_BUFFER)
+        );
+        assert_eq!(
+            kind("path_texels"),
+            Some(vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
+        );
     }
 
     #[test]

@@ -43,8 +43,15 @@ pub const RENDER_BINDINGS: [&[&str]; 3] = [
         "Learn",
         "MissingRegions",
         "Touched",
+        "cut_node_texels",
     ],
-    &["Accum", "Counters"],
+    &[
+        "Accum",
+        "Counters",
+        "QueueHeads",
+        "path_texels",
+        "path_image",
+    ],
 ];
 const SCENE_SET: usize = 0;
 const LEARNED_SET: usize = 1;
@@ -72,10 +79,81 @@ fn in_binding_order<'b>(named: &[(&str, &'b Buffer)], bindings: &[&str]) -> Vec<
         .collect()
 }
 
+/// RGBA32UI texels of one path in the wavefront's queues (render.comp PATH_TEXELS; a host
+/// that allotted fewer would make every path past the first lose its state: the golden
+/// renders and `tests/wavefront.rs` would fail).
+const PATH_TEXELS: u64 = 10;
+/// The wavefront's queue buffer holds at most this many bytes (both queues) by default: a
+/// film with more paths is started in bands of rows, one after the other, each traced to its
+/// end (640×480 in two bands; [`PassKernels::set_queue_bytes`] changes it).
+pub const QUEUE_BYTES: u64 = 64 << 20;
+
+/// The wavefront's two path queues for a film, and the bands of rows that fill them.
+struct PathQueues {
+    /// Each queue's indirect dispatch (workgroups, 1, 1) and its length: 8 u32.
+    heads: Buffer,
+    /// Both queues' paths, `cap` each.
+    paths: Buffer,
+    /// Paths per queue: `rows` × the film's width.
+    cap: u32,
+    /// Film rows started per band (a multiple of 8, the workgroup's height).
+    rows: u32,
+}
+
+impl PathQueues {
+    /// Queues for a `width`×`height` film, or one path's worth where the kernel traces
+    /// every vertex in one dispatch (the set must be bound either way).
+    fn new(
+        ctx: &Arc<Context>,
+        width: u32,
+        height: u32,
+        wavefront: bool,
+        bytes: u64,
+    ) -> Result<Self> {
+        let path_bytes = 16 * PATH_TEXELS;
+        let (rows, cap) = if wavefront {
+            let limits = &ctx.properties.limits;
+            let budget = bytes
+                .min(limits.max_storage_buffer_range as u64)
+                .min(16 * limits.max_texel_buffer_elements as u64);
+            let max_rows = (budget / (2 * path_bytes * width as u64)) / 8 * 8;
+            if max_rows == 0 {
+                anyhow::bail!(
+                    "a film {width} pixels wide needs {} bytes of path queues for 8 rows, more than the {budget} allowed; render a narrower image",
+                    16 * path_bytes * width as u64
+                );
+            }
+            let bands = (height as u64).div_ceil(max_rows);
+            let rows = (height as u64).div_ceil(bands).div_ceil(8) * 8;
+            (rows as u32, (rows * width as u64) as u32)
+        } else {
+            (height.div_ceil(8) * 8, 1)
+        };
+        Ok(PathQueues {
+            heads: Buffer::zeroed_indirect(ctx, "path queue heads", 32)?,
+            paths: Buffer::scratch_texels(ctx, "path queues", 2 * cap as u64 * path_bytes)?,
+            cap,
+            rows,
+        })
+    }
+
+    /// Records the reset of queue `q` (empty, its dispatch 0 workgroups).
+    fn reset(&self, cmd: ash::vk::CommandBuffer, q: u32) {
+        let empty: [u32; 4] = [0, 1, 1, 0];
+        self.heads
+            .record_write(cmd, 16 * q as u64, bytemuck::cast_slice(&empty));
+    }
+}
+
 /// The session's two kernels, bound to its buffers.
 pub(super) struct PassKernels {
     render: ComputePipeline,
     fold: ComputePipeline,
+    /// Paths are traced one bounce per dispatch (render.comp WAVEFRONT): path tracing.
+    wavefront: bool,
+    queues: Option<PathQueues>,
+    /// The most bytes the path queues may take ([`QUEUE_BYTES`] by default).
+    queue_bytes: u64,
 }
 
 impl PassKernels {
@@ -85,6 +163,9 @@ impl PassKernels {
         settings: &RenderSettings,
     ) -> Result<Self> {
         Ok(PassKernels {
+            wavefront: wavefront(settings),
+            queues: None,
+            queue_bytes: QUEUE_BYTES,
             render: render_pipeline(ctx, gpu, settings, 0)?,
             fold: ComputePipeline::new(
                 ctx,
@@ -95,6 +176,13 @@ impl PassKernels {
                 &[],
             )?,
         })
+    }
+
+    /// The most bytes the wavefront's path queues may take (the next [`Self::bind_film`]
+    /// makes them): fewer bands of rows for more memory, the same image either way.
+    /// Returns the limit before.
+    pub(super) fn set_queue_bytes(&mut self, bytes: u64) -> u64 {
+        std::mem::replace(&mut self.queue_bytes, bytes)
     }
 
     /// Rebuilds the render kernel with the stages in `mask` knocked out (0: none); the
@@ -133,7 +221,7 @@ impl PassKernels {
 
     /// Binds the learned state's buffers (again when cuts were added).
     pub(super) fn bind_learned(&self, l: &LearnedState) -> Result<()> {
-        let learned: [(&str, &Buffer); 8] = [
+        let learned: [(&str, &Buffer); 9] = [
             ("grid_texels", &l.grid),
             ("region_index_texels", &l.index),
             ("cut_texels", &l.cuts_buf),
@@ -142,6 +230,7 @@ impl PassKernels {
             ("Learn", &l.params),
             ("MissingRegions", &l.missing),
             ("Touched", &l.touched),
+            ("cut_node_texels", &l.cut_nodes),
         ];
         let set = in_binding_order(&learned, RENDER_BINDINGS[LEARNED_SET]);
         self.render.bind_set(LEARNED_SET, &set)?;
@@ -154,11 +243,27 @@ impl PassKernels {
         self.fold.bind(&in_binding_order(&fold, &FOLD_BINDINGS))
     }
 
-    /// Binds the film's buffers (again after a resize).
-    pub(super) fn bind_film(&self, accum: &Buffer, counters: &Buffer) -> Result<()> {
-        let film: [(&str, &Buffer); 2] = [("Accum", accum), ("Counters", counters)];
+    /// Binds the film's buffers and makes its path queues (again after a resize).
+    pub(super) fn bind_film(
+        &mut self,
+        ctx: &Arc<Context>,
+        accum: &Buffer,
+        counters: &Buffer,
+        width: u32,
+        height: u32,
+    ) -> Result<()> {
+        let queues = PathQueues::new(ctx, width, height, self.wavefront, self.queue_bytes)?;
+        let film: [(&str, &Buffer); 5] = [
+            ("Accum", accum),
+            ("Counters", counters),
+            ("QueueHeads", &queues.heads),
+            ("path_texels", &queues.paths),
+            ("path_image", &queues.paths),
+        ];
         let set = in_binding_order(&film, RENDER_BINDINGS[FILM_SET]);
-        self.render.bind_set(FILM_SET, &set)
+        self.render.bind_set(FILM_SET, &set)?;
+        self.queues = Some(queues);
+        Ok(())
     }
 
     /// Folds the window into the totals and recomputes every slot's coefficients (fresh or
@@ -185,13 +290,19 @@ impl PassKernels {
         let first = params.sample_index;
         let groups = [params.width.div_ceil(8), params.height.div_ceil(8), 1];
         let fold_push = [learned.slots, FOLD_TOUCHED];
+        let queues = self.queues.as_ref().expect("the film is bound");
+        params.queue_cap = queues.cap;
         let t0 = Instant::now();
         ctx.submit(|cmd| {
             for i in 0..k {
                 params.sample_index = first + i;
-                self.render
-                    .dispatch(cmd, bytemuck::bytes_of(&params), groups);
-                ctx.barrier(cmd);
+                if self.wavefront {
+                    self.record_wavefront(ctx, cmd, params, queues);
+                } else {
+                    self.render
+                        .dispatch(cmd, bytemuck::bytes_of(&params), groups);
+                    ctx.barrier(cmd);
+                }
                 if fold_every.is_some_and(|every| (params.sample_index + 1).is_multiple_of(every)) {
                     // As many workgroups as the pass listed touched slots (render.comp).
                     self.fold.dispatch_indirect(
@@ -206,6 +317,47 @@ impl PassKernels {
         })?;
         Ok(t0.elapsed().as_secs_f64())
     }
+}
+
+impl PassKernels {
+    /// One pass of the wavefront: for each band of rows, a dispatch that starts its paths
+    /// and takes their first vertex, then one indirect dispatch per bounce over the paths
+    /// that went on (bounce d reads queue d & 1 and fills queue (d + 1) & 1).
+    fn record_wavefront(
+        &self,
+        ctx: &Context,
+        cmd: ash::vk::CommandBuffer,
+        mut params: RenderParams,
+        queues: &PathQueues,
+    ) {
+        let mut row0 = 0;
+        while row0 < params.height {
+            let rows = queues.rows.min(params.height - row0);
+            params.row0 = row0;
+            for d in 0..=params.max_depth {
+                queues.reset(cmd, (d + 1) & 1);
+                ctx.barrier(cmd);
+                params.bounce = d;
+                let push = bytemuck::bytes_of(&params);
+                if d == 0 {
+                    let groups = [params.width.div_ceil(8), rows.div_ceil(8), 1];
+                    self.render.dispatch(cmd, push, groups);
+                } else {
+                    let offset = 16 * (d & 1) as u64;
+                    self.render
+                        .dispatch_indirect(cmd, push, &queues.heads, offset);
+                }
+                ctx.barrier(cmd);
+            }
+            row0 += rows;
+        }
+    }
+}
+
+/// Whether `render.comp` traces paths one bounce per dispatch (WAVEFRONT): for path
+/// tracing. Direct light has one vertex, where the queues would only cost.
+fn wavefront(settings: &RenderSettings) -> bool {
+    settings.max_depth > 1
 }
 
 /// `render.comp` for these settings, with the stages in `knock_out` left out (0: none).
@@ -228,6 +380,7 @@ fn render_pipeline(
             settings.learn.gpu_params().flags,
             gpu.kernel_flags,
             (settings.max_depth == 1) as u32,
+            wavefront(settings) as u32,
         ],
     )
 }

@@ -118,7 +118,7 @@ impl<'a> Session<'a> {
         }
         let learned = LearnedState::new(ctx, scene, gpu, settings, &scene.camera)?;
         let kernels = PassKernels::new(ctx, gpu, settings)?;
-        let session = Session {
+        let mut session = Session {
             ctx: ctx.clone(),
             scene,
             gpu,
@@ -165,9 +165,14 @@ impl<'a> Session<'a> {
         self.kernels.bind_learned(&self.learned)
     }
 
-    fn bind_film(&self) -> Result<()> {
-        self.kernels
-            .bind_film(&self.film.accum, &self.film.counters)
+    fn bind_film(&mut self) -> Result<()> {
+        self.kernels.bind_film(
+            &self.ctx,
+            &self.film.accum,
+            &self.film.counters,
+            self.film.width,
+            self.film.height,
+        )
     }
 
     fn fold_all(&self) -> Result<()> {
@@ -448,6 +453,17 @@ impl<'a> Session<'a> {
         self.camera = camera;
         self.moved = true;
         self.reset_film()
+    }
+
+    /// The most memory the path tracer's queues may take (by default
+    /// [`super::passes::QUEUE_BYTES`]): with less, a film's paths start in more bands of
+    /// rows, and the image is bit for bit the same. An error if 8 rows do not fit (the
+    /// limit then stays as it was).
+    pub fn set_path_queue_bytes(&mut self, bytes: u64) -> Result<()> {
+        let old = self.kernels.set_queue_bytes(bytes);
+        self.bind_film().inspect_err(|_| {
+            self.kernels.set_queue_bytes(old);
+        })
     }
 
     /// A new image size: a new, empty film; the learning stays.
