@@ -26,7 +26,6 @@ layout(set = 0, binding = 7) uniform usamplerBuffer slot_stat_texels;
 layout(std430, set = 0, binding = 8) buffer Delta { SlotDelta slot_delta[]; };
 layout(std430, set = 0, binding = 9) readonly buffer Learn { LearnParams learn[]; };
 layout(std430, set = 0, binding = 10) readonly buffer Position { uint light_position[]; };
-layout(set = 0, binding = 11) uniform usamplerBuffer cut_node_texels;
 
 layout(push_constant) uniform Push { uint query_count; };
 

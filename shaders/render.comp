@@ -68,8 +68,6 @@ layout(set = 1, binding = 0) uniform usamplerBuffer grid_texels;
 // The region index and the cuts as R32UI texels (regions.glsl).
 layout(set = 1, binding = 1) uniform usamplerBuffer region_index_texels;
 layout(set = 1, binding = 2) uniform usamplerBuffer cut_texels;
-// Each cut word's light-tree node (learned_texels.glsl cut_node).
-layout(set = 1, binding = 8) uniform usamplerBuffer cut_node_texels;
 // The statistics as texels (learning.glsl slot_stats_at).
 layout(set = 1, binding = 3) uniform usamplerBuffer slot_stat_texels;
 layout(std430, set = 1, binding = 4) buffer Delta { SlotDelta slot_delta[]; };

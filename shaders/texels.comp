@@ -18,9 +18,6 @@ layout(set = 0, binding = 5) uniform usamplerBuffer region_index_texels;
 layout(set = 0, binding = 12) uniform usamplerBuffer light_texels;
 layout(set = 0, binding = 13) uniform usamplerBuffer material_texels;
 layout(set = 0, binding = 14) uniform usamplerBuffer grid_texels;
-// learned_texels.glsl cut_node reads it (light_node_from, checked through light_node); not
-// called here.
-layout(set = 0, binding = 18) uniform usamplerBuffer cut_node_texels;
 #define OUT writeonly
 #else
 // naga 30 (tests/layout.rs naga_agrees_with_our_reader) reads no texel buffers: for it the

@@ -1,13 +1,11 @@
 // The learned state as the render kernels read it: the region grid, the region index, the
 // cuts and the statistics, each a uniform texel buffer (src/gpu/buffer.rs Buffer::texels and
 // Buffer::words say why). The including kernel declares `grid_texels` (RGBA32UI),
-// `region_index_texels`, `cut_texels` (R32UI), `cut_node_texels` and `slot_stat_texels`
-// (RGBA32UI), and the light tree's (light_tree.glsl).
+// `region_index_texels`, `cut_texels` (R32UI) and `slot_stat_texels` (RGBA32UI).
 #ifndef LEARNED_TEXELS_GLSL
 #define LEARNED_TEXELS_GLSL
 
 #include "types.glsl"
-#include "light_tree.glsl"
 
 // The region grid: two texels, as GridParams.
 GridParams grid_params() {
@@ -24,16 +22,6 @@ GridParams grid_params() {
 // Word i of the cuts (a cut: its length, then its nodes) and of the region index.
 uint cut_word(uint i) { return texelFetch(cut_texels, int(i)).x; }
 uint region_index_at(uint r) { return texelFetch(region_index_texels, int(r)).x; }
-
-// The light-tree node of cut word i (light_node(cut_word(i)) for a slot), from the cuts'
-// node copies (src/lights/regions.rs Cuts::slot_nodes): the cut loops read it without
-// first fetching the node's index, one texel fetch per slot fewer (one more had cost 3–10 %
-// of a pass: docs/results.md, Throughput).
-GpuLightNode cut_node(uint i) {
-    int t = int(4u * i);
-    return light_node_from(texelFetch(cut_node_texels, t), texelFetch(cut_node_texels, t + 1),
-                           texelFetch(cut_node_texels, t + 2), texelFetch(cut_node_texels, t + 3));
-}
 
 // Slot i's totals and coefficients: two texels, in the order of
 // SlotStats's members (round trip: tests/layout.rs). fold.comp writes the same buffer as a

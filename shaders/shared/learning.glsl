@@ -69,7 +69,7 @@ float predicted_mean(SlotStats s, float mu0, float di, float brdf) {
 float sel_prior_scale = 0.0;
 
 float bayes_slot_weight(uint o, uint i, vec3 p, vec3 n, float brdf, inout float cv_total) {
-    GpuLightNode nd = cut_node(o + 1u + i);
+    GpuLightNode nd = light_node(cut_word(o + 1u + i));
     float dn;
     float imp = light_importance_d2(nd, p, n, dn);
     float w = 0.0;
@@ -106,7 +106,7 @@ float learned_weights(uint o, vec3 p, vec3 n, float brdf, out float cv_total) {
             SlotStats s = slot_stats_at(o + 1u + i);
             seen += s.n_zero + s.n_nonzero;
             sum_mean += s.n_zero + s.n_nonzero > 0.0 ? s.sum / (s.n_zero + s.n_nonzero) : 0.0;
-            cut_w[i] = light_importance(cut_node(o + 1u + i), p, n);
+            cut_w[i] = light_importance(light_node(cut_word(o + 1u + i)), p, n);
             sum_imp += cut_w[i];
         }
         if (sum_imp <= 0.0) return 0.0;
@@ -158,13 +158,13 @@ uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint
     uint li = pick_in_cut(o, count, total, u, p, n, pmf, k, p_slot);
     if (o != 0u) {
         slot = o + 1u + k;
-        if (regression && SAMPLER == SAMPLER_BAYES) d2 = node_d2(cut_node(slot), p);
+        if (regression && SAMPLER == SAMPLER_BAYES) d2 = node_d2(light_node(cut_word(slot)), p);
     }
     if (cv) {
         // The chosen slot's g again, by the same arithmetic as in the sum above (the
         // estimator is unbiased only if this g is the one that Σ counted).
         float dn;
-        float imp = light_importance_d2(cut_node(o + 1u + k), p, n, dn);
+        float imp = light_importance_d2(light_node(cut_word(o + 1u + k)), p, n, dn);
         float di = regression ? dn : 1.0;
         cv_chosen = predicted_mean(slot_stats_at(o + 1u + k), imp * di * brdf * learn[0].prior_scale, di, brdf);
     }

@@ -41,7 +41,7 @@ float light_pmf_of_cut(uint o, float total, vec3 p, vec3 n, uint li, uint count,
     if (k == NO_SLOT_IN_CUT) return 0.0;
     float w;
     if (SAMPLER == SAMPLER_WANG) {
-        w = light_importance(cut_node(o + 1u + k), p, n);
+        w = light_importance(light_node(cut_word(o + 1u + k)), p, n);
     } else {
         float cv = 0.0;
         sel_prior_scale = learn[0].prior_scale;

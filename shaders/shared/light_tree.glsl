@@ -11,7 +11,12 @@
 // Node i of the light tree: four texels, in the order of GpuLightNode's members (the round
 // trip against the host's bytes: tests/layout.rs). Only the members a caller uses are
 // fetched (the compiler drops the other texel fetches).
-GpuLightNode light_node_from(uvec4 a, uvec4 b, uvec4 c, uvec4 d) {
+GpuLightNode light_node(uint i) {
+    int t = int(4u * i);
+    uvec4 a = texelFetch(light_node_texels, t);
+    uvec4 b = texelFetch(light_node_texels, t + 1);
+    uvec4 c = texelFetch(light_node_texels, t + 2);
+    uvec4 d = texelFetch(light_node_texels, t + 3);
     GpuLightNode nd;
     nd.centre = uintBitsToFloat(a.xyz);
     nd.phi = uintBitsToFloat(a.w);
@@ -26,12 +31,6 @@ GpuLightNode light_node_from(uvec4 a, uvec4 b, uvec4 c, uvec4 d) {
     nd.count = d.z;
     nd.pad = d.w;
     return nd;
-}
-
-GpuLightNode light_node(uint i) {
-    int t = int(4u * i);
-    return light_node_from(texelFetch(light_node_texels, t), texelFetch(light_node_texels, t + 1),
-                           texelFetch(light_node_texels, t + 2), texelFetch(light_node_texels, t + 3));
 }
 
 #define NO_LIGHT 0xffffffffu

@@ -98,7 +98,7 @@ float wang_weights(uint o, vec3 p, vec3 n) {
     uint count = cut_word(o);
     float total = 0.0;
     for (uint i = 0u; i < count; ++i) {
-        cut_w[i] = light_importance(cut_node(o + 1u + i), p, n);
+        cut_w[i] = light_importance(light_node(cut_word(o + 1u + i)), p, n);
         total += cut_w[i];
     }
     return total;
@@ -128,12 +128,12 @@ uint slot_holding(uint o, uint pos) {
     // The first slot whose range starts after pos; the one before it is the candidate.
     while (lo < hi) {
         uint mid = (lo + hi) / 2u;
-        if (cut_node(o + 1u + mid).begin <= pos) lo = mid + 1u;
+        if (light_node(cut_word(o + 1u + mid)).begin <= pos) lo = mid + 1u;
         else hi = mid;
     }
     if (lo == 0u) return NO_SLOT_IN_CUT;
-    GpuLightNode node = cut_node(o + lo);
-    return pos < node.begin + node.count ? lo - 1u : NO_SLOT_IN_CUT;
+    uint node = cut_word(o + lo);
+    return pos < light_node(node).begin + light_node(node).count ? lo - 1u : NO_SLOT_IN_CUT;
 }
 
 // The probability that pick_in_cut returns the light at position pos given that slot k (of

@@ -125,27 +125,6 @@ impl Buffer {
             .with_view(vk::Format::R32G32B32A32_UINT, texels)
     }
 
-    /// A device-local buffer holding `data` that kernels read as RGBA32UI texels alone (no
-    /// storage-buffer view, so no storage-buffer size limit: only the device's texel
-    /// count). `T` must be a multiple of 16 bytes.
-    pub fn read_only_texels<T: Pod>(ctx: &Arc<Context>, name: &str, data: &[T]) -> Result<Buffer> {
-        assert!(
-            std::mem::size_of::<T>().is_multiple_of(16),
-            "texel buffers hold whole 16-byte texels"
-        );
-        let texels = check_texels(ctx, name, std::mem::size_of_val(data) as u64 / 16)?;
-        let bytes: &[u8] = bytemuck::cast_slice(data);
-        let buf = Buffer::new(
-            ctx,
-            name,
-            bytes.len() as u64,
-            vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
-        )?;
-        buf.write(bytes)?;
-        buf.with_view(vk::Format::R32G32B32A32_UINT, texels)
-    }
-
     /// A zero-filled device-local buffer of `size` bytes (a multiple of 16) that kernels read
     /// as RGBA32UI texels and write as a storage texel buffer (`uimageBuffer`) through the
     /// same view: scratch data one dispatch writes and the next reads (a wavefront's

@@ -130,7 +130,7 @@ mod tests {
                 .filter(|x| x.kind == vk::DescriptorType::UNIFORM_TEXEL_BUFFER)
                 .count()
         };
-        assert_eq!(texel(crate::gpu::kernels::TEXELS), 10);
+        assert_eq!(texel(crate::gpu::kernels::TEXELS), 9);
         assert_eq!(texel(crate::gpu::kernels::FOLD), 0);
     }
 

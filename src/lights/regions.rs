@@ -246,23 +246,6 @@ pub struct Cuts {
 }
 
 impl Cuts {
-    /// A copy of each cut word's light-tree node as the kernels read it (`gpu_node`; a zero
-    /// node for each cut's length word): the cut loops read a slot's node where they read its
-    /// statistics, without first fetching its index (learned_texels.glsl `cut_node`).
-    pub fn slot_nodes(&self, tree: &LightTree) -> Vec<crate::abi::GpuLightNode> {
-        let mut out = vec![crate::abi::GpuLightNode::default(); self.cuts.len()];
-        let mut o = 0;
-        while o < self.cuts.len() {
-            let count = self.cuts[o] as usize;
-            let end = (o + 1 + count).min(self.cuts.len());
-            for (slot, &node) in out[o + 1..end].iter_mut().zip(&self.cuts[o + 1..end]) {
-                *slot = super::tree::gpu_node(&tree.nodes[node as usize]);
-            }
-            o += 1 + count;
-        }
-        out
-    }
-
     pub fn build(
         tree: &LightTree,
         grid: Grid,

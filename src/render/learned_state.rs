@@ -23,8 +23,6 @@ pub struct LearnedState {
     pub grid: Buffer,
     pub index: Buffer,
     pub cuts_buf: Buffer,
-    /// Each cut word's light-tree node ([`Cuts::slot_nodes`]), read by the cut loops.
-    pub cut_nodes: Buffer,
     pub stats: Buffer,
     pub delta: Buffer,
     /// The slots the open window touched, for the fold ([`touched_list`]).
@@ -94,7 +92,6 @@ impl LearnedState {
             grid: Buffer::texels(ctx, "region grid", &[cuts.grid.params])?,
             index: Buffer::words(ctx, "region index", &cuts.index)?,
             cuts_buf: Buffer::words(ctx, "cuts", &cuts.cuts)?,
-            cut_nodes: slot_nodes(ctx, &gpu.tree, &cuts)?,
             stats: Buffer::texels(ctx, "learned statistics", &stats)?,
             delta: Buffer::zeroed(
                 ctx,
@@ -153,9 +150,7 @@ impl LearnedState {
         } else {
             4
         };
-        if (l.cuts.cuts.len() + most_new) * slot_bytes > max_bytes
-            || !slot_nodes_fit(ctx, l.cuts.cuts.len() + most_new)
-        {
+        if (l.cuts.cuts.len() + most_new) * slot_bytes > max_bytes {
             l.full = true;
             return Ok(0);
         }
@@ -166,7 +161,6 @@ impl LearnedState {
         }
         l.index.write(bytemuck::cast_slice(&l.cuts.index))?;
         l.cuts_buf = Buffer::words(ctx, "cuts", &l.cuts.cuts)?;
-        l.cut_nodes = slot_nodes(ctx, tree, &l.cuts)?;
         if learning {
             let (old, new) = (l.slots as usize, l.cuts.cuts.len());
             let mut fresh = vec![SlotStats::default(); new];
@@ -235,9 +229,7 @@ impl LearnedState {
         }
         let grown: usize = plans.iter().map(|(_, _, (c, _))| c.len() + 1).sum();
         let max_bytes = ctx.properties.limits.max_storage_buffer_range as usize;
-        if (self.cuts.cuts.len() + grown) * std::mem::size_of::<SlotStats>() > max_bytes
-            || !slot_nodes_fit(ctx, self.cuts.cuts.len() + grown)
-        {
+        if (self.cuts.cuts.len() + grown) * std::mem::size_of::<SlotStats>() > max_bytes {
             self.full = true;
             return Ok(0);
         }
@@ -257,7 +249,6 @@ impl LearnedState {
         self.cuts.offsets.sort_unstable();
         self.index.write(bytemuck::cast_slice(&self.cuts.index))?;
         self.cuts_buf = Buffer::words(ctx, "cuts", &self.cuts.cuts)?;
-        self.cut_nodes = slot_nodes(ctx, tree, &self.cuts)?;
         self.append_slots(ctx, &fresh)?;
         self.regions_refined += plans.len();
         self.cut_seconds += t0.elapsed().as_secs_f64();
@@ -294,17 +285,6 @@ impl LearnedState {
             upload_seconds: upload,
         })
     }
-}
-
-/// The cuts' node copies ([`Cuts::slot_nodes`]) on the device.
-fn slot_nodes(ctx: &Arc<Context>, tree: &LightTree, cuts: &Cuts) -> Result<Buffer> {
-    Buffer::read_only_texels(ctx, "cut nodes", &cuts.slot_nodes(tree))
-}
-
-/// Whether the node copies of `words` cut words fit one texel buffer of this device.
-fn slot_nodes_fit(ctx: &Context, words: usize) -> bool {
-    let texels = std::mem::size_of::<crate::gpu::layout::GpuLightNode>() / 16;
-    (words * texels) as u64 <= ctx.properties.limits.max_texel_buffer_elements as u64
 }
 
 /// The empty list of touched slots (render.comp `mark_touched`, fold.comp) for `slots`

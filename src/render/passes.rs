@@ -43,7 +43,6 @@ pub const RENDER_BINDINGS: [&[&str]; 3] = [
         "Learn",
         "MissingRegions",
         "Touched",
-        "cut_node_texels",
     ],
     &[
         "Accum",
@@ -221,7 +220,7 @@ impl PassKernels {
 
     /// Binds the learned state's buffers (again when cuts were added).
     pub(super) fn bind_learned(&self, l: &LearnedState) -> Result<()> {
-        let learned: [(&str, &Buffer); 9] = [
+        let learned: [(&str, &Buffer); 8] = [
             ("grid_texels", &l.grid),
             ("region_index_texels", &l.index),
             ("cut_texels", &l.cuts_buf),
@@ -230,7 +229,6 @@ impl PassKernels {
             ("Learn", &l.params),
             ("MissingRegions", &l.missing),
             ("Touched", &l.touched),
-            ("cut_node_texels", &l.cut_nodes),
         ];
         let set = in_binding_order(&learned, RENDER_BINDINGS[LEARNED_SET]);
         self.render.bind_set(LEARNED_SET, &set)?;

@@ -95,7 +95,6 @@ pub fn gpu_samples_and_pmfs(
     let grid = Buffer::texels(ctx, "grid", &[cuts.grid.params]).unwrap();
     let index = Buffer::words(ctx, "region index", &cuts.index).unwrap();
     let cut = Buffer::words(ctx, "cuts", &cuts.cuts).unwrap();
-    let cut_nodes = Buffer::read_only_texels(ctx, "cut nodes", &cuts.slot_nodes(tree)).unwrap();
     let sb = Buffer::texels(ctx, "stats", stats).unwrap();
     let db = Buffer::zeroed(ctx, "deltas", (stats.len() * 32) as u64).unwrap();
     let lb = Buffer::from_slice(ctx, "learn", &[params]).unwrap();
@@ -123,13 +122,13 @@ pub fn gpu_samples_and_pmfs(
         ctx,
         "light_sample",
         lightlearn::gpu::kernels::LIGHT_SAMPLE,
-        12,
+        11,
         4,
         &[sampler, cuts.in_cluster_importance as u32, 0, params.flags],
     )
     .unwrap();
     k.bind(&[
-        &nodes, &order, &qb, &cb, &grid, &index, &cut, &sb, &db, &lb, &position, &cut_nodes,
+        &nodes, &order, &qb, &cb, &grid, &index, &cut, &sb, &db, &lb, &position,
     ])
     .unwrap();
     let count = q.len() as u32;
