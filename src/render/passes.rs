@@ -79,8 +79,8 @@ fn in_binding_order<'b>(named: &[(&str, &'b Buffer)], bindings: &[&str]) -> Vec<
 }
 
 /// RGBA32UI texels of one path in the wavefront's queues (render.comp PATH_TEXELS; a host
-/// that allotted fewer would make every path past the first lose its state: the golden
-/// renders and `tests/wavefront.rs` would fail).
+/// that allotted fewer would make the paths past the end of the buffer lose their state:
+/// the golden renders of tests/golden_pixels.rs would change).
 const PATH_TEXELS: u64 = 10;
 /// The wavefront's queue buffer holds at most this many bytes (both queues) by default: a
 /// film with more paths is started in bands of rows, one after the other, each traced to its
@@ -118,7 +118,7 @@ impl PathQueues {
             let max_rows = (budget / (2 * path_bytes * width as u64)) / 8 * 8;
             if max_rows == 0 {
                 anyhow::bail!(
-                    "a film {width} pixels wide needs {} bytes of path queues for 8 rows, more than the {budget} allowed; render a narrower image",
+                    "a film {width} pixels wide needs {} bytes of path queues for 8 rows, more than the {budget} bytes allowed; render a narrower image",
                     16 * path_bytes * width as u64
                 );
             }
