@@ -62,16 +62,18 @@ impl Xvfb {
             .stderr(Stdio::null())
             .spawn()
             .expect("Xvfb starts");
-        let socket = format!("/tmp/.X11-unix/X{n}");
+        let x = Xvfb {
+            child,
+            display: format!(":{n}"),
+        };
+        // Ready when a client gets an answer: its socket can exist before it accepts, and an
+        // app started then finds no display.
         let t0 = Instant::now();
-        while !Path::new(&socket).exists() {
+        while !x.run("xdotool", &["getdisplaygeometry"]).status.success() {
             assert!(t0.elapsed() < Duration::from_secs(10), "Xvfb did not start");
             std::thread::sleep(Duration::from_millis(50));
         }
-        Xvfb {
-            child,
-            display: format!(":{n}"),
-        }
+        x
     }
 
     fn run(&self, program: &str, args: &[&str]) -> std::process::Output {
@@ -85,8 +87,14 @@ impl Xvfb {
 
 impl Drop for Xvfb {
     fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        // SIGTERM, so that Xvfb removes its lock file and socket (SIGKILL left them, and
+        // every run took the next display number).
+        let _ = Command::new("kill")
+            .arg(self.child.id().to_string())
+            .status();
+        if self.child.wait().is_err() {
+            let _ = self.child.kill();
+        }
     }
 }
 
@@ -168,6 +176,13 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
         .unwrap();
     let mut window = String::new();
     wait_for("the window", 30, || {
+        // An app that quit before its window opened: say why, not "timed out".
+        if let Some(status) = app.try_wait().unwrap() {
+            let mut err = String::new();
+            use std::io::Read;
+            let _ = app.stderr.take().unwrap().read_to_string(&mut err);
+            panic!("preview exited ({status}) before its window opened: {err}");
+        }
         let o = x.run("xdotool", &["search", "--name", "lightlearn"]);
         window = String::from_utf8_lossy(&o.stdout)
             .lines()
