@@ -393,9 +393,9 @@ bool path_vertex(inout Path st, uint depth) {
     return any(greaterThan(st.beta, vec3(0.0)));
 }
 
-// The wavefront's path queues (set 2, with the film they belong to): two queues of params.queue_cap paths each, PATH_TEXELS
-// RGBA32UI texels a path, in one buffer read as texels (path_texels) and written as a
-// storage texel buffer (path_image: the same view); queue_head[4q…4q+3] is queue q's
+// The wavefront's path queues (set 2, with the film they belong to): two queues of
+// params.queue_cap paths each, PATH_TEXELS RGBA32UI texels a path, in one buffer read as
+// texels (path_texels) and written as a storage texel buffer (path_image: the same view); queue_head[4q…4q+3] is queue q's
 // indirect dispatch (its workgroups, 1, 1) and its length. Bounce d ≥ 1 reads queue d & 1
 // and appends the paths that go on to queue (d + 1) & 1, whose head the host reset before.
 #define PATH_TEXELS 10u
