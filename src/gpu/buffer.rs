@@ -116,13 +116,7 @@ impl Buffer {
     /// A zero-filled device-local buffer of `size` bytes (a multiple of 16) that kernels can
     /// read as texels, as [`Buffer::texels`].
     pub fn zeroed_texels(ctx: &Arc<Context>, name: &str, size: u64) -> Result<Buffer> {
-        assert!(
-            size.is_multiple_of(16),
-            "texel buffers hold whole 16-byte texels"
-        );
-        let texels = check_texels(ctx, name, size / 16)?;
-        Buffer::zeroed_with(ctx, name, size, vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER)?
-            .with_view(vk::Format::R32G32B32A32_UINT, texels)
+        Buffer::zeroed_texels_with(ctx, name, size, vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER)
     }
 
     /// A zero-filled device-local buffer of `size` bytes (a multiple of 16) that kernels read
@@ -130,18 +124,29 @@ impl Buffer {
     /// same view: scratch data one dispatch writes and the next reads (a wavefront's
     /// queues), read with the vector loads of [`Buffer::texels`].
     pub fn scratch_texels(ctx: &Arc<Context>, name: &str, size: u64) -> Result<Buffer> {
+        Buffer::zeroed_texels_with(
+            ctx,
+            name,
+            size,
+            vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER,
+        )
+    }
+
+    /// A zero-filled buffer of `size` bytes (a multiple of 16) with `usage` besides storage,
+    /// viewed as RGBA32UI texels.
+    fn zeroed_texels_with(
+        ctx: &Arc<Context>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+    ) -> Result<Buffer> {
         assert!(
             size.is_multiple_of(16),
             "texel buffers hold whole 16-byte texels"
         );
         let texels = check_texels(ctx, name, size / 16)?;
-        Buffer::zeroed_with(
-            ctx,
-            name,
-            size,
-            vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER,
-        )?
-        .with_view(vk::Format::R32G32B32A32_UINT, texels)
+        Buffer::zeroed_with(ctx, name, size, usage)?
+            .with_view(vk::Format::R32G32B32A32_UINT, texels)
     }
 
     /// A zero-filled device-local storage buffer of `size` bytes that indirect dispatches
