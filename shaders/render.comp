@@ -45,9 +45,10 @@ const bool SCENE_TEXTURED = (SCENE_FLAGS & 2u) != 0u;
 // BSDF sampling and MIS code compiled out (lavapipe runs the code after a uniform `break`
 // too). The push constant max_depth stays the loop's bound.
 layout(constant_id = 5) const bool DIRECT_ONLY = false;
-// Paths traced one bounce per dispatch through queues (main() says why); false: every
-// vertex of a path in one invocation.
-layout(constant_id = 6) const bool WAVEFRONT = false;
+// Paths traced one bounce per dispatch through queues (main() says why): whenever a path
+// has more than one vertex (src/render/passes.rs `wavefront`); direct light takes its one
+// vertex in one invocation.
+const bool WAVEFRONT = !DIRECT_ONLY;
 
 // The BVH as texels (bvh.glsl).
 layout(set = 0, binding = 0) uniform usamplerBuffer bvh_node_texels;

@@ -352,8 +352,8 @@ impl PassKernels {
     }
 }
 
-/// Whether `render.comp` traces paths one bounce per dispatch (WAVEFRONT): for path
-/// tracing. Direct light has one vertex, where the queues would only cost.
+/// Whether `render.comp` traces paths one bounce per dispatch (WAVEFRONT = !DIRECT_ONLY):
+/// for path tracing. Direct light has one vertex, where the queues would only cost.
 fn wavefront(settings: &RenderSettings) -> bool {
     settings.max_depth > 1
 }
@@ -377,8 +377,8 @@ fn render_pipeline(
             knock_out,
             settings.learn.gpu_params().flags,
             gpu.kernel_flags,
-            (settings.max_depth == 1) as u32,
-            wavefront(settings) as u32,
+            // DIRECT_ONLY; render.comp derives WAVEFRONT from it.
+            !wavefront(settings) as u32,
         ],
     )
 }
