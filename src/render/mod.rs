@@ -14,7 +14,7 @@ use crate::learning::stats_file::{self, SavedStats};
 use crate::learning::LearnSettings;
 use crate::lights;
 use crate::lights::regions::RegionSettings;
-use crate::scene::Scene;
+use crate::scene::{Camera, Scene};
 
 mod cuts;
 mod learned_state;
@@ -572,5 +572,17 @@ pub fn report_json(
             format!("path tracing, up to {} surface vertices, glTF metallic-roughness BRDF (Lambert + GGX), next-event estimation + BSDF sampling with MIS (power heuristic), Russian roulette", settings.max_depth)
         },
         "max_depth": settings.max_depth,
+        "camera": camera_json(&scene.camera),
+    })
+}
+
+/// The camera an image was rendered from, as its report gives it (the preview's screenshots
+/// say where the user had flown to).
+pub fn camera_json(camera: &Camera) -> serde_json::Value {
+    serde_json::json!({
+        "position": camera.position.to_array(),
+        "forward": camera.forward.to_array(),
+        "up": camera.up.to_array(),
+        "yfov_degrees": camera.yfov.to_degrees(),
     })
 }
