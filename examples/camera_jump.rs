@@ -36,6 +36,7 @@ fn main() -> Result<()> {
         resume: None,
         stratified: sampler != LightSampler::Lightbvh,
         max_depth: 1,
+        light_point: Default::default(),
     };
     // Jumps inside the first corridor and into the second (rooms16: corridors at z 4–6 and
     // 14–16, rooms 4 m wide along x).

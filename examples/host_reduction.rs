@@ -39,6 +39,7 @@ fn main() -> anyhow::Result<()> {
                 resume: None,
                 stratified: true,
                 max_depth: depth,
+                light_point: Default::default(),
             };
             let mut s = Session::new(&ctx, &scene, &gpu, &settings)?;
             // Warm up past the growth points, then time frames of ~0.25 s.

@@ -49,6 +49,9 @@ layout(constant_id = 5) const bool DIRECT_ONLY = false;
 // has more than one vertex (src/render/passes.rs `wavefront`); direct light takes its one
 // vertex in one invocation.
 const bool WAVEFRONT = !DIRECT_ONLY;
+// --light-point solid-angle (RenderSettings::light_point): triangle lights sampled by solid
+// angle where that is well conditioned (lights.glsl); false: uniformly by area.
+layout(constant_id = 6) const bool LIGHT_POINT_SOLID_ANGLE = false;
 
 // The BVH as texels (bvh.glsl).
 layout(set = 0, binding = 0) uniform usamplerBuffer bvh_node_texels;
@@ -273,7 +276,11 @@ bool path_vertex(inout Path st, uint depth) {
                 : light_pmf_of_cut(st.prev_cut, st.prev_cut_total, st.prev_x, st.prev_n, li, params.light_count, st.prev_brdf);
             vec3 to = st.origin + t * st.dir - st.prev_x;
             float cos_l = abs(dot(ng, st.dir));
-            float p_light = cos_l > 0.0 ? p_sel * dot(to, to) / (light_at(li).area * cos_l) : 0.0;
+            GpuLight hit_light = light_at(li);
+            // The same point sampling as the light sample at prev_x took (lights.glsl).
+            float sa_pdf = solid_angle_pdf(hit_light, st.prev_x);
+            float p_light = sa_pdf > 0.0 ? p_sel * sa_pdf
+                : cos_l > 0.0 ? p_sel * dot(to, to) / (hit_light.area * cos_l) : 0.0;
             w = power_heuristic(st.prev_bsdf_pdf, p_light);
         }
         st.L += st.beta * m.emission * w;
@@ -319,7 +326,8 @@ bool path_vertex(inout Path st, uint depth) {
     vec2 u = vec2(sample_rand(seed, pixel, s, dim0 + DIM_LIGHT_U), sample_rand(seed, pixel, s, dim0 + DIM_LIGHT_V));
     // NO_LIGHT: no light can reach the front of n here (zero contribution, exactly).
     GpuLight light = light_at(li == NO_LIGHT ? 0u : li);
-    vec3 Li = li == NO_LIGHT ? vec3(0.0) : sample_light_point(light, x, u, wi, dist);
+    float sa_pdf = 0.0;
+    vec3 Li = li == NO_LIGHT ? vec3(0.0) : sample_light_point(light, x, u, wi, dist, sa_pdf);
     float cos_x = dot(n, wi);
     if (li != NO_LIGHT && cos_x > 0.0 && any(greaterThan(Li, vec3(0.0)))) {
         // The shadow ray starts just off the surface and aims at the light point itself:
@@ -339,9 +347,10 @@ bool path_vertex(inout Path st, uint depth) {
             vec3 f = bsdf_eval(bsdf, n, wo, wi);
             float w = 1.0;
             if (mis && area) {
-                // The light sample's pdf in solid angle: pmf · d² / (cos_y A).
+                // The light sample's pdf in solid angle: pmf · d² / (cos_y A) by area, pmf / Ω
+                // by solid angle.
                 float cos_y = abs(dot(normalize(cross(light.p1 - light.p0, light.p2 - light.p0)), wi));
-                float p_light = pmf * dist * dist / (cos_y * light.area);
+                float p_light = sa_pdf > 0.0 ? pmf * sa_pdf : pmf * dist * dist / (cos_y * light.area);
                 w = power_heuristic(p_light, bsdf_pdf(bsdf, n, wo, wi));
             }
             st.L += st.beta * f * Li * (cos_x / pmf * w);

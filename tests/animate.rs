@@ -281,6 +281,7 @@ fn reference(scene: &Path, t: f32) -> (f64, f64) {
         resume: None,
         stratified: false,
         max_depth: 1,
+        light_point: Default::default(),
     };
     let r = render::render(&ctx, &s, &gpu, &settings, &mut |_, _| {}).unwrap();
     let px = r.mean();

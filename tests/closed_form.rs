@@ -6,7 +6,7 @@ mod common;
 
 use glam::Vec3;
 use lightlearn::accel::Bvh;
-use lightlearn::render::{self, Budget, GpuScene, LightSampler, RenderSettings};
+use lightlearn::render::{self, Budget, GpuScene, LightPoint, LightSampler, RenderSettings};
 use lightlearn::scene::gltf_write::GltfBuilder;
 
 const ALBEDO: f32 = 0.5;
@@ -30,6 +30,16 @@ fn floor_scene(g: &mut GltfBuilder) {
 
 /// Mean of the image and its standard error (over pixels, from the per-pixel variances).
 fn render_mean(g: &GltfBuilder, sampler: LightSampler) -> (f64, f64) {
+    render_mean_with(g, sampler, 1, LightPoint::Area)
+}
+
+/// The same at `max_depth` with `light_point`.
+fn render_mean_with(
+    g: &GltfBuilder,
+    sampler: LightSampler,
+    max_depth: u32,
+    light_point: LightPoint,
+) -> (f64, f64) {
     let scene = common::load(g, "closed form");
     let ctx = common::ctx();
     let gpu = GpuScene::upload(&ctx, &scene, &Bvh::build(&scene.triangles)).unwrap();
@@ -43,7 +53,8 @@ fn render_mean(g: &GltfBuilder, sampler: LightSampler) -> (f64, f64) {
         learn: Default::default(),
         resume: None,
         stratified: true,
-        max_depth: 1,
+        max_depth,
+        light_point,
     };
     let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
     let n = r.mean().len() as f64;
@@ -99,6 +110,28 @@ fn floor_under_a_parallel_emissive_square() {
     let want = ALBEDO as f64 * 4.0 * corner_view_factor(1.0, 1.0);
     assert!((want - 0.27706).abs() < 1e-4, "formula sanity: {want}");
     every_sampler_matches(&g, want);
+    // Drawn by solid angle the panel gives the same answer, with light sampling alone
+    // (depth 1) and with MIS against BSDF rays that hit it (depth 2: the floor's light
+    // sample and its BSDF ray are the only paths that carry light, so the closed form
+    // holds there too, and the BSDF hit's MIS weight must use the density the light sample
+    // used). With less noise: 1/r² and cos θ_y no longer vary across the samples.
+    let (_, se_area) = render_mean_with(&g, LightSampler::Uniform, 1, LightPoint::Area);
+    for depth in [1, 2] {
+        let (got, se) = render_mean_with(&g, LightSampler::Uniform, depth, LightPoint::SolidAngle);
+        assert!(
+            (got - want).abs() < 4.0 * se + 1e-4 * want,
+            "solid angle, depth {depth}: {got} vs closed form {want} (σ {se})"
+        );
+        eprintln!(
+            "solid angle, depth {depth}: {got} ± {se} (closed form {want}; area σ {se_area})"
+        );
+        if depth == 1 {
+            assert!(
+                se < 0.5 * se_area,
+                "solid angle σ {se} vs area σ {se_area}: not less noisy"
+            );
+        }
+    }
 }
 
 #[test]
@@ -157,6 +190,7 @@ fn zero_light_samples_are_counted() {
             resume: None,
             stratified: true,
             max_depth: 1,
+            light_point: Default::default(),
         };
         let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
         assert!(r
@@ -214,6 +248,7 @@ fn closed_emissive_box_has_the_geometric_series_radiance() {
             resume: None,
             stratified: true,
             max_depth: depth,
+            light_point: Default::default(),
         };
         let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
         let n = r.mean().len() as f64;
@@ -319,6 +354,7 @@ fn base_color_texture_multiplies_the_albedo() {
             resume: None,
             stratified: true,
             max_depth: 1,
+            light_point: Default::default(),
         };
         let image = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {})
             .unwrap()

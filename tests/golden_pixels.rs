@@ -116,6 +116,7 @@ fn small_renders_keep_their_pixels() {
                     resume: None,
                     stratified: true,
                     max_depth: depth,
+                    light_point: Default::default(),
                 };
                 let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
                 let px: Vec<f32> = r.mean().into_iter().flatten().collect();

@@ -33,6 +33,7 @@ fn settings(sampler: LightSampler, spp: u32, max_depth: u32) -> RenderSettings {
         resume: None,
         stratified: true,
         max_depth,
+        light_point: Default::default(),
     }
 }
 

@@ -517,6 +517,7 @@ fn render_scene(
         // Independent jitter: the reference's per-pixel variance is then its true error.
         stratified: false,
         max_depth: 1,
+        light_point: Default::default(),
     };
     render::render(&ctx, s, &gpu, &settings, &mut |_, _| {}).unwrap()
 }
@@ -1152,6 +1153,7 @@ fn refined_cuts_tile_the_lights_in_order() {
         resume: None,
         stratified: true,
         max_depth: 1,
+        light_point: Default::default(),
     };
     let mut session = render::Session::new(&ctx, &s, &gpu, &settings).unwrap();
     session.run_passes(256).unwrap();

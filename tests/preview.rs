@@ -442,6 +442,7 @@ fn learning_carries_across_a_camera_jump() {
         resume: None,
         stratified: sampler != LightSampler::Lightbvh,
         max_depth: 1,
+        light_point: Default::default(),
     };
     let jump = Camera::looking(
         Vec3::new(12.0, 1.6, 5.0),

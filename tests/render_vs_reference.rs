@@ -7,7 +7,9 @@ mod common;
 use glam::Vec3;
 use lightlearn::accel::Bvh;
 use lightlearn::reference::{self, ReferenceImage};
-use lightlearn::render::{self, Budget, GpuScene, LightSampler, RenderResult, RenderSettings};
+use lightlearn::render::{
+    self, Budget, GpuScene, LightPoint, LightSampler, RenderResult, RenderSettings,
+};
 use lightlearn::scene::gltf_write::GltfBuilder;
 use lightlearn::scene::Scene;
 
@@ -119,7 +121,7 @@ fn area_scene() -> Scene {
     common::load(&g, "area")
 }
 
-fn gpu_render(scene: &Scene, sampler: LightSampler) -> RenderResult {
+fn gpu_render(scene: &Scene, sampler: LightSampler, light_point: LightPoint) -> RenderResult {
     let ctx = common::ctx();
     let bvh = Bvh::build(&scene.triangles);
     let gpu = GpuScene::upload(&ctx, scene, &bvh).unwrap();
@@ -134,6 +136,7 @@ fn gpu_render(scene: &Scene, sampler: LightSampler) -> RenderResult {
         resume: None,
         stratified: false,
         max_depth: 1,
+        light_point,
     };
     render::render(&ctx, scene, &gpu, &settings, &mut |_, _| {}).unwrap()
 }
@@ -176,9 +179,13 @@ fn compare(gpu: &RenderResult, r: &ReferenceImage, z: f64) -> Result<(), String>
 }
 
 fn check(scene: &Scene, sampler: LightSampler) {
+    check_with(scene, sampler, LightPoint::Area)
+}
+
+fn check_with(scene: &Scene, sampler: LightSampler, light_point: LightPoint) {
     let bvh = Bvh::build(&scene.triangles);
     let reference = reference::render(scene, &bvh, W, H, 256, 8, 99);
-    let gpu = gpu_render(scene, sampler);
+    let gpu = gpu_render(scene, sampler, light_point);
     assert_eq!(gpu.spp, SPP);
     assert_eq!(gpu.invalid_samples, 0, "NaN/Inf samples were produced");
     let lit = gpu
@@ -219,6 +226,19 @@ fn punctual_lights_power() {
 #[test]
 fn area_lights_uniform() {
     check(&area_scene(), LightSampler::Uniform);
+}
+
+/// Triangle lights drawn by solid angle (`--light-point solid-angle`): the one-sided panel
+/// and the two-sided sheet, seen from both sides, match the CPU reference (which samples by
+/// area) pixel by pixel; with a learned sampler too.
+#[test]
+fn area_lights_by_solid_angle_uniform() {
+    check_with(&area_scene(), LightSampler::Uniform, LightPoint::SolidAngle);
+}
+
+#[test]
+fn area_lights_by_solid_angle_bayes() {
+    check_with(&area_scene(), LightSampler::Bayes, LightPoint::SolidAngle);
 }
 
 #[test]

@@ -31,6 +31,7 @@ fn settings(sampler: LightSampler, seed: u32) -> RenderSettings {
         resume: None,
         stratified: true,
         max_depth: 1,
+        light_point: Default::default(),
     }
 }
 

@@ -13,6 +13,7 @@ use lightlearn::commands::render::RenderRequest;
 use lightlearn::gpu::ContextOptions;
 use lightlearn::learning::LearnSettings;
 use lightlearn::lights::regions::RegionSettings;
+use lightlearn::lights::LightPoint;
 use lightlearn::render::LightSampler;
 use lightlearn::scene::families::{Family, FamilyParams};
 
@@ -343,6 +344,9 @@ pub struct RenderArgs {
     /// third vertex.
     #[arg(long, default_value_t = 8, value_name = "D")]
     pub max_depth: u32,
+    /// How the light sample draws a point on a triangle light.
+    #[arg(long, value_enum, default_value_t = LightPoint::Area)]
+    pub light_point: LightPoint,
     /// No progress bar or summary (errors and warnings are still printed).
     #[arg(long, short)]
     pub quiet: bool,
@@ -398,6 +402,10 @@ pub struct CompareArgs {
     pub out: PathBuf,
     #[command(flatten)]
     pub image: StudyArgs,
+    /// How the light sample draws a point on a triangle light, for every sampler (the
+    /// reference is made the same way either way).
+    #[arg(long, value_enum, default_value_t = LightPoint::Area)]
+    pub light_point: LightPoint,
     #[command(flatten)]
     pub regions: RegionArgs,
     #[command(flatten)]
@@ -532,6 +540,7 @@ impl RenderArgs {
             seed: self.seed,
             out: self.out.clone(),
             max_depth: self.max_depth,
+            light_point: self.light_point,
             regions: self.regions.settings()?,
             learn: self.learn.settings()?,
             save_stats: self.save_stats.clone(),
@@ -558,6 +567,7 @@ impl CompareArgs {
             height: self.image.height,
             seed: self.image.seed,
             max_depth: self.image.max_depth,
+            light_point: self.light_point,
             regions: self.regions.settings()?,
             learn: self.learn.settings()?,
             device: self.device.options(),

@@ -58,6 +58,7 @@ impl ProfileArgs {
             stratified: true,
             max_depth: self.max_depth,
             resume: None,
+            light_point: Default::default(),
         };
         let times = lightlearn::bench::stages::profile(
             &ctx,

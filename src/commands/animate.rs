@@ -261,6 +261,7 @@ pub fn run(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
             resume: None,
             stratified: true,
             max_depth: req.max_depth,
+            light_point: Default::default(),
         };
         let mut learning = "fresh".to_string();
         let mut start_forget = None;

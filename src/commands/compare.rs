@@ -14,6 +14,7 @@ use crate::film;
 use crate::gpu::ContextOptions;
 use crate::learning::LearnSettings;
 use crate::lights::regions::RegionSettings;
+use crate::lights::LightPoint;
 use crate::render::{Budget, LightSampler};
 
 /// What `compare` is asked for.
@@ -32,6 +33,7 @@ pub struct CompareRequest {
     pub height: u32,
     pub seed: u32,
     pub max_depth: u32,
+    pub light_point: LightPoint,
     pub regions: RegionSettings,
     pub learn: LearnSettings,
     pub device: ContextOptions,
@@ -154,6 +156,7 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
             a.height,
             a.seed,
             a.max_depth,
+            a.light_point,
             &reference_image,
             reference_noise,
             &mut |sampler, spp, f| ui.progress(sampler.name(), spp, f),

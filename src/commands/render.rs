@@ -14,7 +14,7 @@ use crate::gpu::ContextOptions;
 use crate::learning::stats_file::{self, SavedStats};
 use crate::learning::LearnSettings;
 use crate::lights::regions::RegionSettings;
-use crate::render::{self, Budget, LightSampler, RenderSettings};
+use crate::render::{self, Budget, LightPoint, LightSampler, RenderSettings};
 
 /// What `render` is asked for.
 #[derive(Clone, Debug)]
@@ -29,6 +29,7 @@ pub struct RenderRequest {
     pub seed: u32,
     pub out: PathBuf,
     pub max_depth: u32,
+    pub light_point: LightPoint,
     pub regions: RegionSettings,
     pub learn: LearnSettings,
     pub save_stats: Option<PathBuf>,
@@ -118,6 +119,7 @@ pub fn run(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         resume: None,
         stratified: true,
         max_depth: req.max_depth,
+        light_point: req.light_point,
     };
     if let (Some(saved), Some(p)) = (loaded, &req.load_stats) {
         render::check_resume(&scene, &gpu, &settings, &saved, p)?;

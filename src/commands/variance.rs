@@ -196,6 +196,7 @@ fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> 
         stratified: false,
         max_depth: depth,
         resume: None,
+        light_point: Default::default(),
     };
     let mut rows = Vec::new();
     for &sampler in &a.samplers {

@@ -137,6 +137,7 @@ pub fn compare(
     height: u32,
     seed: u32,
     max_depth: u32,
+    light_point: crate::lights::LightPoint,
     reference: &[[f32; 3]],
     reference_noise: Option<Metrics>,
     progress: &mut dyn FnMut(LightSampler, u32, f64),
@@ -154,6 +155,7 @@ pub fn compare(
             resume: None,
             stratified: true,
             max_depth,
+            light_point,
         };
         let mut convergence = Vec::new();
         let result = render::render_with_checkpoints(

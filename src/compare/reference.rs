@@ -150,6 +150,7 @@ pub fn settings(
         resume: None,
         stratified: false,
         max_depth,
+        light_point: Default::default(),
     })
 }
 

@@ -218,6 +218,7 @@ impl<'a> App<'a, '_> {
             resume: None,
             stratified: true,
             max_depth: self.depth,
+            light_point: Default::default(),
         }
     }
 

@@ -14,6 +14,7 @@ use crate::learning::stats_file::{self, SavedStats};
 use crate::learning::LearnSettings;
 use crate::lights;
 use crate::lights::regions::RegionSettings;
+pub use crate::lights::LightPoint;
 use crate::scene::{Camera, Scene};
 
 mod cuts;
@@ -164,6 +165,8 @@ pub struct RenderSettings {
     /// Surface vertices of a path: 1 = direct light by light sampling alone; D ≥ 2 = path
     /// tracing with next-event estimation and MIS at every vertex (render.comp).
     pub max_depth: u32,
+    /// How a point on a triangle light is drawn (render.comp LIGHT_POINT_SOLID_ANGLE).
+    pub light_point: LightPoint,
     /// Statistics to start from (`--load-stats`): their cuts replace the built ones and the
     /// sample indices continue after theirs.
     pub resume: Option<Arc<SavedStats>>,
@@ -572,6 +575,7 @@ pub fn report_json(
             format!("path tracing, up to {} surface vertices, glTF metallic-roughness BRDF (Lambert + GGX), next-event estimation + BSDF sampling with MIS (power heuristic), Russian roulette", settings.max_depth)
         },
         "max_depth": settings.max_depth,
+        "light_point": settings.light_point,
         "camera": camera_json(&scene.camera),
     })
 }

@@ -9,7 +9,7 @@ use std::time::Instant;
 use anyhow::Result;
 
 use super::learned_state::LearnedState;
-use super::{GpuScene, RenderSettings};
+use super::{GpuScene, LightPoint, RenderSettings};
 use crate::gpu::layout::RenderParams;
 use crate::gpu::{kernels, Buffer, ComputePipeline, Context};
 
@@ -379,6 +379,7 @@ fn render_pipeline(
             gpu.kernel_flags,
             // DIRECT_ONLY; render.comp derives WAVEFRONT from it.
             !wavefront(settings) as u32,
+            (settings.light_point == LightPoint::SolidAngle) as u32,
         ],
     )
 }
