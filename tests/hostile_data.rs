@@ -9,7 +9,9 @@ use std::path::Path;
 
 use lightlearn::accel::Bvh;
 use lightlearn::learning::stats_file::SavedStats;
-use lightlearn::render::{self, Budget, GpuScene, LightSampler, RenderResult, RenderSettings};
+use lightlearn::render::{
+    self, Budget, GpuScene, LightPoint, LightSampler, RenderResult, RenderSettings,
+};
 use lightlearn::rng::SplitMix64;
 use lightlearn::scene::{gltf_load, Scene};
 
@@ -81,8 +83,18 @@ fn mean(img: &[[f32; 3]]) -> f64 {
 /// 1e7 offset lost most light, and × 1e-3 had 75× the relMSE with lightbvh.
 #[test]
 fn scale_and_offset_leave_the_image_unchanged() {
-    let s = settings(LightSampler::Lightbvh, 64, 2);
-    let base = render_scene(&load(&cornell_bytes()).unwrap(), &s);
+    // Both ways of drawing a point on the ceiling panel: the solid angle's lengths and
+    // triple product span 1e-12 … 1e21 here.
+    for light_point in [LightPoint::Area, LightPoint::SolidAngle] {
+        let mut s = settings(LightSampler::Lightbvh, 64, 2);
+        s.light_point = light_point;
+        eprintln!("--light-point {light_point:?}");
+        scale_and_offset_leave_the_image_unchanged_with(&s);
+    }
+}
+
+fn scale_and_offset_leave_the_image_unchanged_with(s: &RenderSettings) {
+    let base = render_scene(&load(&cornell_bytes()).unwrap(), s);
     let base_image = base.mean();
     let (_, base_noise) = base.estimated_error();
     assert!(mean(&base_image) > 0.01);
@@ -116,7 +128,7 @@ fn scale_and_offset_leave_the_image_unchanged() {
     let mut failed = Vec::new();
     for (what, node, k) in cases {
         let scene = load(&transformed(node, k)).unwrap();
-        let r = render_scene(&scene, &s);
+        let r = render_scene(&scene, s);
         let img = r.mean();
         let ratio = mean(&img) / mean(&base_image);
         let e = rel_mse(&img, &base_image);
@@ -138,7 +150,7 @@ fn scale_and_offset_leave_the_image_unchanged() {
             ));
         }
     }
-    assert!(failed.is_empty(), "{failed:#?}");
+    assert!(failed.is_empty(), "{:?}: {failed:#?}", s.light_point);
 }
 
 /// Emission near the top of the f32 range renders without a NaN and scales the image exactly
