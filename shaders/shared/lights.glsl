@@ -67,22 +67,24 @@ vec3 orthonormal_to(vec3 v, vec3 w) {
     return normalize(v - dot(v, w) * w);
 }
 
-// A direction uniform over the spherical triangle of unit vectors A, B, C (Arvo, "Stratified
-// sampling of spherical triangles", 1995): u.x chooses the area of the sub-triangle A B C'
-// (C' on the arc from A to C), u.y the point on the arc from B to C'.
-vec3 sample_spherical_triangle(vec3 A, vec3 B, vec3 C, vec2 u) {
+// A direction uniform over the spherical triangle of unit vectors A, B, C of solid angle
+// omega (Arvo, "Stratified sampling of spherical triangles", 1995): u.x chooses the area of
+// the sub-triangle A B C' (C' on the arc from A to C), u.y the point on the arc from B to C'.
+// Arvo's sin/cos of (area − α) are expanded, with α's cosine and sine taken from the great
+// circles' normals and the area from omega: no arc cosines (the three interior angles cost
+// three acos, and acos near 1 is ill-conditioned for a thin triangle) and one cross product
+// fewer.
+vec3 sample_spherical_triangle(vec3 A, vec3 B, vec3 C, float omega, vec2 u) {
     vec3 nab = normalize(cross(A, B));
     vec3 nac = normalize(cross(A, C));
-    vec3 nbc = normalize(cross(B, C));
-    // The interior angles: between the great circles through each vertex.
-    float alpha = acos(clamp(dot(nab, nac), -1.0, 1.0));
-    float beta = acos(clamp(-dot(nab, nbc), -1.0, 1.0));
-    float gamma = acos(clamp(dot(nac, nbc), -1.0, 1.0));
-    float area = u.x * max(alpha + beta + gamma - 3.14159265358979, 0.0);
-    float s = sin(area - alpha);
-    float t = cos(area - alpha);
-    float cos_a = cos(alpha);
-    float sin_a = sin(alpha);
+    // The interior angle α at A, between the great circles through A and B and through A and C.
+    float cos_a = dot(nab, nac);
+    float sin_a = length(cross(nab, nac));
+    float area = u.x * omega;
+    float sin_area = sin(area);
+    float cos_area = cos(area);
+    float s = sin_area * cos_a - cos_area * sin_a;
+    float t = cos_area * cos_a + sin_area * sin_a;
     float uu = t - cos_a;
     float vv = s + sin_a * dot(A, B);
     float q = clamp(((vv * t - uu * s) * cos_a - vv) / ((vv * s + uu * t) * sin_a), -1.0, 1.0);
@@ -102,7 +104,7 @@ vec3 sample_light_point(GpuLight l, vec3 x, vec2 u, out vec3 wi, out float dist,
         float omega = triangle_solid_angle(x, l.p0, l.p1, l.p2);
         if (solid_angle_sampled(omega)) {
             vec3 ny = normalize(cross(l.p1 - l.p0, l.p2 - l.p0));
-            wi = sample_spherical_triangle(normalize(l.p0 - x), normalize(l.p1 - x), normalize(l.p2 - x), u);
+            wi = sample_spherical_triangle(normalize(l.p0 - x), normalize(l.p1 - x), normalize(l.p2 - x), omega, u);
             // Where the direction meets the light's plane.
             float cos_w = dot(ny, wi);
             dist = dot(l.p0 - x, ny) / cos_w;
