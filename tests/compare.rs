@@ -63,6 +63,7 @@ fn compare_writes_report_metrics_and_images() {
     }
     let m: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("metrics.json")).unwrap()).unwrap();
+    assert_eq!(m["light_point"], "area");
     let cmps = m["comparisons"].as_array().unwrap();
     assert_eq!(cmps.len(), 2);
     assert_eq!(cmps[0]["kind"], "equal time");

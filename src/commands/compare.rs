@@ -187,6 +187,8 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
         "width": w,
         "height": h,
         "seed": a.seed,
+        "max_depth": a.max_depth,
+        "light_point": a.light_point,
         "device": ctx.describe(),
         "reference": reference_note,
         "comparisons": comparisons,
