@@ -31,10 +31,10 @@ float spot_falloff(float cos_theta, float cos_inner, float cos_outer) {
 // defines the constant LIGHT_POINT_SOLID_ANGLE): where the triangle's solid angle Ω at x is
 // within these bounds the direction is uniform over the spherical triangle (Arvo 1995), so
 // 1/r² and cosθ_y no longer vary over the samples; elsewhere the point is uniform by area.
-// Below 3e-4 sr the angles of the spherical triangle are differences of nearly equal f32
-// numbers (its area α + β + γ − π loses ~1e-7·π, 0.1 % of 3e-4) and area sampling is as
-// good there (r and cosθ_y hardly vary over a small triangle); near 2π the triangle is a
-// hemisphere and the sampling degenerates. The choice depends on (x, light) alone, so the
+// Below 3e-4 sr (pbrt-v4 draws the same line) the construction works with nearly parallel
+// f32 unit vectors (q and z near 1, their complements' square roots) and loses precision,
+// while area sampling is as good there (r and cosθ_y hardly vary over a small triangle);
+// near 2π the triangle is a hemisphere and the sampling degenerates. The choice depends on (x, light) alone, so the
 // MIS weight of a BSDF ray that hits the light finds the same density (solid_angle_pdf).
 const float SOLID_ANGLE_MIN = 3e-4;
 const float SOLID_ANGLE_MAX = 6.0;

@@ -402,8 +402,8 @@ pub struct CompareArgs {
     pub out: PathBuf,
     #[command(flatten)]
     pub image: StudyArgs,
-    /// How the light sample draws a point on a triangle light, for every sampler (the
-    /// reference is made the same way either way).
+    /// How the light sample draws a point on a triangle light, for every sampler (a reference
+    /// rendered here samples by area either way: both are unbiased).
     #[arg(long, value_enum, default_value_t = LightPoint::Area)]
     pub light_point: LightPoint,
     #[command(flatten)]

@@ -132,6 +132,20 @@ pub fn triangle_lights(scene: &Scene) -> Vec<u32> {
     out
 }
 
+/// How the next-event sample draws a point on a triangle light (`--light-point`). Point and
+/// spot lights have one point either way.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LightPoint {
+    /// Uniformly by area (density r² / (A cos θ_y) per steradian).
+    #[default]
+    Area,
+    /// Uniformly by solid angle over the spherical triangle (Arvo 1995) where its solid angle
+    /// is between 3e-4 and 6 sr, by area elsewhere (shaders/shared/lights.glsl): no variance
+    /// from 1/r² and cos θ_y across the light.
+    SolidAngle,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -151,18 +165,4 @@ mod tests {
             assert!((t[i].pmf as f64 - want).abs() <= 1e-6 * want);
         }
     }
-}
-
-/// How the next-event sample draws a point on a triangle light (`--light-point`). Point and
-/// spot lights have one point either way.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum LightPoint {
-    /// Uniformly by area (density r² / (A cos θ_y) per steradian).
-    #[default]
-    Area,
-    /// Uniformly by solid angle over the spherical triangle (Arvo 1995) where its solid angle
-    /// is between 3e-4 and 6 sr, by area elsewhere (shaders/shared/lights.glsl): no variance
-    /// from 1/r² and cos θ_y across the light.
-    SolidAngle,
 }

@@ -133,6 +133,7 @@ pub fn run(req: &PreviewRequest, ui: &mut dyn Ui) -> Result<()> {
         heat: None,
         pivot: 0.5 * (lo + hi),
         held: HashSet::new(),
+        tapped: HashSet::new(),
         cursor: None,
         buttons: (false, false),
         last_change: None,
@@ -185,6 +186,11 @@ struct App<'a, 'u> {
     /// What a left-drag orbits: the point under the cursor when the button went down.
     pivot: Vec3,
     held: HashSet<KeyCode>,
+    /// Keys pressed since the last frame, released or not: a tap shorter than a frame (a
+    /// path-traced pass takes over a second on lavapipe) still moves the camera by one
+    /// frame's step. Before, a W pressed and released between two frames did nothing
+    /// (tests/preview.rs saw the camera stay put after a 0.6 s press on a loaded machine).
+    tapped: HashSet<KeyCode>,
     cursor: Option<(f64, f64)>,
     /// Left, right mouse buttons.
     buttons: (bool, bool),
@@ -292,10 +298,10 @@ impl<'a> App<'a, '_> {
         let now = Instant::now();
         let dt = (now - self.last_frame).as_secs_f64().min(0.25) as f32;
         self.last_frame = now;
-        // Held keys fly and look.
+        // Held keys, and keys tapped since the last frame, fly and look.
         let mut amount = Vec3::ZERO;
         let (mut yaw, mut pitch) = (0.0, 0.0);
-        for k in &self.held {
+        for k in self.held.union(&self.tapped) {
             match k {
                 KeyCode::KeyW => amount.x += 1.0,
                 KeyCode::KeyS => amount.x -= 1.0,
@@ -310,6 +316,7 @@ impl<'a> App<'a, '_> {
                 _ => {}
             }
         }
+        self.tapped.clear();
         if amount != Vec3::ZERO || yaw != 0.0 || pitch != 0.0 {
             self.camera.fly(amount, dt);
             self.camera.look(yaw * dt, pitch * dt);
@@ -346,9 +353,8 @@ impl<'a> App<'a, '_> {
         let regions = session.regions_with_cuts();
         let presented = if view == 3 {
             // Refreshed twice a second as the learning goes on, and soon after the camera
-            // moves: a map of the old view over the new one showed the wrong regions for up
-            // to half a second (tests/preview.rs caught it as an orbit that changed nothing).
-            // Not every frame while moving: a 640×480 map is ~0.3 M CPU rays.
+            // moves: before, the map of the old view stayed over the new one for up to half a
+            // second. Not every frame while moving: a 640×480 map is ~0.3 M CPU rays.
             let stale = self.heat.as_ref().is_none_or(|(t, camera, px)| {
                 let age = t.elapsed().as_secs_f64();
                 age > 0.5
@@ -507,6 +513,7 @@ impl ApplicationHandler for App<'_, '_> {
                 match event.state {
                     ElementState::Pressed => {
                         self.held.insert(code);
+                        self.tapped.insert(code);
                         if event.repeat {
                             Ok(())
                         } else {
