@@ -156,7 +156,7 @@ fn differing(a: &[[u8; 3]], b: &[[u8; 3]], tolerance: u8) -> usize {
 /// Captures the window until more than a tenth of its pixels differ from `from` (by more
 /// than `tolerance`), and returns that capture. Polled, not one capture after a fixed sleep:
 /// the app answers an event within a frame or two, but a frame's time depends on the
-/// machine (a shared CI machine ran one capture before the heat map was redrawn).
+/// machine's load.
 fn capture_changed(
     x: &Xvfb,
     window: &str,
@@ -423,8 +423,8 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
         "a 44-pixel orbit turned the view by {turned} rad, not about 0.22"
     );
     // A tap: `xdotool key` presses and releases within milliseconds, between two frames
-    // (the camera moves at a frame). It must still move the camera (it did not, and a 0.6 s
-    // press on a loaded CI machine did not either). Screenshots until one shows the move.
+    // (the camera moves at a frame). It must still move the camera (it did not: a frame
+    // read the held keys once). Screenshots until one shows the move.
     x.run("xdotool", &["key", "w"]);
     let from = camera_of(&orbit);
     shots.until(&x, "a tap of W to move the camera forward", |r| {

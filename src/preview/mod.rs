@@ -189,7 +189,7 @@ struct App<'a, 'u> {
     /// Keys pressed since the last frame, released or not: a tap shorter than a frame (a
     /// path-traced pass takes over a second on lavapipe) still moves the camera by one
     /// frame's step. Before, a W pressed and released between two frames did nothing
-    /// (tests/preview.rs saw the camera stay put after a 0.6 s press on a loaded machine).
+    /// (tests/preview.rs taps W with `xdotool key w`: 2 of 2 runs failed without this).
     tapped: HashSet<KeyCode>,
     cursor: Option<(f64, f64)>,
     /// Left, right mouse buttons.
