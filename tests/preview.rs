@@ -195,6 +195,15 @@ impl Shots {
         self.next += 1;
         let json = exr.with_extension("json");
         wait_for("a screenshot", 20, || json.exists());
+        // Never an empty film: a P right after the orbit's drag, before the next frame, wrote
+        // a black 0-spp image.
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+        assert!(
+            report["spp"].as_u64().unwrap() >= 1,
+            "{}: a screenshot of an empty film",
+            json.display()
+        );
         exr
     }
 

@@ -411,6 +411,11 @@ impl<'a> App<'a, '_> {
         let device = self.ctx.describe();
         let scene = self.scene;
         let session = self.session()?;
+        if session.spp() == 0 {
+            // P right after a camera move, before the next frame: the film was just reset, and
+            // an empty film is a black image (it was written so, with `spp: 0`).
+            session.run_passes(1)?;
+        }
         let result = session.result()?;
         let settings = session.settings().clone();
         let paths = crate::film::OutputPaths::new(&out)?;
