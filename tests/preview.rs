@@ -187,9 +187,9 @@ struct Shots {
 }
 
 impl Shots {
-    /// Presses P and returns the EXR it wrote, once its JSON report exists (the EXR, PNG and
-    /// JSON are moved into place together).
-    fn take(&mut self, x: &Xvfb) -> PathBuf {
+    /// Presses P and returns the EXR it wrote and its JSON report, once the report exists
+    /// (the EXR, PNG and JSON are moved into place together).
+    fn take(&mut self, x: &Xvfb) -> (PathBuf, serde_json::Value) {
         x.run("xdotool", &["key", "p"]);
         let exr = self.dir.join(format!("preview-{:04}.exr", self.next));
         self.next += 1;
@@ -204,19 +204,23 @@ impl Shots {
             "{}: a screenshot of an empty film",
             json.display()
         );
-        exr
+        (exr, report)
     }
 
     /// Screenshots, half a second apart, until one's report satisfies `ok` (at most 20).
-    fn until(&mut self, x: &Xvfb, what: &str, ok: impl Fn(&serde_json::Value) -> bool) -> PathBuf {
+    fn until(
+        &mut self,
+        x: &Xvfb,
+        what: &str,
+        ok: impl Fn(&serde_json::Value) -> bool,
+    ) -> (PathBuf, serde_json::Value) {
         let mut last = serde_json::Value::Null;
         for _ in 0..20 {
-            let exr = self.take(x);
-            last = serde_json::from_slice(&std::fs::read(exr.with_extension("json")).unwrap())
-                .unwrap();
-            if ok(&last) {
-                return exr;
+            let (exr, report) = self.take(x);
+            if ok(&report) {
+                return (exr, report);
             }
+            last = report;
             std::thread::sleep(Duration::from_millis(500));
         }
         panic!(
@@ -224,12 +228,6 @@ impl Shots {
             last["camera"], last["width"], last["height"], last["spp"]
         );
     }
-}
-
-/// The camera a screenshot's JSON report gives.
-fn camera_of(json: &Path) -> serde_json::Value {
-    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(json).unwrap()).unwrap();
-    report["camera"].clone()
 }
 
 fn vec3(v: &serde_json::Value) -> glam::Vec3 {
@@ -325,9 +323,7 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
         dir: dir.path().to_path_buf(),
         next: 0,
     };
-    let first = shots.take(&x);
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(first.with_extension("json")).unwrap()).unwrap();
+    let (first, report) = shots.take(&x);
     let spp = report["spp"].as_u64().unwrap().to_string();
     let rendered = dir.path().join("render.exr");
     let o = Command::new(common::exe())
@@ -361,8 +357,8 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
     // (0.3 s after the last move) the film is back at the window's size. Screenshots until
     // then: the app moves the camera at its next frame, which on a loaded machine can come
     // after a P already queued (CI saw a screenshot of the old camera).
-    let from = camera_of(&first.with_extension("json"));
-    let shot = shots.until(
+    let from = &report["camera"];
+    let (shot, shot_report) = shots.until(
         &x,
         "W to move the camera forward and the film to rest",
         |r| {
@@ -420,13 +416,11 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
     // Checked by the camera the screenshots report: the heat map's colours change by
     // themselves as the learning goes on, so a changed picture would not show that the view
     // turned.
-    let before_orbit = vec3(&camera_of(&shot.with_extension("json"))["forward"]);
-    let orbit = shots
-        .until(&x, "the orbit to turn the view", |r| {
-            angle(before_orbit, vec3(&r["camera"]["forward"])) > 0.01
-        })
-        .with_extension("json");
-    let turned = angle(before_orbit, vec3(&camera_of(&orbit)["forward"]));
+    let before_orbit = vec3(&shot_report["camera"]["forward"]);
+    let (_, orbit) = shots.until(&x, "the orbit to turn the view", |r| {
+        angle(before_orbit, vec3(&r["camera"]["forward"])) > 0.01
+    });
+    let turned = angle(before_orbit, vec3(&orbit["camera"]["forward"]));
     assert!(
         (0.15..0.3).contains(&turned),
         "a 44-pixel orbit turned the view by {turned} rad, not about 0.22"
@@ -435,7 +429,7 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
     // (the camera moves at a frame). It must still move the camera (it did not: a frame
     // read the held keys once). Screenshots until one shows the move.
     x.run("xdotool", &["key", "w"]);
-    let from = camera_of(&orbit);
+    let from = &orbit["camera"];
     shots.until(&x, "a tap of W to move the camera forward", |r| {
         let step = vec3(&r["camera"]["position"]) - vec3(&from["position"]);
         step.dot(vec3(&from["forward"])) > 0.01

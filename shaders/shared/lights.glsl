@@ -34,8 +34,9 @@ float spot_falloff(float cos_theta, float cos_inner, float cos_outer) {
 // Below 3e-4 sr (pbrt-v4 draws the same line) the construction works with nearly parallel
 // f32 unit vectors (q and z near 1, their complements' square roots) and loses precision,
 // while area sampling is as good there (r and cosθ_y hardly vary over a small triangle);
-// near 2π the triangle is a hemisphere and the sampling degenerates. The choice depends on (x, light) alone, so the
-// MIS weight of a BSDF ray that hits the light finds the same density (solid_angle_pdf).
+// near 2π the triangle is a hemisphere and the sampling degenerates. The choice depends on
+// (x, light) alone, so the MIS weight of a BSDF ray that hits the light finds the same
+// density (solid_angle_pdf).
 const float SOLID_ANGLE_MIN = 3e-4;
 const float SOLID_ANGLE_MAX = 6.0;
 

@@ -379,6 +379,7 @@ fn render_pipeline(
             gpu.kernel_flags,
             // DIRECT_ONLY; render.comp derives WAVEFRONT from it.
             !wavefront(settings) as u32,
+            // LIGHT_POINT_SOLID_ANGLE.
             (settings.light_point == LightPoint::SolidAngle) as u32,
         ],
     )
