@@ -217,12 +217,16 @@ struct Path {
 const uint GLOSSY_BAYES_FLAGS = (SCENE_FLAGS & 1u) != 0u ? BAYES_FLAGS : 0u;
 const bool BRDF_SELECT = (GLOSSY_BAYES_FLAGS & LEARN_BRDF_SELECT) != 0u;
 
+// The sample index of the path being traced: params.sample_index + j for the j-th of the
+// params.passes samples a direct-light invocation takes (main()).
+uint sample_s;
+
 // A path's first ray: the camera ray through a uniform point in the pixel (box filter;
 // stratified over passes, or independent).
 Path camera_path(uvec2 px) {
     Path st;
     st.pixel = px.y * params.width + px.x;
-    uint s = params.sample_index;
+    uint s = sample_s;
     uint seed = params.seed;
     vec2 jitter = params.stratified != 0u
         ? pixel_jitter_r2(seed, st.pixel, s)
@@ -253,7 +257,7 @@ Path camera_path(uvec2 px) {
 // light sample).
 bool path_vertex(inout Path st, uint depth) {
     uint pixel = st.pixel;
-    uint s = params.sample_index;
+    uint s = sample_s;
     uint seed = params.seed;
     const bool learned = SAMPLER == SAMPLER_BAYES || SAMPLER == SAMPLER_DONIKIAN;
     const bool mis = params.max_depth > (DIRECT_ONLY ? 0xffffffffu : 1u);
@@ -492,26 +496,42 @@ void finish_path(Path st) {
 void main() {
     Path st;
     uint depth = 0u;
-    if (WAVEFRONT && params.bounce > 0u) {
-        uint q = params.bounce & 1u;
-        uint i = gl_WorkGroupID.x * 64u + gl_LocalInvocationIndex;
-        if (i >= queue_head[4u * q + 3u]) return;
-        st = load_path(q, i);
-        depth = params.bounce;
-    } else {
-        uvec2 px = uvec2(gl_GlobalInvocationID.x, gl_GlobalInvocationID.y + params.row0);
-        if (px.x >= params.width || px.y >= params.height) return;
-        st = camera_path(px);
-    }
+    sample_s = params.sample_index;
     if (WAVEFRONT) {
+        if (params.bounce > 0u) {
+            uint q = params.bounce & 1u;
+            uint i = gl_WorkGroupID.x * 64u + gl_LocalInvocationIndex;
+            if (i >= queue_head[4u * q + 3u]) return;
+            st = load_path(q, i);
+            depth = params.bounce;
+        } else {
+            uvec2 px = uvec2(gl_GlobalInvocationID.x, gl_GlobalInvocationID.y + params.row0);
+            if (px.x >= params.width || px.y >= params.height) return;
+            st = camera_path(px);
+        }
         if (path_vertex(st, depth)) {
             push_path(st);
             return;
         }
-    } else {
-        for (; depth <= params.max_depth; ++depth) {
+        finish_path(st);
+        return;
+    }
+    // Direct light (and the preview's reduced film): params.passes samples of the pixel, one
+    // after the other, each added to the film as its own pass would add it (the same sums in
+    // the same order: the image is bit for bit that of one dispatch per pass). A dispatch
+    // costs lavapipe ~0.4 ms whatever its size (docs/results.md). Samplers that do not learn
+    // only: the learned ones fold between passes (--update-every 1), and with the loop their
+    // kernel was 12 % slower (rooms16, 128×96, 256 spp), so for them it is compiled out.
+    uvec2 px = uvec2(gl_GlobalInvocationID.x, gl_GlobalInvocationID.y + params.row0);
+    if (px.x >= params.width || px.y >= params.height) return;
+    const bool batched = !(SAMPLER == SAMPLER_BAYES || SAMPLER == SAMPLER_DONIKIAN);
+    uint passes = batched ? max(params.passes, 1u) : 1u;
+    for (uint j = 0u; j < passes; ++j) {
+        sample_s = params.sample_index + j;
+        st = camera_path(px);
+        for (depth = 0u; depth <= params.max_depth; ++depth) {
             if (!path_vertex(st, depth)) break;
         }
+        finish_path(st);
     }
-    finish_path(st);
 }

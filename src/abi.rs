@@ -304,7 +304,9 @@ pub struct RenderParams {
     pub row0: u32,
     /// Paths per queue of the wavefront.
     pub queue_cap: u32,
-    pub pad: u32,
+    /// Direct light with a sampler that does not learn: samples per pixel this dispatch
+    /// takes, sample indices `sample_index` on (0 counts as 1). Otherwise 1.
+    pub passes: u32,
 }
 
 /// A ray for `trace.comp`.

@@ -209,7 +209,7 @@ fn host_and_shader_structs_match() {
             bounce,
             row0,
             queue_cap,
-            pad
+            passes
         }),
         rust_layout!(GpuRay {
             origin,

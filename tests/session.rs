@@ -293,6 +293,29 @@ fn path_queue_bands_give_the_same_image() {
     assert!(banded.set_path_queue_bytes(1000).is_err());
 }
 
+/// Direct light with a sampler that does not learn takes several passes per dispatch
+/// (render.comp main, `params.passes`): the image must be bit for bit that of one dispatch
+/// per pass (here one `run_passes` call per pass), growth points included (wang).
+#[test]
+fn direct_passes_in_one_dispatch_give_the_same_image() {
+    let ctx = common::ctx();
+    let s = scene("rooms16.glb");
+    let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
+    for sampler in [LightSampler::Uniform, LightSampler::Wang] {
+        let set = settings(sampler, 3);
+        let mut single = Session::new(&ctx, &s, &gpu, &set).unwrap();
+        for _ in 0..40 {
+            single.run_passes(1).unwrap();
+        }
+        let mut batched = Session::new(&ctx, &s, &gpu, &set).unwrap();
+        batched.run_passes(40).unwrap();
+        assert_eq!(batched.spp(), 40);
+        let (a, b) = (single.image().unwrap(), batched.image().unwrap());
+        assert!(a.iter().flatten().any(|&v| v > 0.0));
+        assert!(a == b, "{sampler:?}: batched passes changed the image");
+    }
+}
+
 /// With `--update-every` above 1 the cuts still grow, at the first fold boundary after each
 /// growth point (before, growth was skipped unless the two coincided: with 3, not before
 /// pass 192).

@@ -139,7 +139,7 @@ struct RenderParams {
     uint bounce;     // the wavefront's bounce (render.comp WAVEFRONT), 0 otherwise
     uint row0;       // the first film row of a dispatch that starts paths
     uint queue_cap;  // paths per queue (render.comp set 3)
-    uint pad;
+    uint passes;     // direct light, samplers that do not learn: samples per pixel of this dispatch
 };
 
 struct GpuRay {
