@@ -79,10 +79,18 @@ fn compare_writes_report_metrics_and_images() {
             assert!((r["rmse"].as_f64().unwrap() - mse.sqrt()).abs() < 1e-12);
             let conv = r["convergence"].as_array().unwrap();
             assert!(conv.len() >= 3, "checkpoints recorded");
-            // relMSE falls as samples accumulate (first vs last checkpoint).
+            // relMSE falls as samples accumulate (first vs last checkpoint). Equal time: a
+            // first pass that a loaded machine stalls past the whole 0.4 s budget fires
+            // every time checkpoint at 1 spp (seen once in CI-like runs, 3 tests sharing
+            // 2 cores): then there is no later image to compare, and equal samples checks.
             let first = conv[0]["rel_mse"].as_f64().unwrap();
             let last = conv.last().unwrap()["rel_mse"].as_f64().unwrap();
-            assert!(last < first, "relMSE should fall: {first} → {last}");
+            let grew = conv.last().unwrap()["spp"] != conv[0]["spp"];
+            if c["kind"] == "equal samples" || grew {
+                assert!(last < first, "relMSE should fall: {first} → {last}");
+            } else {
+                eprintln!("equal time: one pass took the whole budget; convergence not checked");
+            }
         }
     }
     for r in cmps[0]["runs"].as_array().unwrap() {
