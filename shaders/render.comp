@@ -519,13 +519,14 @@ void main() {
     // Direct light (and the preview's reduced film): params.passes samples of the pixel, one
     // after the other, each added to the film as its own pass would add it (the same sums in
     // the same order: the image is bit for bit that of one dispatch per pass). A dispatch
-    // costs lavapipe ~0.4 ms whatever its size (docs/results.md). Samplers that do not learn
-    // only: the learned ones fold between passes (--update-every 1), and with the loop their
-    // kernel was 12 % slower (rooms16, 128×96, 256 spp), so for them it is compiled out.
+    // costs lavapipe ~0.4 ms whatever its size (docs/results.md). The learned samplers take
+    // the passes of one learning window (their statistics frozen within it; --update-every):
+    // against the loop compiled out for them, bayes on rooms16 and city (128×96, 256 spp,
+    // four interleaved pairs) took 1.03× the time with windows of 1 (within the noise) and
+    // 0.75–0.8× with windows of 4 (docs/results.md, 2026-12-03).
     uvec2 px = uvec2(gl_GlobalInvocationID.x, gl_GlobalInvocationID.y + params.row0);
     if (px.x >= params.width || px.y >= params.height) return;
-    const bool batched = !(SAMPLER == SAMPLER_BAYES || SAMPLER == SAMPLER_DONIKIAN);
-    uint passes = batched ? max(params.passes, 1u) : 1u;
+    uint passes = max(params.passes, 1u);
     for (uint j = 0u; j < passes; ++j) {
         sample_s = params.sample_index + j;
         st = camera_path(px);

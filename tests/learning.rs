@@ -15,7 +15,9 @@ use lightlearn::accel::Bvh;
 use lightlearn::gpu::layout::{SlotDelta, SlotStats};
 use lightlearn::gpu::{kernels, Buffer, ComputePipeline};
 use lightlearn::learning::stats_file::SavedStats;
-use lightlearn::learning::{fold, learned_weights, predicted_means, LearnSettings, Posterior};
+use lightlearn::learning::{
+    fold, learned_weights, predicted_means, LearnSettings, Posterior, UpdateEvery,
+};
 use lightlearn::lights::regions::{pmf_in_cut, Cuts, Grid, RegionSettings};
 use lightlearn::lights::tree::LightTree;
 use lightlearn::render::{self, Budget, GpuScene, LightSampler, RenderSettings};
@@ -553,7 +555,7 @@ fn adversarial_statistics_stay_unbiased() {
         saved.stats = lying_stats(&saved.stats, 3);
         saved.header.samples_done = 0;
         let frozen = LearnSettings {
-            update_every: 1_000_000,
+            update_every: UpdateEvery::Passes(1_000_000),
             control_variates,
             ..Default::default()
         };

@@ -9,6 +9,7 @@ use std::path::Path;
 use glam::Vec3;
 use lightlearn::accel::Bvh;
 use lightlearn::learning::stats_file::SavedStats;
+use lightlearn::learning::UpdateEvery;
 use lightlearn::render::{Budget, GpuScene, LightSampler, RenderResult, RenderSettings, Session};
 use lightlearn::scene::{gltf_load, Camera, Scene};
 
@@ -293,16 +294,26 @@ fn path_queue_bands_give_the_same_image() {
     assert!(banded.set_path_queue_bytes(1000).is_err());
 }
 
-/// Direct light with a sampler that does not learn takes several passes per dispatch
-/// (render.comp main, `params.passes`): the image must be bit for bit that of one dispatch
-/// per pass (here one `run_passes` call per pass), growth points included (wang).
+/// Direct light takes several passes per dispatch (render.comp main, `params.passes`): a
+/// sampler that does not learn up to 2^20 samples, a learned one the passes of a learning
+/// window. The image must be bit for bit that of one dispatch per pass (here one
+/// `run_passes` call per pass), growth points included.
 #[test]
 fn direct_passes_in_one_dispatch_give_the_same_image() {
     let ctx = common::ctx();
     let s = scene("rooms16.glb");
     let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
-    for sampler in [LightSampler::Uniform, LightSampler::Wang] {
-        let set = settings(sampler, 3);
+    // The learned samplers take a learning window's passes in one dispatch: 4 passes, or
+    // (auto) 1 up to pass 32 and 2 after it.
+    for (sampler, every) in [
+        (LightSampler::Uniform, UpdateEvery::Auto),
+        (LightSampler::Wang, UpdateEvery::Auto),
+        (LightSampler::Bayes, UpdateEvery::Passes(4)),
+        (LightSampler::Bayes, UpdateEvery::Auto),
+        (LightSampler::Donikian, UpdateEvery::Auto),
+    ] {
+        let mut set = settings(sampler, 3);
+        set.learn.update_every = every;
         let mut single = Session::new(&ctx, &s, &gpu, &set).unwrap();
         for _ in 0..40 {
             single.run_passes(1).unwrap();
@@ -312,8 +323,45 @@ fn direct_passes_in_one_dispatch_give_the_same_image() {
         assert_eq!(batched.spp(), 40);
         let (a, b) = (single.image().unwrap(), batched.image().unwrap());
         assert!(a.iter().flatten().any(|&v| v > 0.0));
-        assert!(a == b, "{sampler:?}: batched passes changed the image");
+        assert!(
+            a == b,
+            "{sampler:?}, update every {every}: batched passes changed the image"
+        );
     }
+    // After a camera move `auto` counts the film's passes: windows of 1 again, then of 2.
+    let set = settings(LightSampler::Bayes, 3);
+    let mut single = Session::new(&ctx, &s, &gpu, &set).unwrap();
+    let mut batched = Session::new(&ctx, &s, &gpu, &set).unwrap();
+    for _ in 0..70 {
+        single.run_passes(1).unwrap();
+    }
+    batched.run_passes(70).unwrap();
+    single.set_camera(camera_b(&s)).unwrap();
+    batched.set_camera(camera_b(&s)).unwrap();
+    for _ in 0..40 {
+        single.run_passes(1).unwrap();
+    }
+    batched.run_passes(40).unwrap();
+    assert!(
+        single.image().unwrap() == batched.image().unwrap(),
+        "moved: batched windows changed the image"
+    );
+    // Up to pass 32 `auto` folds after every pass; a move there starts the film's 32 more
+    // (by the learned passes alone they would be windows of 2): the same image as folding
+    // after every pass throughout.
+    let mut every = settings(LightSampler::Bayes, 3);
+    every.learn.update_every = UpdateEvery::Passes(1);
+    let mut a = Session::new(&ctx, &s, &gpu, &set).unwrap();
+    let mut b = Session::new(&ctx, &s, &gpu, &every).unwrap();
+    for x in [&mut a, &mut b] {
+        x.run_passes(32).unwrap();
+        x.set_camera(camera_b(&s)).unwrap();
+        x.run_passes(30).unwrap();
+    }
+    assert!(
+        a.image().unwrap() == b.image().unwrap(),
+        "auto after a move: not a fold after every film pass"
+    );
 }
 
 /// With `--update-every` above 1 the cuts still grow, at the first fold boundary after each
@@ -327,7 +375,7 @@ fn regions_grow_at_fold_boundaries_with_update_every() {
     // 7: no growth point (learning passes 1, 2, 4, 8, 16; after the move at 8 the film's
     // 1, 2, 4, 8, 16, i.e. passes 9, 10, 12, 16, 24) is a multiple of it before pass 28.
     let mut set = settings(LightSampler::Bayes, 3);
-    set.learn.update_every = 7;
+    set.learn.update_every = UpdateEvery::Passes(7);
     let mut x = Session::new(&ctx, &s, &gpu, &set).unwrap();
     x.run_passes(8).unwrap();
     x.set_camera(camera_b(&s)).unwrap();
@@ -364,7 +412,7 @@ fn the_fold_visits_exactly_the_slots_the_window_touched() {
     let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
     for depth in [1, 3] {
         let mut set = settings(LightSampler::Bayes, 5);
-        set.learn.update_every = 3;
+        set.learn.update_every = UpdateEvery::Passes(3);
         set.max_depth = depth;
         let mut x = Session::new(&ctx, &s, &gpu, &set).unwrap();
         let mut seen_zero_only = 0;

@@ -10,6 +10,7 @@ use std::sync::Arc;
 use anyhow::Result;
 
 use crate::gpu::Context;
+use crate::learning::UpdateEvery;
 use crate::render::{GpuScene, RenderSettings, Session};
 use crate::scene::Scene;
 
@@ -63,7 +64,7 @@ pub fn profile(
         if !folds {
             // No fold inside the timed passes (the coefficients are set once, untimed), and so
             // no region growth either: it waits for a fold boundary.
-            s.learn.update_every = passes + 1;
+            s.learn.update_every = UpdateEvery::Passes(passes + 1);
         }
         let mut best = f64::INFINITY;
         for _ in 0..repeats.max(1) {

@@ -11,7 +11,7 @@ use lightlearn::commands::compare::CompareRequest;
 use lightlearn::commands::reference::ReferenceRequest;
 use lightlearn::commands::render::RenderRequest;
 use lightlearn::gpu::ContextOptions;
-use lightlearn::learning::LearnSettings;
+use lightlearn::learning::{LearnSettings, UpdateEvery};
 use lightlearn::lights::regions::RegionSettings;
 use lightlearn::lights::LightPoint;
 use lightlearn::render::LightSampler;
@@ -178,9 +178,11 @@ impl RegionArgs {
 /// The learned samplers (`--sampler bayes|donikian`, docs/method.md §3–§8).
 #[derive(Args)]
 pub struct LearnArgs {
-    /// Fold new observations into the posteriors every K passes (1 pass = 1 spp).
-    #[arg(long, default_value_t = 1, value_name = "K")]
-    pub update_every: u32,
+    /// Fold new observations into the posteriors every K passes (1 pass = 1 spp); auto:
+    /// every pass up to pass 32, then windows of 2, 4, 8 and (from pass 256) 16 passes,
+    /// counted from the last camera move.
+    #[arg(long, default_value = "auto", value_name = "K|auto")]
+    pub update_every: UpdateEvery,
     /// bayes: the 1/d² regression of a cluster's contribution (off: one constant per slot).
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     pub regression: String,

@@ -18,7 +18,7 @@ use serde_json::json;
 use super::{check_depth, check_size, prepare, Ui};
 use crate::abi::SlotStats;
 use crate::gpu::{Context, ContextOptions};
-use crate::learning::LearnSettings;
+use crate::learning::{LearnSettings, UpdateEvery};
 use crate::lights::regions::RegionSettings;
 use crate::reference::first_hit;
 use crate::render::{camera_params, Budget, GpuScene, LightSampler, RenderSettings, Session};
@@ -235,7 +235,7 @@ fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> 
         drop(learner);
         // Frozen: no fold (and so no growth) within the measuring renders.
         s.seed = a.seed;
-        s.learn.update_every = u32::MAX;
+        s.learn.update_every = UpdateEvery::Passes(u32::MAX);
         s.resume = Some(Arc::new(saved));
         let mut session = Session::new(&ctx, &scene, &gpu, &s)?;
         session.run_passes(a.spp)?;

@@ -13,7 +13,10 @@
 //! pmf before any data is exactly ∝ Ĩ_C(x), i.e. learning starts exactly where `wang` is
 //! (the test), and no region-centre estimate can be zero for a slot that lights x.
 
+mod schedule;
 pub mod stats_file;
+
+pub use schedule::{LearningClock, UpdateEvery};
 
 use anyhow::{bail, Result};
 
@@ -25,8 +28,8 @@ use crate::abi::{
 /// Settings of the learned samplers; defaults are docs/method.md's [ours] values.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct LearnSettings {
-    /// Fold the observations into the posteriors every this many passes.
-    pub update_every: u32,
+    /// When the observations are folded into the posteriors.
+    pub update_every: UpdateEvery,
     /// The 1/d² regression (off: d ≡ 1).
     pub regression: bool,
     /// Sample ∝ the learned mean instead of sqrt(mean² + variance).
@@ -63,7 +66,7 @@ pub struct LearnSettings {
 impl Default for LearnSettings {
     fn default() -> Self {
         LearnSettings {
-            update_every: 1,
+            update_every: UpdateEvery::Auto,
             regression: true,
             target_mean: false,
             priors: true,
@@ -88,7 +91,7 @@ impl Default for LearnSettings {
 
 impl LearnSettings {
     pub fn check(&self) -> Result<()> {
-        if self.update_every == 0 {
+        if self.update_every == UpdateEvery::Passes(0) {
             bail!("--update-every must be at least 1 (pass)");
         }
         for (name, v) in [

@@ -12,6 +12,7 @@ use super::learned_state::LearnedState;
 use super::{GpuScene, LightPoint, RenderSettings};
 use crate::gpu::layout::RenderParams;
 use crate::gpu::{kernels, Buffer, ComputePipeline, Context};
+use crate::learning::{LearningClock, UpdateEvery};
 
 /// The bindings of `render.comp` by descriptor set and binding number, as the kernel names
 /// them (a storage buffer by its block, a texel buffer by its variable, `…_texels`: made by
@@ -274,15 +275,16 @@ impl PassKernels {
     }
 
     /// `k` passes of a `width`×`height` film in one submission, from learning pass
-    /// `params.sample_index` on; with `fold_every` (the learned samplers' --update-every)
-    /// the touched slots of `learned` are folded after every pass that ends a window.
+    /// `params.sample_index` on; with `fold` (the learned samplers' --update-every and their
+    /// clock before the first pass) the touched slots of `learned` are folded after every
+    /// pass that ends a learning window.
     /// Returns their seconds.
     pub(super) fn submit(
         &self,
         ctx: &Context,
         mut params: RenderParams,
         k: u32,
-        fold_every: Option<u32>,
+        fold: Option<(UpdateEvery, LearningClock)>,
         learned: &LearnedState,
     ) -> Result<f64> {
         let first = params.sample_index;
@@ -295,13 +297,18 @@ impl PassKernels {
             let mut i = 0;
             while i < k {
                 params.sample_index = first + i;
-                // Passes this dispatch takes: direct light with a sampler that does not learn
-                // (render.comp main) up to about 2^20 samples, so that no dispatch runs long
-                // enough for a desktop GPU's watchdog; otherwise one (paths: a dispatch per
-                // bounce; the learned samplers fold between passes).
-                let n = if !self.wavefront && fold_every.is_none() {
+                // Passes this dispatch takes: direct light (render.comp main) up to about
+                // 2^20 samples, so that no dispatch runs long enough for a desktop GPU's
+                // watchdog, and for a learned sampler not past the end of its learning window
+                // (the fold comes after); paths: one (a dispatch per bounce).
+                let n = if !self.wavefront {
                     let pixels = params.width * params.height;
-                    (k - i).min((DIRECT_SAMPLES_PER_DISPATCH / pixels).max(1))
+                    let n = (k - i).min((DIRECT_SAMPLES_PER_DISPATCH / pixels).max(1));
+                    // A learning window's passes (the statistics frozen) in one dispatch.
+                    match fold {
+                        Some((every, clock)) => n.min(every.to_window_end(clock.after(i))),
+                        None => n,
+                    }
                 } else {
                     1
                 };
@@ -314,8 +321,7 @@ impl PassKernels {
                     ctx.barrier(cmd);
                 }
                 i += n;
-                let last = params.sample_index + n - 1;
-                if fold_every.is_some_and(|every| (last + 1).is_multiple_of(every)) {
+                if fold.is_some_and(|(every, clock)| every.ends_at(clock.after(i))) {
                     // As many workgroups as the pass listed touched slots (render.comp).
                     self.fold.dispatch_indirect(
                         cmd,

@@ -30,6 +30,7 @@ use super::{camera_vectors, GpuScene, Learned, RegionStats, RenderResult, Render
 use crate::gpu::layout::{PixelAccum, RenderParams, SlotDelta, SlotStats};
 use crate::gpu::{Buffer, Context};
 use crate::learning::stats_file::{SavedStats, StatsHeader};
+use crate::learning::LearningClock;
 use crate::scene::{Camera, Scene};
 
 /// The film: per-pixel sums and counters since the last reset.
@@ -221,8 +222,7 @@ impl<'a> Session<'a> {
             }
             if self.growth_due {
                 // Growth waits for the next fold boundary (--update-every): stop there.
-                let every = self.settings.learn.update_every;
-                n = n.min(every - passes % every);
+                n = n.min(self.settings.learn.update_every.to_window_end(self.clock()));
             }
             debug_assert!(n > 0);
             seconds += self.submit_passes(n)?;
@@ -246,24 +246,33 @@ impl<'a> Session<'a> {
 
     /// `k` passes in one submission; their seconds.
     fn submit_passes(&mut self, k: u32) -> Result<f64> {
-        let fold_every = self
+        let fold = self
             .is_learning()
-            .then_some(self.settings.learn.update_every);
-        let dt =
-            self.kernels
-                .submit(&self.ctx, self.pass_params(), k, fold_every, &self.learned)?;
+            .then_some((self.settings.learn.update_every, self.clock()));
+        let dt = self
+            .kernels
+            .submit(&self.ctx, self.pass_params(), k, fold, &self.learned)?;
         self.learned.passes += k;
         self.film.spp += k;
         Ok(dt)
     }
 
+    /// The learning's clock for its windows: the learned passes, and as its age the film's
+    /// passes once the camera, size or chunk changed (`moved`), else the learned passes.
+    fn clock(&self) -> LearningClock {
+        LearningClock {
+            passes: self.learned.passes,
+            age: if self.moved {
+                self.film.spp
+            } else {
+                self.learned.passes
+            },
+        }
+    }
+
     /// Whether the window is empty (samplers that do not learn: always).
     fn at_fold_boundary(&self) -> bool {
-        !self.is_learning()
-            || self
-                .learned
-                .passes
-                .is_multiple_of(self.settings.learn.update_every)
+        !self.is_learning() || self.settings.learn.update_every.ends_at(self.clock())
     }
 
     /// Builds cuts (and, for the learned samplers, starting statistics) for the regions
