@@ -63,7 +63,9 @@ pub fn profile(
         let mut s = settings.clone();
         if !folds {
             // No fold inside the timed passes (the coefficients are set once, untimed), and so
-            // no region growth either: it waits for a fold boundary.
+            // no region growth either: it waits for a fold boundary. With direct light the
+            // passes then share dispatches too (one learning window), so what this saves is
+            // everything a fold costs, its breaking of the dispatch included.
             s.learn.update_every = UpdateEvery::Passes(passes + 1);
         }
         let mut best = f64::INFINITY;
