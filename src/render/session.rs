@@ -193,13 +193,14 @@ impl<'a> Session<'a> {
     }
 
     /// Runs `k` passes (one sample per pixel each); returns their seconds, including the
-    /// cuts built between them. The posteriors stay frozen within a pass and are folded
-    /// every `--update-every` passes: each pass's samples depend only on earlier passes, so
-    /// the average of passes is unbiased. Regions reached without a cut get one after
-    /// learning pass 1, 2, 4, …, 32 and every 64th ([`growth_point`]), and after a camera
-    /// move or resize also after the film's passes 1, 2, 4, …, 32: a fixed schedule, so the
-    /// image does not depend on how passes are batched, and a `--load-stats` continuation
-    /// of a render saved at a growth point grows where the uninterrupted render grew.
+    /// cuts built between them. The posteriors stay frozen within a learning window and are
+    /// folded at its end (`--update-every`, counted on the session's clock): each pass's
+    /// samples depend only on earlier passes, so the average of passes is unbiased. Regions
+    /// reached without a cut get one after learning pass 1, 2, 4, …, 32 and every 64th
+    /// ([`growth_point`]), and after a camera move or resize also after the film's passes
+    /// 1, 2, 4, …, 32: a fixed schedule, so the image does not depend on how passes are
+    /// batched, and a `--load-stats` continuation of a render saved at a growth point grows
+    /// where the uninterrupted render grew.
     pub fn run_passes(&mut self, k: u32) -> Result<f64> {
         if self
             .learned
