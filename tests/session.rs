@@ -398,6 +398,21 @@ fn regions_grow_at_fold_boundaries_with_update_every() {
     y.run_passes(5).unwrap();
     z.run_passes(5).unwrap();
     assert_eq!(y.image().unwrap(), z.image().unwrap());
+    // A camera move with a window open (auto: windows of 2 from pass 32) neither loses nor
+    // folds it: a snapshot holds the same statistics before and after the move.
+    let mut w = Session::new(&ctx, &s, &gpu, &settings(LightSampler::Bayes, 3)).unwrap();
+    w.run_passes(39).unwrap();
+    let before = w.snapshot().unwrap().unwrap();
+    w.set_camera(camera_b(&s)).unwrap();
+    let after = w.snapshot().unwrap().unwrap();
+    let total = |x: &SavedStats| x.stats.iter().map(|t| t.n_zero + t.n_nonzero).sum::<f32>();
+    assert!(total(&before) > 0.0);
+    assert!(
+        before.stats == after.stats,
+        "a move dropped the open window from the snapshot: {} → {} observations",
+        total(&before),
+        total(&after)
+    );
 }
 
 /// The window's list of touched slots, which the fold visits instead of every slot: after

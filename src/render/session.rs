@@ -83,6 +83,9 @@ pub struct Session<'a> {
     /// The camera or size changed since the session began (cuts grow on the film's schedule
     /// too).
     moved: bool,
+    /// The last pass did not end a learning window: observations wait in the window's sums.
+    /// Kept apart from the clock, whose age restarts with a move while a window may be open.
+    window_open: bool,
     /// A growth point has passed and the cuts grow at the next fold boundary.
     growth_due: bool,
     /// Passes skipped before the first (a farm chunk, [`Session::skip_passes`]).
@@ -129,6 +132,7 @@ impl<'a> Session<'a> {
             film,
             kernels,
             moved: false,
+            window_open: false,
             growth_due: false,
             growth_paused: false,
             skipped: 0,
@@ -255,6 +259,7 @@ impl<'a> Session<'a> {
             .submit(&self.ctx, self.pass_params(), k, fold, &self.learned)?;
         self.learned.passes += k;
         self.film.spp += k;
+        self.window_open = fold.is_some_and(|(every, _)| !every.ends_at(self.clock()));
         Ok(dt)
     }
 
@@ -273,7 +278,7 @@ impl<'a> Session<'a> {
 
     /// Whether the window is empty (samplers that do not learn: always).
     fn at_fold_boundary(&self) -> bool {
-        !self.is_learning() || self.settings.learn.update_every.ends_at(self.clock())
+        !self.window_open
     }
 
     /// Builds cuts (and, for the learned samplers, starting statistics) for the regions
