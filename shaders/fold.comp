@@ -22,9 +22,10 @@ layout(std430, set = 0, binding = 3) buffer Touched { uint touched_slots[]; };
 // mode FOLD_TOUCHED (between passes, an indirect dispatch): the listed slots, and the list
 // emptied for the next window; lavapipe runs the body for every invocation of a dispatch,
 // even those that return at once, so visiting only the touched slots is what makes a fold
-// cheap. FOLD_ALL: every slot, coefficients recomputed (fresh or loaded statistics); the
-// list is left as it is.
-layout(push_constant) uniform Push { uint slot_count; uint mode; };
+// cheap. FOLD_ALL: the slots from `first` on, coefficients recomputed (fresh or loaded
+// statistics: from 0; slots appended by region growth or cut refinement: from the first new
+// one, as the others' totals did not change); the list is left as it is.
+layout(push_constant) uniform Push { uint slot_count; uint mode; uint first; };
 #define FOLD_TOUCHED 0u
 #define FOLD_ALL 1u
 #define NO_SLOT 0xffffffffu
@@ -44,6 +45,8 @@ void main() {
         i = touched_slots[e];
         if (i == NO_SLOT) return;
         touched_slots[e] = NO_SLOT;
+    } else {
+        i += first;
     }
     if (i >= slot_count) return;
     SlotDelta d = slot_delta[i];

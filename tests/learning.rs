@@ -449,11 +449,11 @@ fn fold_kernel_matches_its_cpu_mirror() {
     list[4..4 + listed.len()].copy_from_slice(&listed);
     let db = Buffer::from_slice(&ctx, "deltas", &de).unwrap();
     let tb = Buffer::indirect(&ctx, "touched", &list).unwrap();
-    let k = ComputePipeline::new(&ctx, "fold", kernels::FOLD, 4, 8, &[]).unwrap();
+    let k = ComputePipeline::new(&ctx, "fold", kernels::FOLD, 4, 12, &[]).unwrap();
     k.bind(&[&sb, &db, &lb, &tb]).unwrap();
     // Mode 0, as between passes: the listed slots, by an indirect dispatch; the others
     // are left alone.
-    let push = [n as u32, 0];
+    let push = [n as u32, 0, 0];
     ctx.submit(|cmd| k.dispatch_indirect(cmd, bytemuck::cast_slice(&push), &tb, 0))
         .unwrap();
     let got: Vec<SlotStats> = sb.read().unwrap();

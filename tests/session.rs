@@ -8,6 +8,7 @@ use std::path::Path;
 
 use glam::Vec3;
 use lightlearn::accel::Bvh;
+use lightlearn::gpu::layout::SlotDelta;
 use lightlearn::learning::stats_file::SavedStats;
 use lightlearn::learning::UpdateEvery;
 use lightlearn::render::{Budget, GpuScene, LightSampler, RenderResult, RenderSettings, Session};
@@ -486,4 +487,61 @@ fn the_fold_visits_exactly_the_slots_the_window_touched() {
         // Slots that saw only occluded samples must be listed too (their zeros count).
         assert!(seen_zero_only > 0, "depth {depth}: no slot saw zeros alone");
     }
+}
+
+/// Slots appended by region growth start from the statistics a fresh session gives its
+/// slots (`initial_stats`: zero totals, the scale of the node's unoccluded estimate, and the
+/// coefficients the fold derives from them), whether the statistics buffer had to be made
+/// anew or had room for them (it grows by doubling and is written in place in between), and
+/// the fold after growth sets the coefficients of the new slots alone.
+#[test]
+fn grown_slots_start_from_their_initial_statistics() {
+    let ctx = common::ctx();
+    let s = scene("rooms16.glb");
+    let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
+    let set = settings(LightSampler::Bayes, 3);
+    let mut x = Session::new(&ctx, &s, &gpu, &set).unwrap();
+    let first = x.sampling_stats().unwrap().len();
+    let mut grown = vec![first];
+    // Growth points 1, 2, 4 (the buffer doubles at the first, the others fit), then a move
+    // and the film's growth points.
+    for (k, moved) in [
+        (1, false),
+        (1, false),
+        (2, false),
+        (1, true),
+        (1, false),
+        (2, false),
+        (4, false),
+    ] {
+        if moved {
+            x.set_camera(camera_b(&s)).unwrap();
+        }
+        x.run_passes(k).unwrap();
+        grown.push(x.sampling_stats().unwrap().len());
+    }
+    eprintln!("slots after each step: {grown:?}");
+    let appends = grown.windows(2).filter(|w| w[1] > w[0]).count();
+    assert!(appends >= 3, "too few growths to test: {grown:?}");
+    let stats = x.sampling_stats().unwrap();
+    let init = lightlearn::render::initial_stats(&gpu.tree, x.cuts(), &set.learn);
+    assert_eq!(stats.len(), init.len());
+    let mut checked = 0;
+    for (i, (g, c)) in stats.iter().zip(&init).enumerate().skip(first) {
+        if g.n_zero + g.n_nonzero > 0.0 {
+            continue;
+        }
+        let want = lightlearn::learning::fold(c, &SlotDelta::default(), &set.learn);
+        let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * a.abs().max(b.abs());
+        assert!(
+            g.scale == want.scale
+                && close(g.coef_a, want.coef_a)
+                && close(g.coef_b, want.coef_b)
+                && close(g.coef_c, want.coef_c),
+            "appended slot {i}: {g:?}, want {want:?}"
+        );
+        checked += 1;
+    }
+    eprintln!("{checked} appended slots without observations checked");
+    assert!(checked > 0);
 }

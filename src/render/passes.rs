@@ -172,7 +172,7 @@ impl PassKernels {
                 "fold",
                 kernels::FOLD,
                 FOLD_BINDINGS.len() as u32,
-                8,
+                std::mem::size_of::<[u32; 3]>() as u32,
                 &[],
             )?,
         })
@@ -265,12 +265,13 @@ impl PassKernels {
         Ok(())
     }
 
-    /// Folds the window into the totals and recomputes every slot's coefficients (fresh or
-    /// loaded statistics, new slots); between passes the fold visits the touched slots alone
-    /// ([`PassKernels::submit`]).
-    pub(super) fn fold_all(&self, ctx: &Context, slots: u32) -> Result<()> {
-        let push = [slots, FOLD_ALL];
-        let groups = [slots.div_ceil(64), 1, 1];
+    /// Folds the window into the totals and recomputes the coefficients of the slots from
+    /// `first` to `slots` (fresh or loaded statistics: all; after growth: the appended ones,
+    /// as the others' totals did not change); between passes the fold visits the touched
+    /// slots alone ([`PassKernels::submit`]).
+    pub(super) fn fold_all(&self, ctx: &Context, first: u32, slots: u32) -> Result<()> {
+        let push = [slots, FOLD_ALL, first];
+        let groups = [(slots - first).div_ceil(64).max(1), 1, 1];
         ctx.submit(|cmd| self.fold.dispatch(cmd, bytemuck::cast_slice(&push), groups))
     }
 
@@ -289,7 +290,7 @@ impl PassKernels {
     ) -> Result<f64> {
         let first = params.sample_index;
         let groups = [params.width.div_ceil(8), params.height.div_ceil(8), 1];
-        let fold_push = [learned.slots, FOLD_TOUCHED];
+        let fold_push = [learned.slots, FOLD_TOUCHED, 0];
         let queues = self.queues.as_ref().expect("the film is bound");
         params.queue_cap = queues.cap;
         let t0 = Instant::now();

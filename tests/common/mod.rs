@@ -107,9 +107,9 @@ pub fn gpu_samples_and_pmfs(
     )
     .unwrap();
     let fold =
-        ComputePipeline::new(ctx, "fold", lightlearn::gpu::kernels::FOLD, 4, 8, &[]).unwrap();
+        ComputePipeline::new(ctx, "fold", lightlearn::gpu::kernels::FOLD, 4, 12, &[]).unwrap();
     fold.bind(&[&sb, &db, &lb, &tb]).unwrap();
-    let slots = [stats.len() as u32, 1];
+    let slots = [stats.len() as u32, 1, 0];
     ctx.submit(|cmd| {
         fold.dispatch(
             cmd,
