@@ -305,7 +305,7 @@ fn direct_passes_in_one_dispatch_give_the_same_image() {
     let s = scene("rooms16.glb");
     let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
     // The learned samplers take a learning window's passes in one dispatch: 4 passes, or
-    // (auto) 1 up to pass 32 and 2 after it.
+    // (auto) 1 up to pass 16, 2 up to 32 and 4 after it.
     for (sampler, every) in [
         (LightSampler::Uniform, UpdateEvery::Auto),
         (LightSampler::Wang, UpdateEvery::Auto),
@@ -329,7 +329,7 @@ fn direct_passes_in_one_dispatch_give_the_same_image() {
             "{sampler:?}, update every {every}: batched passes changed the image"
         );
     }
-    // After a camera move `auto` counts the film's passes: windows of 1 again, then of 2.
+    // After a camera move `auto` counts the film's passes: windows of 1 again, then of 2, 4.
     let set = settings(LightSampler::Bayes, 3);
     let mut single = Session::new(&ctx, &s, &gpu, &set).unwrap();
     let mut batched = Session::new(&ctx, &s, &gpu, &set).unwrap();
@@ -347,7 +347,7 @@ fn direct_passes_in_one_dispatch_give_the_same_image() {
         single.image().unwrap() == batched.image().unwrap(),
         "moved: batched windows changed the image"
     );
-    // Up to pass 32 `auto` folds after every pass; a move there starts the film's 32 more
+    // Up to pass 16 `auto` folds after every pass; a move there starts the film's 16 more
     // (by the learned passes alone they would be windows of 2): the same image as folding
     // after every pass throughout.
     let mut every = settings(LightSampler::Bayes, 3);
@@ -355,9 +355,9 @@ fn direct_passes_in_one_dispatch_give_the_same_image() {
     let mut a = Session::new(&ctx, &s, &gpu, &set).unwrap();
     let mut b = Session::new(&ctx, &s, &gpu, &every).unwrap();
     for x in [&mut a, &mut b] {
-        x.run_passes(32).unwrap();
+        x.run_passes(16).unwrap();
         x.set_camera(camera_b(&s)).unwrap();
-        x.run_passes(30).unwrap();
+        x.run_passes(16).unwrap();
     }
     assert!(
         a.image().unwrap() == b.image().unwrap(),
@@ -399,7 +399,7 @@ fn regions_grow_at_fold_boundaries_with_update_every() {
     y.run_passes(5).unwrap();
     z.run_passes(5).unwrap();
     assert_eq!(y.image().unwrap(), z.image().unwrap());
-    // A camera move with a window open (auto: windows of 2 from pass 32) neither loses nor
+    // A camera move with a window open (auto: windows of 4 from pass 32) neither loses nor
     // folds it: a snapshot holds the same statistics before and after the move.
     let mut w = Session::new(&ctx, &s, &gpu, &settings(LightSampler::Bayes, 3)).unwrap();
     w.run_passes(39).unwrap();

@@ -179,7 +179,7 @@ impl RegionArgs {
 #[derive(Args)]
 pub struct LearnArgs {
     /// Fold new observations into the posteriors every K passes (1 pass = 1 spp); auto:
-    /// every pass up to pass 32, then windows of 2, 4, 8 and (from pass 256) 16 passes,
+    /// every pass up to pass 16, then windows of 2, 4, 8 and (from pass 128) 16 passes,
     /// counted from the last camera move.
     #[arg(long, default_value = "auto", value_name = "K|auto")]
     pub update_every: UpdateEvery,

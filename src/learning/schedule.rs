@@ -4,7 +4,7 @@
 
 /// When the observations are folded into the posteriors (`--update-every`): after every K
 /// learned passes, or (`auto`, the default) after every pass while the learning is young and
-/// in longer windows later, each at most 1/16 of its age.
+/// in longer windows later, each at most 1/8 of its age.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum UpdateEvery {
     Passes(u32),
@@ -32,22 +32,25 @@ impl LearningClock {
 }
 
 impl UpdateEvery {
-    /// The longest window of `auto`: 16 passes, from age 256 on.
+    /// The longest window of `auto`: 16 passes, from age 128 on.
     const AUTO_MAX: u32 = 16;
 
-    /// `auto`'s window at `age`: 1 up to age 32, then the largest power of two ≤ age / 16, at
-    /// most [`Self::AUTO_MAX`]: windows of 2 from age 32, 4 from 64, 8 from 128, 16 from 256.
+    /// `auto`'s window at `age`: 1 up to age 16, then the largest power of two ≤ age / 8, at
+    /// most [`Self::AUTO_MAX`]: windows of 2 from age 16, 4 from 32, 8 from 64, 16 from 128.
     /// Each starts at a multiple of its length, so the windows depend only on the clock
     /// (never on how passes are batched).
-    /// Why: a pass of a small film costs lavapipe as much in per-dispatch overhead as in
-    /// samples, and a direct-light window is one dispatch; statistics that have many passes
-    /// in them barely move in a few more. rooms16, city, hall, strings (direct, 128×96,
-    /// 256 spp, two seeds): `auto` 0.72–0.85× the time of windows of 1, the variance within
-    /// the seeds' noise; windows of 4 from the start cost up to 12 % more variance (city),
-    /// and `auto` on the learned passes alone 31 % more on a camera walk with carried
+    /// Why: a direct-light window is one dispatch, and on lavapipe a pass alone in its
+    /// dispatch costs ~1.6× a pass among others (city, wang, 128×96: 2.5–2.9 s against
+    /// 1.6–1.7 s for 512 passes), while statistics that have many passes in them barely move
+    /// in a few more. rooms16, city, hall, strings (direct, 128×96, 256 spp): windows up to
+    /// 1/16 of the age took 0.72–0.85× the time of windows of 1 with the variance within
+    /// the seeds' noise; up to 1/8 (48 windows in 256 passes instead of 80) city 0.94× the
+    /// time of 1/16 for 1.7 % more variance, the other three +0.0–0.2 % (six seeds); 1/4:
+    /// city +3.4 %, strings +2.0 %, hardly faster. Windows of 4 from the start cost 12 %
+    /// (city); `auto` on the learned passes alone 31 % more on a camera walk with carried
     /// learning, hence the film's age after a move (docs/results.md, 2026-12-03).
     fn auto_window(age: u32) -> u32 {
-        let w = (age / 16).clamp(1, Self::AUTO_MAX);
+        let w = (age / 8).clamp(1, Self::AUTO_MAX);
         1 << (31 - w.leading_zeros())
     }
 
@@ -115,7 +118,7 @@ mod tests {
         LearningClock { passes, age }
     }
 
-    /// Auto: every pass a window up to age 32, then windows of 2, 4, 8, 16 that start at
+    /// Auto: every pass a window up to age 16, then windows of 2, 4, 8, 16 that start at
     /// multiples of their length; every growth point (passes 1, 2, 4, …, 32 and every 64th)
     /// ends one; the window ends are the same whichever pass one asks from; a film's age
     /// restarts them. K passes: by learned passes alone.
@@ -123,8 +126,8 @@ mod tests {
     fn auto_windows() {
         let auto = UpdateEvery::Auto;
         let ends: Vec<u32> = (1..=300).filter(|&p| auto.ends_at(clock(p, p))).collect();
-        let mut want: Vec<u32> = (1..=32).collect();
-        for (from, to, w) in [(32, 64, 2), (64, 128, 4), (128, 256, 8), (256, 300, 16)] {
+        let mut want: Vec<u32> = (1..=16).collect();
+        for (from, to, w) in [(16, 32, 2), (32, 64, 4), (64, 128, 8), (128, 300, 16)] {
             want.extend((from + w..=to).step_by(w as usize));
         }
         assert_eq!(ends, want);
@@ -142,10 +145,10 @@ mod tests {
                 (p + 1..end).all(|q| !auto.ends_at(clock(q, q))),
                 "{p}: skipped an end"
             );
-            assert!(UpdateEvery::auto_window(p) <= (p / 16).max(1));
+            assert!(UpdateEvery::auto_window(p) <= (p / 8).max(1));
         }
         // After a move the film's age counts: 1000 passes learned, the film's 5th: its own
-        // window of 1; the film's 40th: of 2 (by the age, whatever the passes).
+        // window of 1; the film's 40th: of 4 (by the age, whatever the passes).
         assert!(auto.ends_at(clock(1000, 5)) && auto.ends_at(clock(1001, 6)));
         assert_eq!(auto.to_window_end(clock(1039, 39)), 1);
         assert!(!auto.ends_at(clock(1038, 39)) && auto.ends_at(clock(1037, 40)));
