@@ -181,9 +181,9 @@ impl LearnedState {
     /// Grows the statistics and window-sum buffers by `tail` (the totals of the slots
     /// appended to `cuts`; their window sums start empty), keeping every existing slot.
     /// Within the capacity the tail is written in place (one upload); beyond it the three
-    /// buffers are made anew with twice the room (up to what the device allows), so that
-    /// the 10 growths of a 256-pass render reallocate 3-4 times instead of 10: a
-    /// reallocation with its copies was 1-3.5 ms of a growth (city, 128x96).
+    /// buffers are made anew with twice the room (up to what the device allows): of the 10
+    /// growths of a 256-pass render on city (128x96) only the first reallocates now, and a
+    /// reallocation with its copies was 1-3.5 ms of a growth.
     fn append_slots(&mut self, ctx: &Arc<Context>, tail: &[SlotStats]) -> Result<()> {
         let (old, new) = (self.slots as u64, self.slots as u64 + tail.len() as u64);
         let slot = std::mem::size_of::<SlotStats>() as u64;
