@@ -269,7 +269,7 @@ impl PassKernels {
     /// `first` to `slots` (fresh or loaded statistics: all; after growth: the appended ones,
     /// as the others' totals did not change); between passes the fold visits the touched
     /// slots alone ([`PassKernels::submit`]).
-    pub(super) fn fold_all(&self, ctx: &Context, first: u32, slots: u32) -> Result<()> {
+    pub(super) fn fold_from(&self, ctx: &Context, first: u32, slots: u32) -> Result<()> {
         let push = [slots, FOLD_ALL, first];
         let groups = [(slots - first).div_ceil(64).max(1), 1, 1];
         ctx.submit(|cmd| self.fold.dispatch(cmd, bytemuck::cast_slice(&push), groups))
