@@ -309,6 +309,50 @@ fn outputs_are_checked_before_rendering() {
     assert_eq!(files(d), ["b.png", "folder.exr"]);
 }
 
+/// A sample count past the 2^31 passes of the random streams was accepted and would only have
+/// failed after 2^31 passes (days): each command refuses it before any work.
+#[test]
+fn sample_counts_past_the_random_streams_are_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let t = Instant::now();
+    let too_many = "4294967295";
+    let tiny = ["--width", "8", "--height", "8", "-q"];
+    for cmd in [
+        vec!["render", "--spp", too_many],
+        vec!["animate", "--spp", too_many],
+        vec!["compare", "--spp", too_many, "--out", "cmp"],
+        vec!["reference", "--spp", too_many, "--out", "ref.exr"],
+    ] {
+        let mut args = cmd.clone();
+        args.extend(tiny);
+        let walk = scene("rooms-walk.glb");
+        if cmd[0] == "animate" {
+            args.extend([walk.to_str().unwrap(), "--out", "anim"]);
+        }
+        // Without the check the command renders for days: give it 60 s.
+        let mut child = Command::new(common::exe())
+            .args(&args)
+            .current_dir(d)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("run lightlearn");
+        while child.try_wait().unwrap().is_none() {
+            if t.elapsed() > Duration::from_secs(60) {
+                child.kill().unwrap();
+                panic!("`{}` was not refused at once", args.join(" "));
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        refused(
+            &child.wait_with_output().unwrap(),
+            &[too_many, "2147483648"],
+        );
+    }
+    assert!(files(d).is_empty(), "wrote {:?}", files(d));
+}
+
 #[test]
 fn a_damaged_cached_reference_is_rendered_again() {
     let dir = tempfile::tempdir().unwrap();

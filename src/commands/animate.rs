@@ -116,8 +116,10 @@ pub fn check_timing(fps: f64, forget: f32) -> Result<()> {
 pub fn check(req: &AnimateRequest) -> Result<()> {
     check_timing(req.fps, req.forget)?;
     super::check_size(req.width, req.height)?;
+    if let Some(n) = req.spp {
+        super::check_spp("--spp", n)?;
+    }
     match (req.spp, req.seconds) {
-        (Some(0), _) => bail!("--spp must be at least 1"),
         (None, Some(t)) if !(t.is_finite() && t > 0.0) => {
             bail!("--time must be a positive number of seconds")
         }

@@ -71,9 +71,7 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
         budgets.push(Budget::Seconds(t));
     }
     if let Some(n) = a.spp {
-        if n == 0 {
-            bail!("--spp must be at least 1");
-        }
+        super::check_spp("--spp", n)?;
         budgets.push(Budget::Samples(n));
     }
     if budgets.is_empty() {

@@ -54,6 +54,19 @@ pub fn check_size(width: u32, height: u32) -> Result<()> {
     Ok(())
 }
 
+/// A sample count: at least 1, and within the passes a pixel's random streams hold, so that a
+/// count past them is refused before any work rather than after 2^31 passes.
+pub fn check_spp(flag: &str, n: u32) -> Result<()> {
+    if n == 0 {
+        bail!("{flag} must be at least 1");
+    }
+    let max = crate::render::MAX_PASSES;
+    if n > max {
+        bail!("{flag} {n} is more than the {max} samples per pixel the random streams hold: use at most {max}");
+    }
+    Ok(())
+}
+
 pub fn check_depth(d: u32) -> Result<()> {
     if !(1..=MAX_DEPTH).contains(&d) {
         bail!("--max-depth {d} is out of range: use 1 (direct light) to {MAX_DEPTH} (Russian roulette ends most paths long before)");

@@ -60,8 +60,10 @@ pub struct RenderOutcome {
 /// writes what it has and says so in the outcome.
 pub fn run(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
     let started = Instant::now();
+    if let Some(n) = req.spp {
+        super::check_spp("--spp", n)?;
+    }
     let budget = match (req.spp, req.seconds) {
-        (Some(0), _) => bail!("--spp must be at least 1"),
         (Some(n), _) => Budget::Samples(n),
         (None, Some(t)) if !(t.is_finite() && t > 0.0) => {
             bail!("--time must be a positive number of seconds")

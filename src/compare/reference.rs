@@ -136,6 +136,10 @@ pub fn settings(
     if spp == 0 {
         bail!("the reference needs at least 1 sample per pixel");
     }
+    let max = crate::render::MAX_PASSES;
+    if spp > max {
+        bail!("a reference of {spp} spp is more than the {max} samples per pixel the random streams hold: use at most {max}");
+    }
     if width == 0 || height == 0 || width > 16384 || height > 16384 {
         bail!("--width/--height must be between 1 and 16384");
     }
