@@ -5,9 +5,9 @@ SEEDS renders of other seeds; the variance of one render is the mean over pixels
 sample variance across seeds (no reference needed), its time the mean render seconds of the
 JSON reports. Variance x time is proportional to the MSE at equal time (unbiased samplers), so
 the table gives each sampler's equal-time and equal-spp ratio against wang and donikian. A
-few pixels can hold most of a scene's variance (strings: a bulb touching a surface, where the
-pixel's value has no finite variance for any sampler), so the median over pixels of the
-per-pixel variance (over the pixels that vary: not the sky) is given too, as a ratio against wang's (wang's ÷ the sampler's).
+few pixels can hold most of a scene's variance (strings5k: one to ten pixels, 77-95 %, whose
+values jump 10-100x between seeds), so the median over pixels of the per-pixel variance (over
+the pixels that vary: not the sky) is given too, as wang's divided by the sampler's.
 
   python3 ci/bench_outside.py [DEPTH] [SPP] [SEEDS] [OUT]
   python3 ci/bench_outside.py 1 256 4 bench-outside     # direct light (docs/results.md)

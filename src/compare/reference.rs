@@ -133,16 +133,8 @@ pub fn settings(
     seed: u32,
     max_depth: u32,
 ) -> Result<RenderSettings> {
-    if spp == 0 {
-        bail!("the reference needs at least 1 sample per pixel");
-    }
-    let max = crate::render::MAX_PASSES;
-    if spp > max {
-        bail!("a reference of {spp} spp is more than the {max} samples per pixel the random streams hold: use at most {max}");
-    }
-    if width == 0 || height == 0 || width > 16384 || height > 16384 {
-        bail!("--width/--height must be between 1 and 16384");
-    }
+    crate::commands::check_spp("the reference's spp", spp)?;
+    crate::commands::check_size(width, height)?;
     Ok(RenderSettings {
         width,
         height,
