@@ -12,8 +12,10 @@ use bytemuck::{Pod, Zeroable};
 /// Marks a child reference in [`BvhNode`] as a leaf; the low bits are then the first triangle.
 pub const BVH_LEAF_BIT: u32 = 0x8000_0000;
 
-/// A BVH2 node that stores the boxes of both children, so one 64-byte fetch tests two boxes
-/// and the nearer child is visited first.
+/// A 4-wide BVH node that stores the boxes of its (up to) four children, so one 128-byte
+/// fetch tests four boxes and a ray's chain of dependent node fetches is half as long as a
+/// binary tree's (docs/results.md, "BVH nodes in 32 bytes": fewer bytes a node did not help,
+/// a shorter chain did). Children a, b, c, d; a missing one is an empty leaf.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct BvhNode {
@@ -27,6 +29,14 @@ pub struct BvhNode {
     pub b_ref: u32,
     pub b_max: [f32; 3],
     pub b_count: u32,
+    pub c_min: [f32; 3],
+    pub c_ref: u32,
+    pub c_max: [f32; 3],
+    pub c_count: u32,
+    pub d_min: [f32; 3],
+    pub d_ref: u32,
+    pub d_max: [f32; 3],
+    pub d_count: u32,
 }
 
 /// A triangle in BVH leaf order, pre-transformed for Möller–Trumbore (v0 and two edges).

@@ -155,7 +155,15 @@ fn host_and_shader_structs_match() {
             b_min,
             b_ref,
             b_max,
-            b_count
+            b_count,
+            c_min,
+            c_ref,
+            c_max,
+            c_count,
+            d_min,
+            d_ref,
+            d_max,
+            d_count
         }),
         rust_layout!(BvhTri {
             v0,

@@ -1,25 +1,30 @@
-// BVH traversal. The including kernel declares `bvh_node_texels` and `bvh_tri_texels`
-// (usamplerBuffer: BvhNode[] and BvhTri[] as RGBA32UI texels, src/gpu/buffer.rs
-// Buffer::texels, which says why texels and not storage buffers). Same loop as Bvh::traverse in src/accel/bvh.rs (here both children's leaves
-// in one inner loop, tested in the same order: the same hits).
+// BVH traversal over 4-wide nodes. The including kernel declares `bvh_node_texels` and
+// `bvh_tri_texels` (usamplerBuffer: BvhNode[] and BvhTri[] as RGBA32UI texels,
+// src/gpu/buffer.rs Buffer::texels, which says why texels and not storage buffers). Same loop
+// as Bvh::traverse in src/accel/bvh.rs (here the leaves of all four children in one inner
+// loop, tested in the same order: the same hits).
 #ifndef BVH_GLSL
 #define BVH_GLSL
 
 #include "types.glsl"
 
 // Far children waiting to be visited; the builder caps the depth so this cannot overflow
-// (src/accel/bvh.rs MAX_DEPTH).
-#define STACK_SIZE 48
+// (src/accel/bvh.rs STACK_SIZE says why 72 is enough).
+#define STACK_SIZE 72
 #define NO_HIT 0xffffffffu
 
-// Node i of the BVH: four texels, in the order of BvhNode's members (tests/layout.rs checks
+// Node i of the BVH: eight texels, in the order of BvhNode's members (tests/layout.rs checks
 // the round trip against the host's bytes).
 BvhNode bvh_node(uint i) {
-    int t = int(4u * i);
+    int t = int(8u * i);
     uvec4 a = texelFetch(bvh_node_texels, t);
     uvec4 b = texelFetch(bvh_node_texels, t + 1);
     uvec4 c = texelFetch(bvh_node_texels, t + 2);
     uvec4 d = texelFetch(bvh_node_texels, t + 3);
+    uvec4 e = texelFetch(bvh_node_texels, t + 4);
+    uvec4 f = texelFetch(bvh_node_texels, t + 5);
+    uvec4 g = texelFetch(bvh_node_texels, t + 6);
+    uvec4 h = texelFetch(bvh_node_texels, t + 7);
     BvhNode n;
     n.a_min = uintBitsToFloat(a.xyz);
     n.a_ref = a.w;
@@ -29,6 +34,14 @@ BvhNode bvh_node(uint i) {
     n.b_ref = c.w;
     n.b_max = uintBitsToFloat(d.xyz);
     n.b_count = d.w;
+    n.c_min = uintBitsToFloat(e.xyz);
+    n.c_ref = e.w;
+    n.c_max = uintBitsToFloat(f.xyz);
+    n.c_count = f.w;
+    n.d_min = uintBitsToFloat(g.xyz);
+    n.d_ref = g.w;
+    n.d_max = uintBitsToFloat(h.xyz);
+    n.d_count = h.w;
     return n;
 }
 
@@ -76,6 +89,13 @@ float intersect_tri(BvhTri tri, vec3 o, vec3 d, float tmin, float tmax) {
     return (t > tmin && t < tmax) ? t : -1.0;
 }
 
+// Sorts (key, ref) pairs i < j by key: one compare-exchange of the network in trace_ray.
+#define COMPARE_EXCHANGE(i, j) \
+    if (key[j] < key[i]) { \
+        float tk = key[i]; key[i] = key[j]; key[j] = tk; \
+        uint tr = rf[i]; rf[i] = rf[j]; rf[j] = tr; \
+    }
+
 // Closest hit (any_hit = false) or the first hit found (shadow rays) with t in (tmin, tmax).
 // Returns the index into the BVH's triangles of the hit triangle or NO_HIT; its distance in t_hit.
 uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t_hit) {
@@ -92,38 +112,56 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
     uint node = 0u;
     for (;;) {
         BvhNode n = bvh_node(node);
-        float ta = slab(n.a_min, n.a_max, oi, inv, tmin, best_t);
-        float tb = slab(n.b_min, n.b_max, oi, inv, tmin, best_t);
-        bool hit_a = ta >= 0.0;
-        bool hit_b = tb >= 0.0;
-        // The triangles of both children that are hit leaves, in one loop (a's first): one
-        // copy of the intersection code, so SIMD lanes with a leaf in a and lanes with one
-        // in b run it together.
-        uint na = hit_a && (n.a_ref & BVH_LEAF_BIT) != 0u ? n.a_count : 0u;
-        uint nb = hit_b && (n.b_ref & BVH_LEAF_BIT) != 0u ? n.b_count : 0u;
-        if (na + nb > 0u) {
+        float key[4];
+        uint rf[4];
+        key[0] = slab(n.a_min, n.a_max, oi, inv, tmin, best_t);
+        key[1] = slab(n.b_min, n.b_max, oi, inv, tmin, best_t);
+        key[2] = slab(n.c_min, n.c_max, oi, inv, tmin, best_t);
+        key[3] = slab(n.d_min, n.d_max, oi, inv, tmin, best_t);
+        rf[0] = n.a_ref;
+        rf[1] = n.b_ref;
+        rf[2] = n.c_ref;
+        rf[3] = n.d_ref;
+        // The triangles of every child that is a hit leaf, in one loop (a's first, then b, c,
+        // d): one copy of the intersection code, so SIMD lanes with leaves in different
+        // children run it together.
+        uint na = key[0] >= 0.0 && (n.a_ref & BVH_LEAF_BIT) != 0u ? n.a_count : 0u;
+        uint nb = key[1] >= 0.0 && (n.b_ref & BVH_LEAF_BIT) != 0u ? n.b_count : 0u;
+        uint nc = key[2] >= 0.0 && (n.c_ref & BVH_LEAF_BIT) != 0u ? n.c_count : 0u;
+        uint nd = key[3] >= 0.0 && (n.d_ref & BVH_LEAF_BIT) != 0u ? n.d_count : 0u;
+        uint nab = na + nb;
+        uint nabc = nab + nc;
+        if (nabc + nd > 0u) {
             uint fa = n.a_ref & ~BVH_LEAF_BIT;
             uint fb = n.b_ref & ~BVH_LEAF_BIT;
-            for (uint k = 0u; k < na + nb; ++k) {
-                uint i = k < na ? fa + k : fb + (k - na);
+            uint fc = n.c_ref & ~BVH_LEAF_BIT;
+            uint fd = n.d_ref & ~BVH_LEAF_BIT;
+            for (uint k = 0u; k < nabc + nd; ++k) {
+                uint i = k < na ? fa + k : (k < nab ? fb + (k - na) : (k < nabc ? fc + (k - nab) : fd + (k - nabc)));
                 float t = intersect_tri(bvh_tri(i), o, d, tmin, best_t);
                 if (t >= 0.0) { best_t = t; best = i; }
                 if (any_hit && best != NO_HIT) break;
             }
             if (any_hit && best != NO_HIT) break;
-            hit_a = hit_a && na == 0u;
-            hit_b = hit_b && nb == 0u;
         }
-        if (hit_a && hit_b) {
-            bool a_first = ta <= tb;
-            stack[sp] = a_first ? n.b_ref : n.a_ref;
-            stack_t[sp] = a_first ? tb : ta;
-            sp++;
-            node = a_first ? n.a_ref : n.b_ref;
-        } else if (hit_a) {
-            node = n.a_ref;
-        } else if (hit_b) {
-            node = n.b_ref;
+        // Interior children that can still hold a closer hit, nearest first; the others sort
+        // last with key ∞ (a five-exchange sorting network).
+        uint m = 0u;
+        for (int i = 0; i < 4; ++i) {
+            bool inner = key[i] >= 0.0 && (rf[i] & BVH_LEAF_BIT) == 0u && key[i] <= best_t;
+            key[i] = inner ? key[i] : uintBitsToFloat(0x7f800000u);  // +inf
+            m += inner ? 1u : 0u;
+        }
+        COMPARE_EXCHANGE(0, 1)
+        COMPARE_EXCHANGE(2, 3)
+        COMPARE_EXCHANGE(0, 2)
+        COMPARE_EXCHANGE(1, 3)
+        COMPARE_EXCHANGE(1, 2)
+        if (m > 0u) {
+            if (m > 3u) { stack[sp] = rf[3]; stack_t[sp] = key[3]; sp++; }
+            if (m > 2u) { stack[sp] = rf[2]; stack_t[sp] = key[2]; sp++; }
+            if (m > 1u) { stack[sp] = rf[1]; stack_t[sp] = key[1]; sp++; }
+            node = rf[0];
         } else {
             // Pop the next child that can still hold a closer hit.
             bool found = false;

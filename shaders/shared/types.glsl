@@ -18,6 +18,10 @@ struct BvhNode {
     vec3 a_max; uint a_count;
     vec3 b_min; uint b_ref;
     vec3 b_max; uint b_count;
+    vec3 c_min; uint c_ref;
+    vec3 c_max; uint c_count;
+    vec3 d_min; uint d_ref;
+    vec3 d_max; uint d_count;
 };
 
 struct BvhTri {

@@ -1,6 +1,8 @@
-//! Geometry BVH: a binned-SAH binary BVH built on the host, flattened into [`BvhNode`]s that
-//! hold both children's boxes (one fetch tests two boxes), plus the CPU traversal of exactly
-//! those nodes that the tests and the ray-throughput benchmark compare the GPU kernel with.
+//! Geometry BVH: a binned-SAH binary BVH built on the host, collapsed into 4-wide
+//! [`BvhNode`]s (each node holds the boxes of a binary node's grandchildren, or of a child
+//! that is a leaf: one fetch tests up to four boxes, and a path from the root is half as many
+//! dependent fetches), plus the CPU traversal of exactly those nodes that the tests and the
+//! ray-throughput benchmark compare the GPU kernel with.
 
 use glam::Vec3;
 
@@ -8,9 +10,12 @@ use crate::gpu::layout::{BvhNode, BvhTri, BVH_LEAF_BIT};
 
 /// Leaves hold at most this many triangles unless the depth limit forces more.
 const MAX_LEAF: usize = 4;
-/// The traversal stack in `shaders/shared/bvh.glsl` holds `STACK_SIZE` entries; a binary tree
-/// of depth D needs at most D - 1, so the builder stops splitting at this depth.
+/// The builder stops splitting at this binary depth, which bounds the traversal stack.
 pub const MAX_DEPTH: usize = 48;
+/// Entries of the traversal stack (`STACK_SIZE` in `shaders/shared/bvh.glsl`): a 4-wide node
+/// spans two binary levels wherever it has interior children, so a path has at most
+/// MAX_DEPTH / 2 nodes, and each pushes at most three children: 3 · (24 − 1) = 69 ≤ 72.
+pub const STACK_SIZE: usize = 72;
 const BINS: usize = 16;
 
 #[derive(Clone, Debug)]
@@ -125,7 +130,8 @@ impl Bvh {
         self.traverse(o, d, tmin, tmax, true).is_some()
     }
 
-    /// The same loop as `trace_ray` in `shaders/shared/bvh.glsl`.
+    /// The same loop as `trace_ray` in `shaders/shared/bvh.glsl`, test for test and in the same
+    /// order, so both find the same triangle even where two are hit at the same distance.
     fn traverse(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, any: bool) -> Option<(f32, u32)> {
         // A zero direction component would make o * inv = 0 * inf = NaN: nudge it to ±1e-20.
         let nudge = |c: f32| {
@@ -139,40 +145,54 @@ impl Bvh {
         let oi = o * inv;
         let mut best_t = tmax;
         let mut best = u32::MAX;
-        let mut stack = [(0u32, 0f32); MAX_DEPTH];
+        let mut stack = [(0u32, 0f32); STACK_SIZE];
         let mut sp = 0usize;
         let mut node = 0u32;
         loop {
             let n = &self.nodes[node as usize];
-            let ta = slab(n.a_min, n.a_max, oi, inv, tmin, best_t);
-            let tb = slab(n.b_min, n.b_max, oi, inv, tmin, best_t);
-            let mut hit_a = ta.is_some();
-            let mut hit_b = tb.is_some();
-            if hit_a && n.a_ref & BVH_LEAF_BIT != 0 {
-                hit_a = false;
-                if self.leaf(n.a_ref, n.a_count, o, d, tmin, &mut best_t, &mut best) && any {
+            let kids = [
+                (n.a_min, n.a_max, n.a_ref, n.a_count),
+                (n.b_min, n.b_max, n.b_ref, n.b_count),
+                (n.c_min, n.c_max, n.c_ref, n.c_count),
+                (n.d_min, n.d_max, n.d_ref, n.d_count),
+            ];
+            // All four boxes against the distance known on arrival (-1: missed), then the
+            // leaves in order.
+            let mut key = [0f32; 4];
+            let mut refs = [0u32; 4];
+            for i in 0..4 {
+                key[i] = slab(kids[i].0, kids[i].1, oi, inv, tmin, best_t);
+                refs[i] = kids[i].2;
+            }
+            for i in 0..4 {
+                if key[i] >= 0.0
+                    && refs[i] & BVH_LEAF_BIT != 0
+                    && self.leaf(refs[i], kids[i].3, o, d, tmin, &mut best_t, &mut best)
+                    && any
+                {
                     return Some((best_t, best));
                 }
             }
-            if hit_b && n.b_ref & BVH_LEAF_BIT != 0 {
-                hit_b = false;
-                if self.leaf(n.b_ref, n.b_count, o, d, tmin, &mut best_t, &mut best) && any {
-                    return Some((best_t, best));
+            // Interior children that can still hold a closer hit, nearest first (the same
+            // five compare-exchanges as the kernel; the others sort last with key ∞).
+            let mut m = 0;
+            for i in 0..4 {
+                let inner = key[i] >= 0.0 && refs[i] & BVH_LEAF_BIT == 0 && key[i] <= best_t;
+                key[i] = if inner { key[i] } else { f32::INFINITY };
+                m += inner as usize;
+            }
+            for (i, j) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
+                if key[j] < key[i] {
+                    key.swap(i, j);
+                    refs.swap(i, j);
                 }
             }
-            if hit_a && hit_b {
-                let (near, far) = if ta <= tb {
-                    (n.a_ref, (n.b_ref, tb.unwrap()))
-                } else {
-                    (n.b_ref, (n.a_ref, ta.unwrap()))
-                };
-                stack[sp] = far;
-                sp += 1;
-                node = near;
-            } else if hit_a {
-                node = n.a_ref;
-            } else if hit_b {
-                node = n.b_ref;
+            if m > 0 {
+                for j in (1..m).rev() {
+                    stack[sp] = (refs[j], key[j]);
+                    sp += 1;
+                }
+                node = refs[0];
             } else {
                 // Pop the next child that can still hold a closer hit.
                 let mut found = false;
@@ -214,14 +234,18 @@ impl Bvh {
 }
 
 /// Ray/box slab test (`oi` = o · inv); the entry distance if the box is hit within
-/// [tmin, tmax].
+/// [tmin, tmax], else -1 (tmin ≥ 0), as `slab` in the kernel.
 #[inline]
-fn slab(lo: [f32; 3], hi: [f32; 3], oi: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
+fn slab(lo: [f32; 3], hi: [f32; 3], oi: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> f32 {
     let t0 = Vec3::from(lo) * inv - oi;
     let t1 = Vec3::from(hi) * inv - oi;
     let near = t0.min(t1).max_element().max(tmin);
     let far = t0.max(t1).min_element().min(tmax);
-    (near <= far).then_some(near)
+    if near <= far {
+        near
+    } else {
+        -1.0
+    }
 }
 
 /// Möller–Trumbore, both faces; Some(t) for a hit with t in (tmin, tmax).
@@ -323,8 +347,26 @@ fn partition(ids: &mut [u32], left: impl Fn(u32) -> bool) -> usize {
     i
 }
 
-/// Lays out interior nodes depth-first (parent, left subtree, right subtree) and triangles in
-/// leaf order.
+/// A child slot of a node: (box min, box max, reference, leaf triangle count).
+type Child = ([f32; 3], [f32; 3], u32, u32);
+
+fn set_child(n: &mut BvhNode, i: usize, (lo, hi, r, count): Child) {
+    let (min, max, rf, c) = match i {
+        0 => (&mut n.a_min, &mut n.a_max, &mut n.a_ref, &mut n.a_count),
+        1 => (&mut n.b_min, &mut n.b_max, &mut n.b_ref, &mut n.b_count),
+        2 => (&mut n.c_min, &mut n.c_max, &mut n.c_ref, &mut n.c_count),
+        _ => (&mut n.d_min, &mut n.d_max, &mut n.d_ref, &mut n.d_count),
+    };
+    (*min, *max, *rf, *c) = (lo, hi, r, count);
+}
+
+/// An empty child: a leaf of no triangles (a point box far away; even where a ray meets it,
+/// it adds no test).
+const EMPTY_CHILD: Child = ([1e30; 3], [1e30; 3], BVH_LEAF_BIT, 0);
+
+/// Lays out the 4-wide nodes depth-first (a node, then its children's subtrees in order) and
+/// the triangles in leaf order. A node's children are its binary node's grandchildren, or the
+/// child itself where that is a leaf.
 fn flatten(nodes: &[BuildNode], ids: &[u32], triangles: &[[Vec3; 3]]) -> Bvh {
     let tris = ids
         .iter()
@@ -339,49 +381,65 @@ fn flatten(nodes: &[BuildNode], ids: &[u32], triangles: &[[Vec3; 3]]) -> Bvh {
             }
         })
         .collect();
+    let empty = || {
+        let mut n = BvhNode::default();
+        (0..4).for_each(|i| set_child(&mut n, i, EMPTY_CHILD));
+        n
+    };
     let mut out: Vec<BvhNode> = Vec::new();
     let root = &nodes[0];
     if root.kids.is_none() {
-        // A single leaf: one node with the leaf as child A and an empty leaf as child B.
-        out.push(BvhNode {
-            a_min: root.bounds.lo.to_array(),
-            a_max: root.bounds.hi.to_array(),
-            a_ref: BVH_LEAF_BIT | root.first as u32,
-            a_count: root.count as u32,
-            b_min: [1e30; 3],
-            b_max: [1e30; 3],
-            b_ref: BVH_LEAF_BIT,
-            b_count: 0,
-        });
+        // A single leaf: one node with the leaf as child A and empty leaves for the others.
+        let mut n = empty();
+        let leaf = BVH_LEAF_BIT | root.first as u32;
+        set_child(
+            &mut n,
+            0,
+            (
+                root.bounds.lo.to_array(),
+                root.bounds.hi.to_array(),
+                leaf,
+                root.count as u32,
+            ),
+        );
+        out.push(n);
         return Bvh { nodes: out, tris };
     }
+    let wide_children = |n: usize| -> Vec<usize> {
+        let (l, r) = nodes[n]
+            .kids
+            .expect("only interior build nodes become 4-wide nodes");
+        [l, r]
+            .iter()
+            .flat_map(|&c| match nodes[c].kids {
+                Some((a, b)) => vec![a, b],
+                None => vec![c],
+            })
+            .collect()
+    };
     // Each interior node gets its slot before its children (pre-order).
-    let mut stack = vec![(0usize, usize::MAX, false)]; // (build node, parent slot, is B child)
-    while let Some((n, parent, is_b)) = stack.pop() {
+    let mut stack = vec![(0usize, usize::MAX, 0usize)]; // (build node, parent slot, child)
+    while let Some((n, parent, i)) = stack.pop() {
         let node = &nodes[n];
         let (child_ref, count) = match node.kids {
             Some(_) => (out.len() as u32, 0),
             None => (BVH_LEAF_BIT | node.first as u32, node.count as u32),
         };
         if parent != usize::MAX {
-            let p = &mut out[parent];
-            if is_b {
-                p.b_min = node.bounds.lo.to_array();
-                p.b_max = node.bounds.hi.to_array();
-                p.b_ref = child_ref;
-                p.b_count = count;
-            } else {
-                p.a_min = node.bounds.lo.to_array();
-                p.a_max = node.bounds.hi.to_array();
-                p.a_ref = child_ref;
-                p.a_count = count;
-            }
+            let child = (
+                node.bounds.lo.to_array(),
+                node.bounds.hi.to_array(),
+                child_ref,
+                count,
+            );
+            set_child(&mut out[parent], i, child);
         }
-        if let Some((l, r)) = node.kids {
+        if node.kids.is_some() {
             let slot = out.len();
-            out.push(BvhNode::default());
-            stack.push((r, slot, true));
-            stack.push((l, slot, false));
+            out.push(empty());
+            for (i, &c) in wide_children(n).iter().enumerate().rev() {
+                stack.push((c, slot, i));
+            }
         }
     }
     Bvh { nodes: out, tris }
@@ -463,6 +521,62 @@ mod tests {
             if n >= 2000 {
                 assert!(hits > 300, "too few hits ({hits}) for a meaningful test");
             }
+        }
+    }
+
+    /// The most stack entries a traversal can hold below `node`: descending into a child
+    /// leaves at most the other interior children on the stack.
+    fn stack_need(bvh: &Bvh, node: u32) -> (usize, usize) {
+        let n = &bvh.nodes[node as usize];
+        let inner: Vec<u32> = [n.a_ref, n.b_ref, n.c_ref, n.d_ref]
+            .into_iter()
+            .filter(|r| r & BVH_LEAF_BIT == 0)
+            .collect();
+        let below = inner.iter().map(|&c| stack_need(bvh, c));
+        let need = below
+            .clone()
+            .map(|(s, _)| s + inner.len() - 1)
+            .max()
+            .unwrap_or(0);
+        (need, 1 + below.map(|(_, d)| d).max().unwrap_or(0))
+    }
+
+    /// A scene with a deep SAH tree (triangles at geometrically growing distances, split off a
+    /// few at a time) must fit the traversal stack with the bound STACK_SIZE rests on, and
+    /// still be traversed exactly.
+    #[test]
+    fn the_deepest_tree_fits_the_traversal_stack() {
+        let tris: Vec<[Vec3; 3]> = (0..300)
+            .map(|i| {
+                let x = 1.3f32.powi(i);
+                [
+                    Vec3::new(x, 0.0, 0.0),
+                    Vec3::new(x, 1.0, 0.0),
+                    Vec3::new(x, 0.0, 1.0),
+                ]
+            })
+            .collect();
+        let bvh = Bvh::build(&tris);
+        let (need, depth) = stack_need(&bvh, 0);
+        eprintln!("4-wide depth {depth}, stack need {need}");
+        assert!(
+            depth >= 16,
+            "the tree is too shallow ({depth}) to test deep paths"
+        );
+        // The bound STACK_SIZE rests on: at most three entries a level, at most MAX_DEPTH / 2
+        // levels.
+        assert!(
+            depth <= MAX_DEPTH / 2 && need <= 3 * (depth - 1),
+            "depth {depth}, need {need}"
+        );
+        assert!(need <= STACK_SIZE, "stack need {need} > {STACK_SIZE}");
+        for i in [0, 7, 60] {
+            let x = 1.3f32.powi(i);
+            let o = Vec3::new(0.99 * x, 0.25, 0.25);
+            assert_eq!(
+                bvh.intersect(o, Vec3::X, 0.0, f32::INFINITY).map(|h| h.1),
+                Some(i as u32)
+            );
         }
     }
 }

@@ -91,7 +91,7 @@ impl Buffer {
     /// (`uniform usamplerBuffer`, one texel per 16 bytes) besides as a storage buffer.
     /// lavapipe (Mesa 22.3) loads each word of a storage buffer with a loop over the SIMD
     /// lanes and a bounds-check branch per lane, and a texel with one 16-byte load per lane:
-    /// one more 64-byte BVH node load per traversal step made `bench-rays` 1.6× slower, so the
+    /// one more BVH node load (then 64 bytes) per traversal step made `bench-rays` 1.6× slower, so the
     /// hot read-only data (BVH, light tree) is read as texels. `T` must be a multiple of 16
     /// bytes.
     pub fn texels<T: Pod>(ctx: &Arc<Context>, name: &str, data: &[T]) -> Result<Buffer> {
