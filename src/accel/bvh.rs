@@ -4,7 +4,7 @@
 //! dependent fetches), plus the CPU traversal of exactly those nodes that the tests and the
 //! ray-throughput benchmark compare the GPU kernel with.
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 use crate::gpu::layout::{BvhNode, BvhTri, BVH_LEAF_BIT};
 
@@ -158,12 +158,8 @@ impl Bvh {
             ];
             // All four boxes against the distance known on arrival (-1: missed), then the
             // leaves in order.
-            let mut key = [0f32; 4];
-            let mut refs = [0u32; 4];
-            for i in 0..4 {
-                key[i] = slab(kids[i].0, kids[i].1, oi, inv, tmin, best_t);
-                refs[i] = kids[i].2;
-            }
+            let mut key = slab4(&kids, oi, inv, tmin, best_t).to_array();
+            let mut refs = kids.map(|k| k.2);
             for i in 0..4 {
                 if key[i] >= 0.0
                     && refs[i] & BVH_LEAF_BIT != 0
@@ -233,19 +229,23 @@ impl Bvh {
     }
 }
 
-/// Ray/box slab test (`oi` = o · inv); the entry distance if the box is hit within
-/// [tmin, tmax], else -1 (tmin ≥ 0), as `slab` in the kernel.
+/// The ray/box slab test of the four children at once (`oi` = o · inv; SIMD lanes =
+/// children): each child's entry distance if its box is hit within [tmin, tmax], else -1
+/// (tmin ≥ 0). The same operations per lane as `slab` in the kernel, so the same distances.
 #[inline]
-fn slab(lo: [f32; 3], hi: [f32; 3], oi: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> f32 {
-    let t0 = Vec3::from(lo) * inv - oi;
-    let t1 = Vec3::from(hi) * inv - oi;
-    let near = t0.min(t1).max_element().max(tmin);
-    let far = t0.max(t1).min_element().min(tmax);
-    if near <= far {
-        near
-    } else {
-        -1.0
-    }
+fn slab4(kids: &[Child; 4], oi: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> Vec4 {
+    let lane = |f: fn(&Child) -> f32| Vec4::new(f(&kids[0]), f(&kids[1]), f(&kids[2]), f(&kids[3]));
+    let axis = |lo: Vec4, hi: Vec4, oi: f32, inv: f32| {
+        let t0 = lo * inv - Vec4::splat(oi);
+        let t1 = hi * inv - Vec4::splat(oi);
+        (t0.min(t1), t0.max(t1))
+    };
+    let (nx, fx) = axis(lane(|k| k.0[0]), lane(|k| k.1[0]), oi.x, inv.x);
+    let (ny, fy) = axis(lane(|k| k.0[1]), lane(|k| k.1[1]), oi.y, inv.y);
+    let (nz, fz) = axis(lane(|k| k.0[2]), lane(|k| k.1[2]), oi.z, inv.z);
+    let near = nx.max(ny).max(nz).max(Vec4::splat(tmin));
+    let far = fx.min(fy).min(fz).min(Vec4::splat(tmax));
+    Vec4::select(near.cmple(far), near, Vec4::splat(-1.0))
 }
 
 /// Möller–Trumbore, both faces; Some(t) for a hit with t in (tmin, tmax).
