@@ -307,6 +307,24 @@ fn outputs_are_checked_before_rendering() {
         "refused only after rendering"
     );
     assert_eq!(files(d), ["b.png", "folder.exr"]);
+    // A name that is only the extension was refused with "must end in .exr" (it does).
+    let o = run(
+        &["render", "--out", ".exr", "--spp", "100000", "-q"],
+        d,
+        &[],
+    );
+    refused(&o, &["'.exr' has no name before .exr"]);
+    let o = run(
+        &["render", "--out", "x.png", "--spp", "100000", "-q"],
+        d,
+        &[],
+    );
+    refused(&o, &["'x.png' must end in .exr"]);
+    assert!(
+        t.elapsed() < Duration::from_secs(60),
+        "refused only after rendering"
+    );
+    assert_eq!(files(d), ["b.png", "folder.exr"]);
 }
 
 /// A sample count past the 2^31 passes of the random streams was accepted and would only have

@@ -18,6 +18,15 @@ impl OutputPaths {
     /// Checks the name and that all three files can be written, before any rendering work
     /// is done.
     pub fn new(exr: &Path) -> Result<OutputPaths> {
+        // ".exr" alone is a name without an extension to Path (a dot file): say what is
+        // missing rather than that it does not end in .exr.
+        let name = exr.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        if name.eq_ignore_ascii_case(".exr") {
+            bail!(
+                "--out '{}' has no name before .exr: name the image, e.g. render.exr",
+                exr.display()
+            );
+        }
         if exr
             .extension()
             .and_then(|e| e.to_str())
