@@ -407,3 +407,60 @@ fn a_failed_commit_leaves_the_old_files() {
     assert_eq!(std::fs::read_to_string(&b).unwrap(), "new b");
     assert_eq!(std::fs::read_dir(d).unwrap().count(), 2);
 }
+
+/// A node rotation that is not a unit quaternion was used as given: [0, 0, 0, 0] (no rotation
+/// at all) rendered as the identity, and a quaternion of another length skewed the mesh (its
+/// rotation matrix is not orthogonal), both without a word. Now length 0 is refused by node,
+/// and another length is normalized with a warning: the mesh lands where the unit quaternion
+/// puts it.
+#[test]
+fn node_rotations_that_are_not_unit_quaternions_are_refused_or_normalized() {
+    let base = cornell_bytes();
+    let mesh_node = |j: &serde_json::Value| {
+        j["nodes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .position(|n| n.get("mesh").is_some())
+            .unwrap()
+    };
+    let rotated = |q: [f64; 4]| {
+        common::edit_glb(&base, |j| {
+            let k = mesh_node(j);
+            j["nodes"][k]["rotation"] = serde_json::json!(q);
+        })
+    };
+    let err = load(&rotated([0.0; 4])).unwrap_err().to_string();
+    assert!(
+        err.contains("not a quaternion") && err.contains("node "),
+        "{err}"
+    );
+    // 40° about y: unit, and twice as long.
+    let (s, c) = (20f64.to_radians().sin(), 20f64.to_radians().cos());
+    let unit = load(&rotated([0.0, s, 0.0, c])).unwrap();
+    let mut warnings = Vec::new();
+    let long = gltf_load::load_bytes(
+        &rotated([0.0, 2.0 * s, 0.0, 2.0 * c]),
+        "test.glb",
+        Path::new("."),
+        &mut |w| warnings.push(w),
+    )
+    .unwrap();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("length 2") && w.contains("normalized")),
+        "{warnings:?}"
+    );
+    assert_eq!(unit.triangles.len(), long.triangles.len());
+    let worst = unit
+        .triangles
+        .iter()
+        .zip(&long.triangles)
+        .flat_map(|(a, b)| a.iter().zip(b).map(|(p, q)| (*p - *q).length()))
+        .fold(0f32, f32::max);
+    assert!(
+        worst < 1e-5,
+        "a normalized rotation moved a vertex by {worst}"
+    );
+}

@@ -55,6 +55,7 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
     }
     check_animations(root, name)?;
     check_node_cycles(root, name)?;
+    check_rotations(root, name)?;
     let mut errors = Vec::new();
     root.validate(root, gltf::json::Path::new, &mut |path, e| {
         errors.push(format!("{}: {e}", path()))
@@ -156,4 +157,31 @@ fn check_node_cycles(root: &Root, name: &str) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Node rotations must be unit quaternions (glTF 2.0 §3.5.3). One of length 0 (or not
+/// finite) names no rotation at all: refused. The loader normalizes one whose length is off
+/// by more than float noise (`rotation_is_unit`) and says so: without that, the rotation
+/// matrix of a quaternion of length 0 is the identity and of any other length a skew, so
+/// the image came out silently wrong.
+fn check_rotations(root: &Root, name: &str) -> Result<()> {
+    for (i, node) in root.nodes.iter().enumerate() {
+        if let Some(r) = &node.rotation {
+            let len = r.0.iter().map(|c| c * c).sum::<f32>().sqrt();
+            if !(len.is_finite() && len > 1e-6) {
+                bail!(
+                    "'{name}': node {i} ('{}') has the rotation {:?}, which is not a quaternion (length {len}); use a unit quaternion [x, y, z, w], [0, 0, 0, 1] for none",
+                    node.name.as_deref().unwrap_or(""),
+                    r.0
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Whether a node rotation's length is 1 within float noise (the Khronos validator's 5e-4 is
+/// looser; 1e-3 here keeps every file it accepts exactly as before).
+pub fn rotation_is_unit(r: [f32; 4]) -> bool {
+    (r.iter().map(|c| c * c).sum::<f32>().sqrt() - 1.0).abs() <= 1e-3
 }

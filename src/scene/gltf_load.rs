@@ -75,6 +75,14 @@ pub fn open_bytes(
             )
         })?;
         super::gltf_check::check(gltf.as_json(), name)?;
+        for node in gltf.document.nodes() {
+            if let gltf::scene::Transform::Decomposed { rotation, .. } = node.transform() {
+                if !super::gltf_check::rotation_is_unit(rotation) {
+                    let len = rotation.iter().map(|c| c * c).sum::<f32>().sqrt();
+                    warn(format!("'{name}': {} has a rotation quaternion of length {len}, not 1; normalized (export it again to silence this)", node_label(&node)));
+                }
+            }
+        }
         let buffers = load_buffers(&gltf, name, base)?;
         let animations = Animations::read(&gltf.document, &buffers, name, warn)?;
         Ok(Document {
@@ -231,9 +239,22 @@ impl Document {
                         t.as_dvec3(),
                     )
                 }
-                None => {
-                    DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)))
-                }
+                None => match node.transform() {
+                    // A rotation of another length than 1 (warned about on open): normalized,
+                    // where its matrix would skew.
+                    gltf::scene::Transform::Decomposed {
+                        translation,
+                        rotation,
+                        scale,
+                    } if !super::gltf_check::rotation_is_unit(rotation) => {
+                        DMat4::from_scale_rotation_translation(
+                            DVec3::from_array(scale.map(f64::from)),
+                            DQuat::from_array(rotation.map(f64::from)).normalize(),
+                            DVec3::from_array(translation.map(f64::from)),
+                        )
+                    }
+                    t => DMat4::from_cols_array_2d(&t.matrix().map(|c| c.map(f64::from))),
+                },
             };
             let world = parent * local;
             if !world.is_finite() {
