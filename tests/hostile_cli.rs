@@ -263,6 +263,28 @@ fn spot_cone_angles_out_of_range_are_named_in_a_warning() {
         err.contains("warning:") && err.contains("'wide'") && err.contains("outer 2"),
         "{err}"
     );
+    // An outer cone of 0 lights nothing: it was refused as "a light's power rounds to 0",
+    // naming neither the light nor the cause; now it is skipped with a warning that names it,
+    // and the other lights render.
+    g.point_light(
+        "bulb",
+        glam::Vec3::new(0.5, 3.0, 0.5),
+        glam::Vec3::ONE,
+        10.0,
+    );
+    let bytes = common::edit_glb(&g.to_glb(), |j| {
+        let spot = &mut j["extensions"]["KHR_lights_punctual"]["lights"][0]["spot"];
+        spot["innerConeAngle"] = 0.0.into();
+        spot["outerConeAngle"] = 0.0.into();
+    });
+    std::fs::write(d.join("closed.glb"), bytes).unwrap();
+    let o = run_render(&["closed.glb", "--out", "c.exr"], d);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("warning:") && err.contains("'wide'") && err.contains("outer cone angle of 0"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -492,14 +492,21 @@ impl Document {
                                 "'{name}': {label} has cone angles inner {inner_cone_angle} / outer {outer_cone_angle} outside 0 ≤ inner ≤ outer ≤ π/2; rendered with inner {inner} / outer {outer}"
                             ));
                         }
-                        light_positions.push(position);
-                        scene.lights.push(Light::Spot {
-                            position: Vec3::ZERO,
-                            direction: direction.normalize(),
-                            intensity,
-                            cos_inner: inner.cos(),
-                            cos_outer: outer.cos(),
-                        })
+                        if outer == 0.0 {
+                            // An empty cone emits nothing: before, it reached the power check
+                            // as "a light's power rounds to 0", which named neither the light
+                            // nor the cause.
+                            warn(format!("'{name}': {label} is a spot with an outer cone angle of 0, which lights nothing; skipped"));
+                        } else {
+                            light_positions.push(position);
+                            scene.lights.push(Light::Spot {
+                                position: Vec3::ZERO,
+                                direction: direction.normalize(),
+                                intensity,
+                                cos_inner: inner.cos(),
+                                cos_outer: outer.cos(),
+                            })
+                        }
                     }
                     gltf::khr_lights_punctual::Kind::Directional => warn(format!(
                         "'{name}': {label} is directional, which lightlearn does not support yet; skipped (use an emissive quad or point lights)"
