@@ -131,7 +131,8 @@ impl Bvh {
     }
 
     /// The same loop as `trace_ray` in `shaders/shared/bvh.glsl`, test for test and in the same
-    /// order, so both find the same triangle even where two are hit at the same distance.
+    /// order, so both find the same triangle, also where two are hit at the same distance
+    /// (tests/gpu_bvh.rs checks every ray).
     fn traverse(&self, o: Vec3, d: Vec3, tmin: f32, tmax: f32, any: bool) -> Option<(f32, u32)> {
         // A zero direction component would make o * inv = 0 * inf = NaN: nudge it to ±1e-20.
         let nudge = |c: f32| {
@@ -231,7 +232,8 @@ impl Bvh {
 
 /// The ray/box slab test of the four children at once (`oi` = o · inv; SIMD lanes =
 /// children): each child's entry distance if its box is hit within [tmin, tmax], else -1
-/// (tmin ≥ 0). The same operations per lane as `slab` in the kernel, so the same distances.
+/// (tmin ≥ 0). The same tests per lane as `slab` in the kernel (whose compiler may fuse the
+/// multiply-add: a distance can differ in its last bit, which can only reorder a near tie).
 #[inline]
 fn slab4(kids: &[Child; 4], oi: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> Vec4 {
     let lane = |f: fn(&Child) -> f32| Vec4::new(f(&kids[0]), f(&kids[1]), f(&kids[2]), f(&kids[3]));
