@@ -438,14 +438,7 @@ fn node_rotations_that_are_not_unit_quaternions_are_refused_or_normalized() {
     // 40° about y: unit, and twice as long.
     let (s, c) = (20f64.to_radians().sin(), 20f64.to_radians().cos());
     let unit = load(&rotated([0.0, s, 0.0, c])).unwrap();
-    let mut warnings = Vec::new();
-    let long = gltf_load::load_bytes(
-        &rotated([0.0, 2.0 * s, 0.0, 2.0 * c]),
-        "test.glb",
-        Path::new("."),
-        &mut |w| warnings.push(w),
-    )
-    .unwrap();
+    let (long, warnings) = common::load_warned(&rotated([0.0, 2.0 * s, 0.0, 2.0 * c]), "test.glb");
     assert!(
         warnings
             .iter()

@@ -188,14 +188,7 @@ fn bad_scenes_give_clear_errors() {
 fn line_primitives_are_skipped_with_a_warning() {
     let mut doc: serde_json::Value = serde_json::from_str(&small().to_gltf_embedded()).unwrap();
     doc["meshes"][0]["primitives"][0]["mode"] = serde_json::json!(1); // LINES
-    let mut warnings = Vec::new();
-    let s = gltf_load::load_bytes(
-        doc.to_string().as_bytes(),
-        "lines.gltf",
-        Path::new("."),
-        &mut |w| warnings.push(w),
-    )
-    .unwrap();
+    let (s, warnings) = common::load_warned(doc.to_string().as_bytes(), "lines.gltf");
     assert_eq!(s.triangles.len(), 2, "only the lamp quad is left");
     assert!(
         warnings
@@ -237,14 +230,7 @@ fn unusable_textures_warn_and_bad_texture_coordinates_fail() {
         g.point_light("bulb", Vec3::ONE, Vec3::ONE, 1.0);
         g.to_glb()
     };
-    let mut warnings = Vec::new();
-    let s = gltf_load::load_bytes(
-        &build(b"\xff\xd8\xff\xe0 a JPEG", 1.0),
-        "jpeg.glb",
-        Path::new("."),
-        &mut |w| warnings.push(w),
-    )
-    .unwrap();
+    let (s, warnings) = common::load_warned(&build(b"\xff\xd8\xff\xe0 a JPEG", 1.0), "jpeg.glb");
     assert!(s.textures.is_empty() && s.triangle_uv.is_empty());
     assert_eq!(s.materials[0].base_color_texture, None);
     assert!(
@@ -328,14 +314,7 @@ fn metallic_roughness_materials_load_with_their_factors() {
         serde_json::json!({"index": 0});
     doc["textures"] = serde_json::json!([{"source": 0}]);
     doc["images"] = serde_json::json!([{"uri": "missing.png"}]);
-    let mut warnings = Vec::new();
-    gltf_load::load_bytes(
-        doc.to_string().as_bytes(),
-        "test.gltf",
-        Path::new("."),
-        &mut |w| warnings.push(w),
-    )
-    .unwrap();
+    let (_, warnings) = common::load_warned(doc.to_string().as_bytes(), "test.gltf");
     assert!(
         warnings
             .iter()

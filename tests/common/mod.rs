@@ -25,6 +25,14 @@ pub fn load(b: &GltfBuilder, name: &str) -> Scene {
     .expect("test scene loads")
 }
 
+/// Loads glTF bytes through the real loader and returns the scene with every warning it gave.
+pub fn load_warned(bytes: &[u8], name: &str) -> (Scene, Vec<String>) {
+    let mut warnings = Vec::new();
+    let scene = gltf_load::load_bytes(bytes, name, Path::new("."), &mut |w| warnings.push(w))
+        .expect("the scene loads");
+    (scene, warnings)
+}
+
 pub fn exe() -> &'static str {
     env!("CARGO_BIN_EXE_lightlearn")
 }
