@@ -167,7 +167,7 @@ fn check_node_cycles(root: &Root, name: &str) -> Result<()> {
 fn check_rotations(root: &Root, name: &str) -> Result<()> {
     for (i, node) in root.nodes.iter().enumerate() {
         if let Some(r) = &node.rotation {
-            let len = r.0.iter().map(|c| c * c).sum::<f32>().sqrt();
+            let len = rotation_length(r.0);
             if !(len.is_finite() && len > 1e-6) {
                 bail!(
                     "'{name}': node {i} ('{}') has the rotation {:?}, which is not a quaternion (length {len}); use a unit quaternion [x, y, z, w], [0, 0, 0, 1] for none",
@@ -183,5 +183,10 @@ fn check_rotations(root: &Root, name: &str) -> Result<()> {
 /// Whether a node rotation's length is 1 within float noise (the Khronos validator's 5e-4 is
 /// looser; 1e-3 here keeps every file it accepts exactly as before).
 pub fn rotation_is_unit(r: [f32; 4]) -> bool {
-    (r.iter().map(|c| c * c).sum::<f32>().sqrt() - 1.0).abs() <= 1e-3
+    (rotation_length(r) - 1.0).abs() <= 1e-3
+}
+
+/// The length of a node rotation's quaternion [x, y, z, w].
+pub fn rotation_length(r: [f32; 4]) -> f32 {
+    r.iter().map(|c| c * c).sum::<f32>().sqrt()
 }

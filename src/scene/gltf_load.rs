@@ -78,7 +78,7 @@ pub fn open_bytes(
         for node in gltf.document.nodes() {
             if let gltf::scene::Transform::Decomposed { rotation, .. } = node.transform() {
                 if !super::gltf_check::rotation_is_unit(rotation) {
-                    let len = rotation.iter().map(|c| c * c).sum::<f32>().sqrt();
+                    let len = super::gltf_check::rotation_length(rotation);
                     warn(format!("'{name}': {} has a rotation quaternion of length {len}, not 1; normalized (export it again to silence this)", node_label(&node)));
                 }
             }
