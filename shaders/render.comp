@@ -136,6 +136,13 @@ void mark_touched(uint slot) {
 #define DIM_RR 7u
 #define DIMS_PER_VERTEX 6u
 
+// Random number `dim` (DIM_LIGHT … DIM_BSDF_V) of vertex `depth`: stratified over the passes
+// at the first vertex (rng.glsl first_vertex_r5) when the jitter is, independent elsewhere.
+float vertex_rand(uint seed, uint pixel, uint s, uint depth, uint dim) {
+    if (params.stratified != 0u && depth == 0u) return first_vertex_r5(seed, pixel, s, dim - DIM_LIGHT);
+    return sample_rand(seed, pixel, s, depth * DIMS_PER_VERTEX + dim);
+}
+
 const float PI = 3.14159265358979;
 
 float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
@@ -303,7 +310,7 @@ bool path_vertex(inout Path st, uint depth) {
     Bsdf bsdf = make_bsdf(m, m.base_color, n, wo);
     select_brdf(bsdf, wo, n, brdf_select);
     float pmf;
-    float u_light = sample_rand(seed, pixel, s, dim0 + DIM_LIGHT);
+    float u_light = vertex_rand(seed, pixel, s, depth, DIM_LIGHT);
     uint li;
     uint slot = NO_SLOT;
     float p_slot = 1.0;
@@ -327,7 +334,7 @@ bool path_vertex(inout Path st, uint depth) {
     vec3 Ic = vec3(0.0);  // Î_C in RGB, for the control variate
     vec3 wi;
     float dist;
-    vec2 u = vec2(sample_rand(seed, pixel, s, dim0 + DIM_LIGHT_U), sample_rand(seed, pixel, s, dim0 + DIM_LIGHT_V));
+    vec2 u = vec2(vertex_rand(seed, pixel, s, depth, DIM_LIGHT_U), vertex_rand(seed, pixel, s, depth, DIM_LIGHT_V));
     // NO_LIGHT: no light can reach the front of n here (zero contribution, exactly).
     GpuLight light = light_at(li == NO_LIGHT ? 0u : li);
     float sa_pdf = 0.0;
@@ -381,7 +388,7 @@ bool path_vertex(inout Path st, uint depth) {
 
     if (!mis) return false;
     // The BSDF ray: also taken after the last vertex, to find the emitter it hits.
-    vec2 ub = vec2(sample_rand(seed, pixel, s, dim0 + DIM_BSDF_U), sample_rand(seed, pixel, s, dim0 + DIM_BSDF_V));
+    vec2 ub = vec2(vertex_rand(seed, pixel, s, depth, DIM_BSDF_U), vertex_rand(seed, pixel, s, depth, DIM_BSDF_V));
     float bsdf_pdf_o;
     vec3 wn = bsdf_sample(bsdf, n, wo, ub, bsdf_pdf_o);
     float cos_o = dot(n, wn);

@@ -303,7 +303,8 @@ pub struct RenderParams {
     pub light_count: u32,
     /// Offset of secondary ray origins, relative to the scene size.
     pub ray_eps: f32,
-    /// 1: pixel jitter stratified over passes (R2); 0: independent per sample.
+    /// 1: pixel jitter (R2) and the first vertex's light and BSDF numbers (R5) stratified
+    /// over passes; 0: independent per sample.
     pub stratified: u32,
     /// Surface vertices of a path (1: direct light by light sampling alone).
     pub max_depth: u32,

@@ -34,6 +34,25 @@ pub fn pixel_jitter_r2(seed: u32, pixel: u32, s: u32) -> [f32; 2] {
     ]
 }
 
+/// The R5 sequence's steps in 32-bit fixed point: round(frac(φ^-k) · 2^32), k = 1 … 5, with
+/// φ ≈ 1.1347241384 the real root of x^6 = x + 1 (Roberts 2018).
+pub const R5_STEP: [u32; 5] = [
+    3_785_032_107,
+    3_335_640_777,
+    2_939_605_023,
+    2_590_590_015,
+    2_283_013_049,
+];
+
+/// Number `k` (0 … 4: light choice, point on the light u and v, BSDF direction u and v) of
+/// the first vertex of sample `s` when stratified (mirror of `first_vertex_r5` in rng.glsl):
+/// the R5 sequence, rotated per pixel and dimension.
+pub fn first_vertex_r5(seed: u32, pixel: u32, s: u32, k: u32) -> f32 {
+    let o = hash32(seed ^ hash32(pixel ^ hash32(k ^ 0xa511_e9b3)));
+    let x = s.wrapping_mul(R5_STEP[k as usize]).wrapping_add(o);
+    (x >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
 /// A small sequential generator (SplitMix64) for host-side work: scene generation, test data.
 #[derive(Clone, Debug)]
 pub struct SplitMix64(pub u64);
@@ -55,5 +74,55 @@ impl SplitMix64 {
     /// Uniform in [lo, hi).
     pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
         lo + (hi - lo) * self.f32()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The steps are frac(φ^-k) · 2^32 for φ the real root of x^6 = x + 1, here and in the
+    /// kernel (a wrong digit would still give uniform numbers, but stratify worse).
+    #[test]
+    fn r5_steps_are_the_inverse_powers_of_the_root_of_x6_eq_x_plus_1() {
+        let mut phi = 1.2f64;
+        for _ in 0..50 {
+            phi -= (phi.powi(6) - phi - 1.0) / (6.0 * phi.powi(5) - 1.0);
+        }
+        for (k, &step) in R5_STEP.iter().enumerate() {
+            let want = (phi.powi(-(k as i32 + 1)).fract() * 4_294_967_296.0).round();
+            assert_eq!(step as f64, want, "step {k}");
+        }
+        let glsl = include_str!("../shaders/shared/rng.glsl");
+        let list = glsl
+            .split("R5_STEP[5] = uint[5](")
+            .nth(1)
+            .and_then(|t| t.split(");").next())
+            .expect("R5_STEP in rng.glsl");
+        let kernel: Vec<u32> = list
+            .split(',')
+            .map(|w| w.trim().trim_end_matches('u').parse().unwrap())
+            .collect();
+        assert_eq!(
+            kernel, R5_STEP,
+            "rng.glsl's R5_STEP differs from the host's"
+        );
+    }
+
+    /// Each of the five numbers of a pixel's first 256 samples leaves no gap wider than
+    /// 4 / 256 in [0, 1): the widest is 1.07–3.87 / 256 (the three-gap theorem: a Kronecker
+    /// sequence has at most three gap lengths), where 256 independent numbers leave a
+    /// median widest gap of 5.9 / 256 (3.9 / 256 at best in 200 draws).
+    #[test]
+    fn first_vertex_numbers_are_evenly_spread() {
+        for pixel in [0, 7, 12345] {
+            for k in 0..5 {
+                let mut v: Vec<f32> = (0..256).map(|s| first_vertex_r5(1, pixel, s, k)).collect();
+                v.sort_by(f32::total_cmp);
+                let wrap = v[0] + 1.0 - v[255];
+                let gap = v.windows(2).map(|w| w[1] - w[0]).fold(wrap, f32::max);
+                assert!(gap < 4.0 / 256.0, "pixel {pixel}, number {k}: gap {gap}");
+            }
+        }
     }
 }

@@ -158,9 +158,12 @@ pub struct RenderSettings {
     pub regions: RegionSettings,
     /// The learned samplers' settings.
     pub learn: LearnSettings,
-    /// Pixel jitter stratified over passes (R2 with a per-pixel rotation) rather than
-    /// independent per sample. Both are unbiased; references use independent jitter so that
-    /// their per-pixel variance estimate is the true error of their mean.
+    /// Pixel jitter (R2) and the first vertex's light choice, point on the light and BSDF
+    /// direction (R5) stratified over passes, each rotated per pixel, rather than independent
+    /// per sample (rng.glsl). Each sample stays uniform, so both are unbiased (for the
+    /// learned samplers see docs/method.md §9); references use independent numbers so that
+    /// their per-pixel variance estimate is the true error of their mean (a stratified film's
+    /// estimate is an upper bound).
     pub stratified: bool,
     /// Surface vertices of a path: 1 = direct light by light sampling alone; D ≥ 2 = path
     /// tracing with next-event estimation and MIS at every vertex (render.comp).
