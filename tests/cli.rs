@@ -57,22 +57,22 @@ const SMALL: &[&str] = &[
     "-q",
 ];
 
-/// `--light-point solid-angle` reaches the kernel: the report says so, the default scene's
-/// panels are sampled otherwise (another image from the same seed), and its mean agrees with
-/// area sampling's. A bad value names the choices.
-#[test]
-fn light_point_reaches_the_kernel() {
+/// Renders the default scene (32×24, 64 spp, direct light, `sampler`) once with each of
+/// `values` for `flag`; checks that each report gives the value under `key`, that the images
+/// differ (the flag reached the kernel) and that their means agree within 5σ (both are
+/// unbiased).
+fn flag_reaches_the_kernel(flag: &str, key: &str, values: [&str; 2], sampler: &str) {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let mut means = Vec::new();
-    for lp in ["area", "solid-angle"] {
-        let out = format!("{lp}.exr");
+    for v in values {
+        let out = format!("{v}.exr");
         let args = [
             "render",
             "--out",
             &out,
-            "--light-point",
-            lp,
+            flag,
+            v,
             "--width",
             "32",
             "--height",
@@ -82,35 +82,61 @@ fn light_point_reaches_the_kernel() {
             "--max-depth",
             "1",
             "--sampler",
-            "lightbvh",
+            sampler,
             "-q",
         ];
         let o = run(&args, d);
         assert!(o.status.success(), "render failed: {}", stderr(&o));
         let report: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(d.join(format!("{lp}.json"))).unwrap()).unwrap();
-        assert_eq!(report["light_point"], lp);
+            serde_json::from_slice(&std::fs::read(d.join(format!("{v}.json"))).unwrap()).unwrap();
+        assert_eq!(report[key], v);
         let (_, _, px) = lightlearn::film::read_exr(&d.join(&out)).unwrap();
         let mean = px.iter().flatten().map(|v| *v as f64).sum::<f64>() / (px.len() * 3) as f64;
         means.push((mean, report["estimated_mse_of_mean"].as_f64().unwrap(), px));
     }
     assert!(
         means[0].2 != means[1].2,
-        "solid angle drew the same samples as area"
+        "{flag} {} drew the same samples as {}",
+        values[1],
+        values[0]
     );
     // The image means within 5σ: each report's estimated MSE is the variance of a pixel
-    // channel's mean averaged over the 3N values, so the image mean's is that / 3N.
-    let values = 3.0 * means[0].2.len() as f64;
-    let sigma = ((means[0].1 + means[1].1) / values).sqrt();
+    // channel's mean averaged over the 3N values, so the image mean's is that / 3N (for a
+    // stratified film an upper bound).
+    let values_n = 3.0 * means[0].2.len() as f64;
+    let sigma = ((means[0].1 + means[1].1) / values_n).sqrt();
     assert!(
         (means[0].0 - means[1].0).abs() < 5.0 * sigma,
-        "area {} vs solid angle {} (σ {sigma})",
+        "{} {} vs {} {} (σ {sigma})",
+        values[0],
         means[0].0,
+        values[1],
         means[1].0
     );
-    let o = run(&["render", "--light-point", "sphere"], d);
+}
+
+/// `--light-point solid-angle` reaches the kernel: the report says so, the default scene's
+/// panels are sampled otherwise (another image from the same seed), and its mean agrees with
+/// area sampling's. A bad value names the choices.
+#[test]
+fn light_point_reaches_the_kernel() {
+    flag_reaches_the_kernel(
+        "--light-point",
+        "light_point",
+        ["area", "solid-angle"],
+        "lightbvh",
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(&["render", "--light-point", "sphere"], dir.path());
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("solid-angle"), "{}", stderr(&o));
+}
+
+/// `--stratify off` reaches the kernel: independent numbers give another image of the same
+/// mean, and the report says which.
+#[test]
+fn stratify_reaches_the_kernel() {
+    flag_reaches_the_kernel("--stratify", "stratify", ["on", "off"], "bayes");
 }
 
 #[test]

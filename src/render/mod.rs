@@ -579,6 +579,7 @@ pub fn report_json(
         },
         "max_depth": settings.max_depth,
         "light_point": settings.light_point,
+        "stratify": if settings.stratified { "on" } else { "off" },
         "camera": camera_json(&scene.camera),
     })
 }
