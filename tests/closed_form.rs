@@ -103,9 +103,8 @@ fn corner_view_factor(x: f64, y: f64) -> f64 {
     (x / ax * (y / ax).atan() + y / ay * (x / ay).atan()) / (2.0 * std::f64::consts::PI)
 }
 
-#[test]
-fn floor_under_a_parallel_emissive_square() {
-    // A 2 × 2 square 1 above the floor, facing down, radiance 1: L = ρ · L_e · F.
+/// The floor scene with a 2 × 2 emissive square 1 above it, facing down, radiance 1.
+fn floor_under_a_panel() -> GltfBuilder {
     let mut g = GltfBuilder::new();
     floor_scene(&mut g);
     let panel = g.material("panel", Vec3::splat(0.5), Vec3::ONE, false);
@@ -119,6 +118,13 @@ fn floor_under_a_parallel_emissive_square() {
         ],
         panel,
     );
+    g
+}
+
+#[test]
+fn floor_under_a_parallel_emissive_square() {
+    // A 2 × 2 square 1 above the floor, facing down, radiance 1: L = ρ · L_e · F.
+    let g = floor_under_a_panel();
     let want = ALBEDO as f64 * 4.0 * corner_view_factor(1.0, 1.0);
     assert!((want - 0.27706).abs() < 1e-4, "formula sanity: {want}");
     every_sampler_matches(&g, want);
@@ -175,19 +181,7 @@ fn floor_under_a_point_light_and_a_spot() {
 /// here, is their unbiasedness.)
 #[test]
 fn first_vertex_numbers_are_stratified_over_passes() {
-    let mut g = GltfBuilder::new();
-    floor_scene(&mut g);
-    let panel = g.material("panel", Vec3::splat(0.5), Vec3::ONE, false);
-    g.quad(
-        "panel",
-        [
-            Vec3::new(-1.0, 1.0, -1.0),
-            Vec3::new(1.0, 1.0, -1.0),
-            Vec3::new(1.0, 1.0, 1.0),
-            Vec3::new(-1.0, 1.0, 1.0),
-        ],
-        panel,
-    );
+    let mut g = floor_under_a_panel();
     // Off to the side, so the panel does not shade it: L = ρ/π · I cos θ / r².
     g.point_light("bulb", Vec3::new(3.0, 2.0, 0.0), Vec3::ONE, 3.0);
     let rho = ALBEDO as f64;
