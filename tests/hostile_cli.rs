@@ -250,15 +250,22 @@ fn spot_cone_angles_out_of_range_are_named_in_a_warning() {
         0.2,
         0.4,
     );
-    let bytes = common::edit_glb(&g.to_glb(), |j| {
-        let spot = &mut j["extensions"]["KHR_lights_punctual"]["lights"][0]["spot"];
-        spot["innerConeAngle"] = 1.2.into();
-        spot["outerConeAngle"] = 2.0.into();
-    });
-    std::fs::write(d.join("spot.glb"), bytes).unwrap();
-    let o = run_render(&["spot.glb", "--out", "s.exr"], d);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let err = stderr(&o);
+    // Renders the scene of `g` with the first light's (the spot's) cone angles set; its
+    // stderr, after checking that the render succeeded.
+    let render_with_cones =
+        |g: &lightlearn::scene::gltf_write::GltfBuilder, inner: f64, outer: f64| {
+            let bytes = common::edit_glb(&g.to_glb(), |j| {
+                let spot = &mut j["extensions"]["KHR_lights_punctual"]["lights"][0]["spot"];
+                spot["innerConeAngle"] = inner.into();
+                spot["outerConeAngle"] = outer.into();
+            });
+            std::fs::write(d.join("spot.glb"), bytes).unwrap();
+            let o = run_render(&["spot.glb", "--out", "s.exr"], d);
+            let err = stderr(&o);
+            assert!(o.status.success(), "{err}");
+            err
+        };
+    let err = render_with_cones(&g, 1.2, 2.0);
     assert!(
         err.contains("warning:") && err.contains("'wide'") && err.contains("outer 2"),
         "{err}"
@@ -272,15 +279,7 @@ fn spot_cone_angles_out_of_range_are_named_in_a_warning() {
         glam::Vec3::ONE,
         10.0,
     );
-    let bytes = common::edit_glb(&g.to_glb(), |j| {
-        let spot = &mut j["extensions"]["KHR_lights_punctual"]["lights"][0]["spot"];
-        spot["innerConeAngle"] = 0.0.into();
-        spot["outerConeAngle"] = 0.0.into();
-    });
-    std::fs::write(d.join("closed.glb"), bytes).unwrap();
-    let o = run_render(&["closed.glb", "--out", "c.exr"], d);
-    let err = stderr(&o);
-    assert!(o.status.success(), "{err}");
+    let err = render_with_cones(&g, 0.0, 0.0);
     assert!(
         err.contains("warning:") && err.contains("'wide'") && err.contains("outer cone angle of 0"),
         "{err}"
