@@ -44,6 +44,9 @@ if [ "$mode" = prepare ]; then
   while IFS=$'\t' read -r name exe; do cp "$exe" "$pack/bin/test-$name"; done <"$pack/tests.tsv"
   [ "$(cut -f1 "$pack/tests.tsv" | sort | uniq -d)" = "" ] || { echo "device_check: two test targets share a name" >&2; exit 1; }
   strip "$pack"/bin/*
+  # tests/layout.rs compiles three kernels again for naga; the device machine has no
+  # glslangValidator (it needs only libstdc++), so it travels too.
+  mkdir -p "$pack/tools" && cp "$(command -v glslangValidator)" "$pack/tools/"
   # The binaries have this folder compiled in (CARGO_MANIFEST_DIR, CARGO_BIN_EXE_lightlearn).
   echo "$root" >"$pack/manifest_dir"
   (cd "$pack" && tar -cJf bin.tar.xz bin && rm -rf bin)
@@ -53,7 +56,7 @@ if [ "$mode" = prepare ]; then
   o=(-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/amd64-lists)
   mkdir -p /tmp/amd64-lists/partial
   if apt-get "${o[@]}" update -qq >/dev/null 2>&1; then
-    (cd "$pack/debs" && apt-get "${o[@]}" download libvulkan1 vulkan-validationlayers >/dev/null 2>&1) ||
+    (cd "$pack/debs" && apt-get "${o[@]}" download libvulkan1 vulkan-validationlayers libglvnd0 libegl1 libgl1 libglx0 libopengl0 libgles2 >/dev/null 2>&1) ||
       echo "device_check: warning: could not download the Vulkan .debs; the device needs its own loader" >&2
   else
     echo "device_check: warning: apt-get update failed; no .debs packed" >&2
@@ -74,15 +77,19 @@ say() { echo "$*" | tee -a "$log"; }
 t_start=$(date +%s)
 
 # --- The Vulkan loader and driver -------------------------------------------------------
-# (grep -c, not -q: under pipefail an early grep exit makes ldconfig's SIGPIPE fail the test.)
-if [ "$(ldconfig -p 2>/dev/null | grep -c 'libvulkan.so.1')" = 0 ] && ls "$pack"/debs/*.deb >/dev/null 2>&1; then
-  for f in "$pack"/debs/*.deb; do dpkg -x "$f" / && say "unpacked $(basename "$f")"; done
-  ldconfig
-elif ! ls /usr/share/vulkan/explicit_layer.d/VkLayer_khronos_validation.json >/dev/null 2>&1 &&
-  ls "$pack"/debs/vulkan-validationlayers*.deb >/dev/null 2>&1; then
-  dpkg -x "$pack"/debs/vulkan-validationlayers*.deb / && say "unpacked the validation layers"
-  ldconfig
-fi
+# Each packed .deb the machine does not have installed is unpacked into / (the device tool's
+# README way): the loader, the validation layers and libglvnd, without which NVIDIA's ICD
+# (libGLX_nvidia.so.0) loads but hands the loader no vkCreateInstance (seen 2026-12-04 on an
+# H200 with only libvulkan1 unpacked: "Found no drivers!").
+unpacked=0
+for f in "$pack"/debs/*.deb; do
+  [ -f "$f" ] || continue
+  pkg=$(dpkg-deb -f "$f" Package 2>/dev/null)
+  if [ "$(dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null)" != "install ok installed" ]; then
+    dpkg -x "$f" / && say "unpacked $(basename "$f")" && unpacked=1
+  fi
+done
+[ $unpacked = 1 ] && ldconfig
 nvidia_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 if [ -z "${VK_DRIVER_FILES:-}" ]; then
   if [ -f "$nvidia_icd" ]; then
@@ -96,6 +103,9 @@ if [ -z "${VK_DRIVER_FILES:-}" ]; then
   fi
 fi
 say "VK_DRIVER_FILES=$VK_DRIVER_FILES"
+# NVIDIA's EGL vendor file, which the device tool's README sets beside the ICD.
+nvidia_egl=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
+[ -f "$nvidia_egl" ] && [ -z "${__EGL_VENDOR_LIBRARY_FILENAMES:-}" ] && export __EGL_VENDOR_LIBRARY_FILENAMES="$nvidia_egl"
 command -v nvidia-smi >/dev/null && nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader >>"$log" 2>&1
 
 # --- The binaries -------------------------------------------------------------------------
@@ -128,6 +138,7 @@ else
   test_exe() { awk -F'\t' -v n="$1" '$1 == n { print $2 }' "$out/tests.tsv"; }
 fi
 ll="$root/target/release/lightlearn"
+[ -d "$pack/tools" ] && export PATH="$pack/tools:$PATH"
 
 rows=()
 row() { rows+=("| $1 | $2 | $3 | $4 |"); }
@@ -147,6 +158,15 @@ step() { # name, then the command; its output goes to the log; returns its statu
 device=$(python3 -c "import json; print(json.load(open('$out/probe/p.json'))['device'])" 2>/dev/null || echo "none found")
 rm -rf "$out/probe"
 say "device: $device"
+if [ "$device" = "none found" ]; then
+  # Why the loader found no driver: the ICD file and the loader's own account of it.
+  cat "$VK_DRIVER_FILES" >>"$log" 2>&1
+  lib=$(ldconfig -p | awk '/libGLX_nvidia.so.0/ { print $NF; exit }')
+  [ -n "$lib" ] && ldd "$lib" >>"$log" 2>&1
+  VK_LOADER_DEBUG=error,warn,driver "$ll" render scenes/cornell.glb --width 16 --height 16 --spp 1 \
+    --max-depth 1 --out "$out/probe/p.exr" --mkdir -q >>"$log" 2>&1
+  rm -rf "$out/probe"
+fi
 
 # --- The test suite on that device ------------------------------------------------------------
 passed=0 failed=0 failed_names=()
@@ -168,7 +188,12 @@ fi
 
 # --- bench-rays -----------------------------------------------------------------------------
 : >"$log.step"
-if step bench-rays "$ll" bench-rays --repeats 5; then
+# bench-rays times each dispatch from submit to fence (tens of microseconds of overhead): on
+# lavapipe 512x512 rays take ~0.1 s a dispatch, on a discrete GPU well under a millisecond,
+# so there it traces 2048x2048 rays a dispatch to keep the overhead small.
+rays_args=(--repeats 5)
+case "$device" in *llvmpipe* | "none found") ;; *) rays_args=(--width 2048 --height 2048 --repeats 10) ;; esac
+if step bench-rays "$ll" bench-rays "${rays_args[@]}"; then
   rays=$(python3 -c '
 import re, sys
 for l in open(sys.argv[1]):
@@ -191,6 +216,21 @@ else
   row "default render (lightlearn render)" FAIL "$step_seconds" "see log.txt"
 fi
 rm -f "$out/render.exr"
+
+# --- Direct-light samples per second at a size that fills a GPU ---------------------------------
+# (the Mitsuba comparison of issue #18 is 96x72 on 2 CPU cores; a GPU needs far more pixels a
+# pass to be busy, so this is 1024x768, 64 spp, rooms16, one row per sampler).
+for s in uniform wang bayes; do
+  : >"$log.step"
+  if step "throughput $s" "$ll" render scenes/rooms16.glb --sampler "$s" --max-depth 1 --width 1024 \
+    --height 768 --spp 64 --out "$out/tp/$s.exr" --mkdir -q; then
+    tp=$(python3 -c "import json; j = json.load(open('$out/tp/$s.json')); print(f\"{j['render_seconds']:.2f} s render: {j['width'] * j['height'] * j['spp'] / j['render_seconds'] / 1e6:.1f} M samples/s\")")
+    row "direct light, rooms16 1024x768 64 spp, $s" pass "$step_seconds" "$tp"
+  else
+    row "direct light, rooms16 1024x768 64 spp, $s" FAIL "$step_seconds" "see log.txt"
+  fi
+done
+rm -rf "$out/tp"
 
 # --- A short compare of wang and bayes -----------------------------------------------------------
 : >"$log.step"
