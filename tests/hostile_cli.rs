@@ -140,13 +140,28 @@ fn grids_beyond_their_range_or_the_device_are_refused_by_name() {
     // 6·895³ overflowed u32 and panicked in src/lights/regions.rs.
     let o = run_render(&[c, "--grid", "895", "--out", "g.exr"], d);
     refused(&o, &["--grid 895", "1..=512"]);
-    // In range, but the region index exceeds lavapipe's 128 MiB buffers: the advice names
-    // --grid and the largest grid that fits (a cube: 6·177³·4 B ≤ 128 MiB).
+    // In range, but the region index exceeds the device: the advice names --grid and the
+    // largest grid that fits, which is the largest cube (cornell: 6·g³ regions with normal
+    // bins) within the capacity it states. lavapipe: 128 MiB storage buffers, so 177; the
+    // H200: 2^27 texels a texel buffer, so 281 (there the advice once named no grid).
     let o = run_render(&[c, "--grid", "300", "--out", "g.exr"], d);
     if o.status.success() {
         eprintln!("note: this device holds the grid-300 region index; the limit is not tested");
     } else {
-        refused(&o, &["--grid 300", "use --grid 177 or less"]);
+        refused(&o, &["--grid 300", "use --grid "]);
+        let err = stderr(&o);
+        let number_after = |key: &str| -> u64 {
+            let rest = &err[err.find(key).unwrap() + key.len()..];
+            let digits: String = rest.chars().take_while(|c| c.is_ascii_digit()).collect();
+            digits
+                .parse()
+                .unwrap_or_else(|_| panic!("no number after '{key}': {err}"))
+        };
+        let (g, capacity) = (number_after("use --grid "), number_after("holds ("));
+        assert!(
+            g < 300 && 6 * g.pow(3) <= capacity && 6 * (g + 1).pow(3) > capacity,
+            "--grid {g} is not the largest grid within {capacity} regions: {err}"
+        );
     }
     let o = run(
         &[

@@ -37,8 +37,12 @@ pub fn check_resume(
     saved.check_cuts(&gpu.tree, regions, path)
 }
 
-/// Errors, naming `--grid` and the largest grid that fits, when the region index (4 bytes a
-/// region) would not fit one storage buffer of this device (lavapipe: 128 MiB).
+/// Errors, naming `--grid` and the largest grid that fits, when the region index (one word a
+/// region, read as a storage buffer and as R32UI texels) would not fit this device: its
+/// storage-buffer range (lavapipe: 128 MiB, 33.5 M regions) or its texel-buffer element count
+/// (NVIDIA H200: 2^27 = 134 M regions), whichever is smaller. Before the texel limit was
+/// counted here, `--grid 300` on the H200 was refused by the buffer layer with no `--grid`
+/// advice (seen 2026-12-04, docs/results.md).
 pub fn check_region_index_fits(
     ctx: &Context,
     scene: &Scene,
@@ -46,18 +50,28 @@ pub fn check_region_index_fits(
 ) -> Result<()> {
     let (lo, hi) = scene.grid_bounds();
     let count = Grid::new(lo, hi, regions).region_count_u64();
-    let max_bytes = ctx.properties.limits.max_storage_buffer_range as u64;
-    if 4 * count > max_bytes {
-        let g = lights::regions::largest_grid(lo, hi, regions, max_bytes / 4);
+    let limits = &ctx.properties.limits;
+    let max_regions = region_capacity(
+        limits.max_storage_buffer_range as u64,
+        limits.max_texel_buffer_elements as u64,
+    );
+    if count > max_regions {
+        let g = lights::regions::largest_grid(lo, hi, regions, max_regions);
         bail!(
-            "--grid {} gives this scene {count} regions, whose index ({} MiB) exceeds this device's storage-buffer limit of {} MiB; use --grid {g} or less{}",
+            "--grid {} gives this scene {count} regions, more than this device's region index holds ({max_regions}: {} MiB storage buffers, {} texels a texel buffer); use --grid {g} or less{}",
             regions.grid,
-            (4 * count) >> 20,
-            max_bytes >> 20,
+            limits.max_storage_buffer_range >> 20,
+            limits.max_texel_buffer_elements,
             if regions.normal_bins { " (or --normal-bins off)" } else { "" }
         );
     }
     Ok(())
+}
+
+/// The most regions a region index can have on a device with these limits: one 4-byte word a
+/// region in one storage buffer, and one R32UI texel a region in one texel buffer.
+pub fn region_capacity(max_storage_bytes: u64, max_texels: u64) -> u64 {
+    (max_storage_bytes / 4).min(max_texels)
 }
 
 /// The header of a statistics file of this scene and these settings with no cuts yet (what
@@ -209,4 +223,17 @@ pub fn build_cuts(
         reached.dedup();
     }
     Cuts::build(&gpu.tree, grid, reached, lo, hi, &settings.regions)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::region_capacity;
+
+    /// lavapipe's storage-buffer range bounds the index there; the H200's 2^27-element texel
+    /// buffers bound it there (its storage range is 4 GiB).
+    #[test]
+    fn region_capacity_is_the_smaller_limit() {
+        assert_eq!(region_capacity(128 << 20, 1 << 27), 32 << 20);
+        assert_eq!(region_capacity(u32::MAX as u64, 1 << 27), 1 << 27);
+    }
 }
