@@ -9,6 +9,28 @@ use lightlearn::gpu::layout::GpuRay;
 use lightlearn::gpu::Buffer;
 use lightlearn::rng::SplitMix64;
 
+/// How close to a triangle's boundary (in barycentric units) a ray may cross it where GPU
+/// and CPU may disagree: f32 intersection on coordinates up to 60 misplaces a crossing by
+/// ~1e-5 units, on triangles of 0.2–4 units; a real miss is a tenth of a triangle away.
+const EDGE: f64 = 1e-3;
+
+/// The smallest barycentric coordinate of the crossing of the ray's line with the triangle's
+/// plane, in f64 (negative outside): its distance from the nearest edge in barycentric units.
+fn edge_margin(tri: &[Vec3; 3], o: Vec3, d: Vec3) -> f64 {
+    let f = |v: Vec3| glam::DVec3::new(v.x as f64, v.y as f64, v.z as f64);
+    let (a, b, c, o, d) = (f(tri[0]), f(tri[1]), f(tri[2]), f(o), f(d));
+    let (e1, e2) = (b - a, c - a);
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-300 {
+        return 0.0; // parallel: the ray lies in the plane, on its edges at best
+    }
+    let s = o - a;
+    let u = s.dot(p) / det;
+    let v = d.dot(s.cross(e1)) / det;
+    u.min(v).min(1.0 - u - v)
+}
+
 #[test]
 fn gpu_and_cpu_bvh_agree_on_every_ray() {
     let ctx = common::ctx();
@@ -79,11 +101,18 @@ fn gpu_and_cpu_bvh_agree_on_every_ray() {
         let (any, _) = gpu_trace::trace(&ctx, &nodes, &tris, rays, true, 1).unwrap();
         let mut n_hit = 0;
         let mut ties = 0;
+        let mut grazed_rays = 0;
         for (i, r) in rays.iter().enumerate() {
             let (o, d) = (Vec3::from(r.origin), Vec3::from(r.dir));
             let cpu = bvh.intersect(o, d, r.tmin, r.tmax);
             let gpu = hits[i];
             n_hit += cpu.is_some() as usize;
+            // Where the two disagree, the triangle one of them missed must be crossed within
+            // EDGE of its boundary: a ray grazing a shared or silhouette edge, which floating
+            // point (FMA contraction, the driver's compiler) may put on either side. On an
+            // NVIDIA H200 a primary ray hit a box face 0.3 units before the CPU's hit that
+            // the CPU missed (2026-12-04); lavapipe had agreed on every ray.
+            let grazes = |prim: u32| edge_margin(&mesh[prim as usize], o, d).abs() < EDGE;
             match cpu {
                 Some((t, prim)) if prim == gpu.prim => {
                     assert!(
@@ -93,24 +122,38 @@ fn gpu_and_cpu_bvh_agree_on_every_ray() {
                     )
                 }
                 Some((t, prim)) => {
-                    // Only a tie (the ray through a shared edge, equal t) may differ.
+                    // A tie (the ray through a shared edge, equal t), or a grazed triangle:
+                    // the GPU's nearer one that the CPU missed, or the CPU's that it missed.
+                    let tie = gpu.prim != u32::MAX && (t - gpu.t).abs() <= 1e-4 * t.max(1.0);
+                    let grazed = if gpu.prim != u32::MAX && gpu.t < t {
+                        grazes(gpu.prim)
+                    } else {
+                        grazes(prim)
+                    };
                     assert!(
-                        gpu.prim != u32::MAX && (t - gpu.t).abs() <= 1e-4 * t.max(1.0),
+                        tie || grazed,
                         "{kind} ray {i}: CPU hits {prim} at {t}, GPU hits {} at {}",
                         gpu.prim,
                         gpu.t
                     );
-                    ties += 1;
+                    if tie {
+                        ties += 1;
+                    } else {
+                        grazed_rays += 1;
+                    }
                 }
-                None => assert_eq!(
-                    gpu.prim,
-                    u32::MAX,
-                    "{kind} ray {i}: GPU hit where CPU missed"
-                ),
+                None => {
+                    if gpu.prim != u32::MAX {
+                        assert!(grazes(gpu.prim), "{kind} ray {i}: GPU hit where CPU missed");
+                        grazed_rays += 1;
+                    }
+                }
             }
-            assert_eq!(
-                any[i].prim != u32::MAX,
-                cpu.is_some(),
+            let any_hit = any[i].prim != u32::MAX;
+            assert!(
+                any_hit == cpu.is_some()
+                    || (any_hit && grazes(any[i].prim))
+                    || cpu.is_some_and(|(_, p)| grazes(p)),
                 "{kind} ray {i}: any-hit disagrees"
             );
         }
@@ -119,9 +162,29 @@ fn gpu_and_cpu_bvh_agree_on_every_ray() {
             "{kind}: {ties} ties is too many to be edge hits"
         );
         assert!(
+            grazed_rays * 50 <= rays.len(),
+            "{kind}: {grazed_rays} rays grazing an edge is too many"
+        );
+        assert!(
             n_hit * 10 >= rays.len(),
             "{kind}: only {n_hit} hits; the test would be too weak"
         );
-        eprintln!("{kind}: {} rays, {n_hit} hits, {ties} ties", rays.len());
+        eprintln!(
+            "{kind}: {} rays, {n_hit} hits, {ties} ties, {grazed_rays} grazing",
+            rays.len()
+        );
     }
+}
+
+/// The margin is the smallest barycentric coordinate: a third at the centroid, zero on an
+/// edge, negative outside (so a real miss is never taken for a graze).
+#[test]
+fn edge_margin_by_hand() {
+    let tri = [Vec3::ZERO, Vec3::X * 3.0, Vec3::Z * 3.0];
+    let down = Vec3::NEG_Y;
+    let at = |x: f32, z: f32| edge_margin(&tri, Vec3::new(x, 5.0, z), down);
+    assert!((at(1.0, 1.0) - 1.0 / 3.0).abs() < 1e-9);
+    assert!(at(1.5, 0.0).abs() < 1e-9);
+    assert!((at(-0.3, 1.0) + 0.1).abs() < 1e-7);
+    assert!(at(2.0, 2.0) < -EDGE);
 }
