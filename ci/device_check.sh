@@ -217,17 +217,25 @@ else
 fi
 rm -f "$out/render.exr"
 
-# --- Direct-light samples per second at a size that fills a GPU ---------------------------------
+# --- Samples per second at a size that fills a GPU ------------------------------------------
 # (the Mitsuba comparison of issue #18 is 96x72 on 2 CPU cores; a GPU needs far more pixels a
-# pass to be busy, so this is 1024x768, 64 spp, rooms16, one row per sampler).
-for s in uniform wang bayes; do
+# pass to be busy: 1024x768 on rooms16, direct light per sampler and path traced with bayes).
+# On the H200 64 spp took 0.02-0.07 s, too short to leave per-render costs out (2026-12-04),
+# so a discrete GPU takes 1024 spp; lavapipe 64 (16-30 s each here).
+tp_spp=64
+case "$device" in *llvmpipe* | "none found") ;; *) tp_spp=1024 ;; esac
+for run in "uniform 1" "wang 1" "bayes 1" "bayes 8"; do
+  set -- $run
+  s=$1 depth=$2 spp=$tp_spp
+  [ "$depth" = 8 ] && spp=$((tp_spp / 4))
+  name="rooms16 1024x768 $spp spp, $s, depth $depth"
   : >"$log.step"
-  if step "throughput $s" "$ll" render scenes/rooms16.glb --sampler "$s" --max-depth 1 --width 1024 \
-    --height 768 --spp 64 --out "$out/tp/$s.exr" --mkdir -q; then
-    tp=$(python3 -c "import json; j = json.load(open('$out/tp/$s.json')); print(f\"{j['render_seconds']:.2f} s render: {j['width'] * j['height'] * j['spp'] / j['render_seconds'] / 1e6:.1f} M samples/s\")")
-    row "direct light, rooms16 1024x768 64 spp, $s" pass "$step_seconds" "$tp"
+  if step "throughput $name" "$ll" render scenes/rooms16.glb --sampler "$s" --max-depth "$depth" \
+    --width 1024 --height 768 --spp "$spp" --out "$out/tp/$s-$depth.exr" --mkdir -q; then
+    tp=$(python3 -c "import json; j = json.load(open('$out/tp/$s-$depth.json')); print(f\"{j['render_seconds']:.2f} s render: {j['width'] * j['height'] * j['spp'] / j['render_seconds'] / 1e6:.1f} M samples/s\")")
+    row "$name" pass "$step_seconds" "$tp"
   else
-    row "direct light, rooms16 1024x768 64 spp, $s" FAIL "$step_seconds" "see log.txt"
+    row "$name" FAIL "$step_seconds" "see log.txt"
   fi
 done
 rm -rf "$out/tp"
