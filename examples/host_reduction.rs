@@ -9,7 +9,7 @@ use std::path::PathBuf;
 
 use lightlearn::accel::Bvh;
 use lightlearn::gpu::{Context, ContextOptions};
-use lightlearn::render::{Budget, GpuScene, LightSampler, RenderSettings, Session};
+use lightlearn::render::{GpuScene, LightSampler, RenderSettings, Session};
 
 fn main() -> anyhow::Result<()> {
     let mut scenes: Vec<PathBuf> = std::env::args().skip(1).map(PathBuf::from).collect();
@@ -28,19 +28,7 @@ fn main() -> anyhow::Result<()> {
         let scene = lightlearn::scene::gltf_load::load(path, &mut |_| {})?;
         let gpu = GpuScene::upload(&ctx, &scene, &Bvh::build(&scene.triangles))?;
         for depth in [1, 8] {
-            let settings = RenderSettings {
-                width: 128,
-                height: 96,
-                budget: Budget::Samples(1),
-                seed: 0,
-                sampler: LightSampler::Bayes,
-                regions: Default::default(),
-                learn: Default::default(),
-                resume: None,
-                stratified: true,
-                max_depth: depth,
-                light_point: Default::default(),
-            };
+            let settings = RenderSettings::new(LightSampler::Bayes, 128, 96, depth);
             let mut s = Session::new(&ctx, &scene, &gpu, &settings)?;
             // Warm up past the growth points, then time frames of ~0.25 s.
             s.run_passes(64)?;

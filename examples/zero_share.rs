@@ -55,17 +55,9 @@ fn main() -> anyhow::Result<()> {
         let scene = lightlearn::scene::gltf_load::load(path, &mut |_| {})?;
         let gpu = GpuScene::upload(&ctx, &scene, &Bvh::build(&scene.triangles))?;
         let settings = |sampler, seed| RenderSettings {
-            width: 128,
-            height: 96,
             budget: Budget::Samples(spp),
             seed,
-            sampler,
-            regions: Default::default(),
-            learn: Default::default(),
-            resume: None,
-            stratified: true,
-            max_depth: 1,
-            light_point: Default::default(),
+            ..RenderSettings::new(sampler, 128, 96, 1)
         };
         let run = |set: &RenderSettings, passes: u32| -> anyhow::Result<Session> {
             let mut s = Session::new(&ctx, &scene, &gpu, set)?;

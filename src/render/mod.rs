@@ -175,6 +175,28 @@ pub struct RenderSettings {
     pub resume: Option<Arc<SavedStats>>,
 }
 
+impl RenderSettings {
+    /// `sampler` on a `width`×`height` film with paths of `max_depth` vertices and every
+    /// other setting at its default (one pass, seed 0, the default regions and learning,
+    /// stratified numbers, area sampling of triangle lights, nothing loaded): for programs
+    /// that set a few fields (`RenderSettings { seed: 3, ..RenderSettings::new(…) }`).
+    pub fn new(sampler: LightSampler, width: u32, height: u32, max_depth: u32) -> Self {
+        RenderSettings {
+            width,
+            height,
+            budget: Budget::Samples(1),
+            seed: 0,
+            sampler,
+            regions: Default::default(),
+            learn: Default::default(),
+            stratified: true,
+            max_depth,
+            light_point: Default::default(),
+            resume: None,
+        }
+    }
+}
+
 /// Passes are submitted in batches of about this many seconds: long enough that submission
 /// overhead vanishes, short enough for a live progress bar and a tight `--time`.
 pub const PASS_BATCH_SECONDS: f64 = 0.25;
