@@ -49,6 +49,8 @@ if [ "$mode" = prepare ]; then
   mkdir -p "$pack/tools" && cp "$(command -v glslangValidator)" "$pack/tools/"
   # The binaries have this folder compiled in (CARGO_MANIFEST_DIR, CARGO_BIN_EXE_lightlearn).
   echo "$root" >"$pack/manifest_dir"
+  # The commit the binaries were built from (the device's copy of .git can be older).
+  { git rev-parse --short HEAD && git status --porcelain --untracked-files=no | grep -q . && echo "(with uncommitted changes)"; } 2>/dev/null | paste -sd ' ' >"$pack/commit"
   (cd "$pack" && tar -cJf bin.tar.xz bin && rm -rf bin)
   # Debian 12's loader and validation layers (tests run with validation on). The device
   # tool's README gives the amd64 apt options; packages the image already has are skipped
@@ -262,7 +264,7 @@ rm -rf "$out/compare" "$log.step"
   echo
   echo "- device: $device"
   echo "- VK_DRIVER_FILES: $VK_DRIVER_FILES"
-  echo "- commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
+  echo "- commit: $(cat "$pack/commit" 2>/dev/null || git rev-parse --short HEAD 2>/dev/null || echo unknown)"
   echo "- total: $(($(date +%s) - t_start)) s"
   echo
   echo "| step | result | seconds | numbers |"

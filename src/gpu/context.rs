@@ -126,16 +126,7 @@ impl Context {
             .application_info(&app)
             .enabled_layer_names(&layers)
             .enabled_extension_names(&extensions);
-        // One instance at a time in a process. On an NVIDIA H200 one of 14 test threads that
-        // created theirs at once got ERROR_INCOMPATIBLE_DRIVER while the others (and every
-        // other test binary) got a device (2026-12-04); the driver's first initialisation
-        // is suspected, not proven (docs/results.md). It costs nothing measurable: instance
-        // creation is milliseconds and happens once per context.
-        static CREATING: Mutex<()> = Mutex::new(());
-        let creating = CREATING.lock().unwrap_or_else(|e| e.into_inner());
-        let created = unsafe { entry.create_instance(&create, None) };
-        drop(creating);
-        let instance = match created {
+        let instance = match unsafe { entry.create_instance(&create, None) } {
             Ok(i) => i,
             Err(vk::Result::ERROR_INCOMPATIBLE_DRIVER) => {
                 bail!("no Vulkan driver found. {}", no_device_help())
