@@ -50,7 +50,9 @@ if [ "$mode" = prepare ]; then
   # The binaries have this folder compiled in (CARGO_MANIFEST_DIR, CARGO_BIN_EXE_lightlearn).
   echo "$root" >"$pack/manifest_dir"
   # The commit the binaries were built from (the device's copy of .git can be older).
-  { git rev-parse --short HEAD && git status --porcelain --untracked-files=no | grep -q . && echo "(with uncommitted changes)"; } 2>/dev/null | paste -sd ' ' >"$pack/commit"
+  commit=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
+  [ -n "$(git status --porcelain --untracked-files=no 2>/dev/null)" ] && commit="$commit (with uncommitted changes)"
+  echo "$commit" >"$pack/commit"
   (cd "$pack" && tar -cJf bin.tar.xz bin && rm -rf bin)
   # Debian 12's loader and validation layers (tests run with validation on). The device
   # tool's README gives the amd64 apt options; packages the image already has are skipped
