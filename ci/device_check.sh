@@ -82,9 +82,10 @@ t_start=$(date +%s)
 
 # --- The Vulkan loader and driver -------------------------------------------------------
 # Each packed .deb the machine does not have installed is unpacked into / (the device tool's
-# README way): the loader, the validation layers and libglvnd, without which NVIDIA's ICD
-# (libGLX_nvidia.so.0) loads but hands the loader no vkCreateInstance (seen 2026-12-04 on an
-# H200 with only libvulkan1 unpacked: "Found no drivers!").
+# README way): the loader, the validation layers and libglvnd. On an H200 (2026-12-04) with
+# the loader and layers alone, NVIDIA's ICD (libGLX_nvidia.so.0) loaded but handed the loader
+# no vkCreateInstance ("Found no drivers!"); with libglvnd and the EGL vendor file below
+# (both added at once, so which one it needed is not known) it gave the device.
 unpacked=0
 for f in "$pack"/debs/*.deb; do
   [ -f "$f" ] || continue
