@@ -260,7 +260,45 @@ else
   row "compare rooms16 wang,bayes 64 spp, direct" FAIL "$step_seconds" "see log.txt"
 fi
 cp "$out/compare/metrics.json" "$out/compare-metrics.json" 2>/dev/null
-rm -rf "$out/compare" "$log.step"
+rm -rf "$out/compare"
+
+# --- The samplers at equal time on a discrete GPU ----------------------------------------------
+# 512x384 against lightbvh references (reference noise subtracted); ~45 s on the H200
+# (2026-12-04). Skipped on lavapipe, where the references alone would take hours.
+case "$device" in *llvmpipe* | "none found") gpu_compare=0 ;; *) gpu_compare=1 ;; esac
+if [ "$gpu_compare" = 1 ]; then
+  for run in "rooms16 1" "city 1" "hall 1" "strings 1" "rooms16 8" "hall 8"; do
+    set -- $run
+    sc=$1 depth=$2
+    if [ "$depth" = 1 ]; then
+      args=(--samplers wang,donikian,bayes --time 0.25 --spp 256 --reference-spp 32768)
+    else
+      args=(--samplers wang,bayes --time 0.5 --spp 64 --reference-spp 8192)
+    fi
+    name="compare $sc 512x384 depth $depth ${args[*]:0:6}"
+    : >"$log.step"
+    if step "$name" "$ll" compare "scenes/$sc.glb" "${args[@]}" --width 512 --height 384 \
+      --max-depth "$depth" --out "$out/cmp" -q; then
+      # MSE(wang) / MSE per sampler, the reference's noise subtracted ("raw" where the
+      # corrected MSE fell below that noise).
+      ratios=$(python3 -c "
+import json
+m = json.load(open('$out/cmp/metrics.json'))
+for c in m['comparisons']:
+    parts = []
+    for r in c['runs'][1:]:
+        v = r['speedup_corrected']
+        parts.append(f\"{r['sampler']} {v:.2f}x\" if v is not None else f\"{r['sampler']} raw {r['speedup']:.2f}x\")
+    print(c['kind'] + ' over wang: ' + ', '.join(parts), end='; ')
+" 2>>"$log")
+      row "$name" pass "$step_seconds" "$ratios"
+    else
+      row "$name" FAIL "$step_seconds" "see log.txt"
+    fi
+    rm -rf "$out/cmp"
+  done
+fi
+rm -f "$log.step"
 
 {
   echo "# lightlearn device check"
