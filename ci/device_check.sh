@@ -159,18 +159,22 @@ step() { # name, then the command; its output goes to the log; returns its statu
 }
 
 # --- The device the renderer picks ----------------------------------------------------------
-"$ll" render scenes/cornell.glb --width 16 --height 16 --spp 1 --max-depth 1 --out "$out/probe/p.exr" --mkdir -q >>"$log" 2>&1
-device=$(python3 -c "import json; print(json.load(open('$out/probe/p.json'))['device'])" 2>/dev/null || echo "none found")
-rm -rf "$out/probe"
+probe() { # a 16x16 render whose report names the device (env: what to run it with)
+  env "$@" "$ll" render scenes/cornell.glb --width 16 --height 16 --spp 1 --max-depth 1 \
+    --out "$out/probe/p.exr" --mkdir -q >>"$log" 2>&1
+  python3 -c "import json; print(json.load(open('$out/probe/p.json'))['device'])" 2>/dev/null || echo "none found"
+  rm -rf "$out/probe"
+}
+device=$(probe)
 say "device: $device"
+# A discrete GPU gets bigger workloads below (lavapipe would take minutes to hours on them).
+case "$device" in *llvmpipe* | "none found") on_gpu=0 ;; *) on_gpu=1 ;; esac
 if [ "$device" = "none found" ]; then
   # Why the loader found no driver: the ICD file and the loader's own account of it.
   cat "$VK_DRIVER_FILES" >>"$log" 2>&1
   lib=$(ldconfig -p | awk '/libGLX_nvidia.so.0/ { print $NF; exit }')
   [ -n "$lib" ] && ldd "$lib" >>"$log" 2>&1
-  VK_LOADER_DEBUG=error,warn,driver "$ll" render scenes/cornell.glb --width 16 --height 16 --spp 1 \
-    --max-depth 1 --out "$out/probe/p.exr" --mkdir -q >>"$log" 2>&1
-  rm -rf "$out/probe"
+  probe VK_LOADER_DEBUG=error,warn,driver >/dev/null
 fi
 
 # --- The test suite on that device ------------------------------------------------------------
@@ -197,7 +201,7 @@ fi
 # lavapipe 512x512 rays take ~0.1 s a dispatch, on a discrete GPU well under a millisecond,
 # so there it traces 2048x2048 rays a dispatch to keep the overhead small.
 rays_args=(--repeats 5)
-case "$device" in *llvmpipe* | "none found") ;; *) rays_args=(--width 2048 --height 2048 --repeats 10) ;; esac
+[ "$on_gpu" = 1 ] && rays_args=(--width 2048 --height 2048 --repeats 10)
 if step bench-rays "$ll" bench-rays "${rays_args[@]}"; then
   rays=$(python3 -c '
 import re, sys
@@ -228,7 +232,7 @@ rm -f "$out/render.exr"
 # On the H200 64 spp took 0.02-0.07 s, too short to leave per-render costs out (2026-12-04),
 # so a discrete GPU takes 1024 spp; lavapipe 64 (16-30 s each here).
 tp_spp=64
-case "$device" in *llvmpipe* | "none found") ;; *) tp_spp=1024 ;; esac
+[ "$on_gpu" = 1 ] && tp_spp=1024
 for run in "uniform 1" "wang 1" "bayes 1" "bayes 8"; do
   set -- $run
   s=$1 depth=$2 spp=$tp_spp
@@ -265,8 +269,7 @@ rm -rf "$out/compare"
 # --- The samplers at equal time on a discrete GPU ----------------------------------------------
 # 512x384 against lightbvh references (reference noise subtracted); ~45 s on the H200
 # (2026-12-04). Skipped on lavapipe, where the references alone would take hours.
-case "$device" in *llvmpipe* | "none found") gpu_compare=0 ;; *) gpu_compare=1 ;; esac
-if [ "$gpu_compare" = 1 ]; then
+if [ "$on_gpu" = 1 ]; then
   for run in "rooms16 1" "city 1" "hall 1" "strings 1" "rooms16 8" "hall 8"; do
     set -- $run
     sc=$1 depth=$2

@@ -69,6 +69,7 @@ fn main() -> anyhow::Result<()> {
             .iter()
             .map(|&(zero, all)| all > 0.0 && zero == all)
             .collect();
+        let dark_pixels = unlightable.iter().filter(|&&d| d).count();
 
         // bayes learned over 2048 passes (another seed), then frozen: no fold in the
         // measured passes; `refine`: with learned cut refinement (--refine-cuts).
@@ -101,7 +102,6 @@ fn main() -> anyhow::Result<()> {
                     all_lit += a;
                 }
             }
-            let dark_pixels = unlightable.iter().filter(|&&d| d).count();
             let head = if first {
                 format!(
                     "{} | {dark_pixels} ({:.1} %)",
