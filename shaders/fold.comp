@@ -18,6 +18,10 @@ layout(std430, set = 0, binding = 2) readonly buffer Learn { LearnParams learn[]
 // count of this dispatch (indirect), [1], [2] 1, [3] the count, then the slots, NO_SLOT
 // after the last (the list has room for every slot, rounded up to whole workgroups).
 layout(std430, set = 0, binding = 3) buffer Touched { uint touched_slots[]; };
+// Each slot's borrowed pseudo-observations (n_zero, n_nonzero, Σy, Σy²; src/learning/pooling.rs,
+// all 0 unless --pool-priors): added to the totals the posterior is computed from, never to
+// the totals themselves.
+layout(std430, set = 0, binding = 4) readonly buffer Prior { vec4 slot_prior[]; };
 
 // mode FOLD_TOUCHED (between passes, an indirect dispatch): the listed slots, and the list
 // emptied for the next window; lavapipe runs the body for every invocation of a dispatch,
@@ -65,7 +69,13 @@ void main() {
     // list never holds a slot twice.
     uint listed = mode == FOLD_ALL ? d.touched : 0u;
     slot_delta[i] = SlotDelta(0u, 0u, 0u, 0u, 0u, 0u, listed, 0u);
-    vec3 c = weight_coefficients(s, learn[0]);
+    SlotStats post = s;
+    vec4 pr = slot_prior[i];
+    post.n_zero += pr.x;
+    post.n_nonzero += pr.y;
+    post.sum += pr.z;
+    post.sum_sq += pr.w;
+    vec3 c = weight_coefficients(post, learn[0]);
     s.coef_a = c.x;
     s.coef_b = c.y;
     s.coef_c = c.z;

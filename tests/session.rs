@@ -491,9 +491,9 @@ fn the_fold_visits_exactly_the_slots_the_window_touched() {
 
 /// Slots appended by region growth start from the statistics a fresh session gives its
 /// slots (`initial_stats`: zero totals, the scale of the node's unoccluded estimate, and the
-/// coefficients the fold derives from them), whether the statistics buffer had to be made
-/// anew or had room for them (it grows by doubling and is written in place in between), and
-/// the fold after growth sets the coefficients of the new slots alone.
+/// coefficients the fold derives from them and from what the slot borrowed of its
+/// neighbours, `--pool-priors`), whether the statistics buffer had to be made anew or had
+/// room for them (it grows by doubling and is written in place in between).
 #[test]
 fn grown_slots_start_from_their_initial_statistics() {
     let ctx = common::ctx();
@@ -524,14 +524,21 @@ fn grown_slots_start_from_their_initial_statistics() {
     let appends = grown.windows(2).filter(|w| w[1] > w[0]).count();
     assert!(appends >= 3, "too few growths to test: {grown:?}");
     let stats = x.sampling_stats().unwrap();
+    let priors = x.borrowed_priors().unwrap();
     let init = lightlearn::render::initial_stats(&gpu.tree, x.cuts(), &set.learn);
     assert_eq!(stats.len(), init.len());
+    assert_eq!(priors.len(), init.len());
     let mut checked = 0;
+    let mut borrowing = 0;
     for (i, (g, c)) in stats.iter().zip(&init).enumerate().skip(first) {
         if g.n_zero + g.n_nonzero > 0.0 {
             continue;
         }
-        let want = lightlearn::learning::fold(c, &SlotDelta::default(), &set.learn);
+        // Cold slots borrow their neighbours' observations (--pool-priors): the
+        // coefficients are those of the initial totals plus what they borrowed.
+        let want =
+            lightlearn::learning::fold_with_prior(c, &SlotDelta::default(), &priors[i], &set.learn);
+        borrowing += (priors[i][0] + priors[i][1] > 0.0) as usize;
         let close = |a: f32, b: f32| (a - b).abs() <= 1e-5 * a.abs().max(b.abs());
         assert!(
             g.scale == want.scale
@@ -542,6 +549,7 @@ fn grown_slots_start_from_their_initial_statistics() {
         );
         checked += 1;
     }
-    eprintln!("{checked} appended slots without observations checked");
+    eprintln!("{checked} appended slots without observations checked, {borrowing} borrowing");
     assert!(checked > 0);
+    assert!(borrowing > 0, "no appended cold slot borrowed observations");
 }

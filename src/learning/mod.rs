@@ -13,6 +13,7 @@
 //! pmf before any data is exactly ∝ Ĩ_C(x), i.e. learning starts exactly where `wang` is
 //! (the test), and no region-centre estimate can be zero for a slot that lights x.
 
+pub mod pooling;
 mod schedule;
 pub mod stats_file;
 
@@ -61,6 +62,10 @@ pub struct LearnSettings {
     /// splits up to N of its clusters whose observations vary the most into their two
     /// children (src/render/refine.rs).
     pub refine_cuts: u32,
+    /// `bayes`: a slot with no observation of its own borrows up to this many
+    /// pseudo-observations of the same node from its neighbouring regions (`--pool-priors`,
+    /// 0 = off; src/learning/pooling.rs).
+    pub pool_priors: f32,
 }
 
 impl Default for LearnSettings {
@@ -85,6 +90,10 @@ impl Default for LearnSettings {
             // 6.50 → 8.84 (ci/bench_learning.sh ablation setting).
             prior_scale: 1.0 / (4.0 * std::f32::consts::PI),
             refine_cuts: 0,
+            // Measured 1.33× less variance on city at 64 spp (1.15× at 256, 1.35× path
+            // traced), 1.04–1.11× on city10k, strings5k and cornell40, even elsewhere, strings
+            // 0.92–1.0× (direct light, 128×96, docs/results.md 2026-12-04); 8 was no better.
+            pool_priors: 4.0,
         }
     }
 }
@@ -109,6 +118,12 @@ impl LearnSettings {
             bail!(
                 "--prior-alpha {} must be greater than 0.5 (the variance estimate is β/(α − ½))",
                 self.prior_alpha
+            );
+        }
+        if !(self.pool_priors.is_finite() && self.pool_priors >= 0.0) {
+            bail!(
+                "--pool-priors {} must be a number of observations ≥ 0 (0: off)",
+                self.pool_priors
             );
         }
         if !(self.prior_scale.is_finite() && self.prior_scale > 0.0) {
@@ -249,9 +264,21 @@ pub fn prior_mean(importance: f32, d2: f32, brdf: f32, l: &LearnSettings) -> f32
 /// Window sums of the kernel's fixed point: 24 fraction bits of y / scale.
 pub const FIX_ONE: f64 = 16_777_216.0;
 
-/// The CPU mirror of `fold.comp`: the window's sums folded into the totals, then the weight
-/// coefficients recomputed (f64 sums here, f32 on the GPU; tests compare within rounding).
+/// The CPU mirror of `fold.comp` for a slot without borrowed observations ([`fold_with_prior`]).
 pub fn fold(s: &SlotStats, d: &SlotDelta, l: &LearnSettings) -> SlotStats {
+    fold_with_prior(s, d, &[0.0; 4], l)
+}
+
+/// The CPU mirror of `fold.comp`: the window's sums folded into the totals, then the weight
+/// coefficients recomputed from the totals plus the slot's borrowed pseudo-observations
+/// (`prior`, src/learning/pooling.rs), which the totals never hold (f64 sums here, f32 on the
+/// GPU; tests compare within rounding).
+pub fn fold_with_prior(
+    s: &SlotStats,
+    d: &SlotDelta,
+    prior: &pooling::SlotPrior,
+    l: &LearnSettings,
+) -> SlotStats {
     let mut out = *s;
     if out.scale.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         out.scale = 1.0;
@@ -267,8 +294,19 @@ pub fn fold(s: &SlotStats, d: &SlotDelta, l: &LearnSettings) -> SlotStats {
             out.scale = (out.sum_sq / out.n_nonzero).sqrt();
         }
     }
-    [out.coef_a, out.coef_b, out.coef_c] = coefficients(&out, l);
+    [out.coef_a, out.coef_b, out.coef_c] = coefficients(&with_prior(&out, prior), l);
     out
+}
+
+/// The totals the posterior is computed from: the slot's own plus its borrowed ones.
+pub fn with_prior(s: &SlotStats, p: &pooling::SlotPrior) -> SlotStats {
+    SlotStats {
+        n_zero: s.n_zero + p[0],
+        n_nonzero: s.n_nonzero + p[1],
+        sum: s.sum + p[2],
+        sum_sq: s.sum_sq + p[3],
+        ..*s
+    }
 }
 
 /// R = 1 − p̂0 and the regression constant's posterior mean μ = P μ0 + Q · scale: the part

@@ -27,6 +27,9 @@ pub struct LearnedState {
     pub delta: Buffer,
     /// The slots the open window touched, for the fold ([`touched_list`]).
     pub touched: Buffer,
+    /// Each slot's borrowed pseudo-observations (`--pool-priors`, fold.comp `Prior`), as
+    /// long as `stats`.
+    pub prior: Buffer,
     pub params: Buffer,
     /// Regions without a cut that samples reached (render.comp `missing_regions`): a count
     /// of newly set bits, then one bit per region.
@@ -102,6 +105,7 @@ impl LearnedState {
                 slots as u64 * std::mem::size_of::<SlotDelta>() as u64,
             )?,
             touched: Buffer::indirect(ctx, "touched slots", &touched_list(slots))?,
+            prior: Buffer::zeroed(ctx, "borrowed observations", slots as u64 * PRIOR_BYTES)?,
             params: Buffer::from_slice(ctx, "learning parameters", &[settings.learn.gpu_params()])?,
             slots,
             capacity: slots,
@@ -204,7 +208,10 @@ impl LearnedState {
             // and the list is empty (every slot's `touched` flag 0): a new, empty one with
             // room for every slot of the capacity.
             let touched = Buffer::indirect(ctx, "touched slots", &touched_list(capacity as u32))?;
-            (self.stats, self.delta, self.touched) = (stats, delta, touched);
+            // Borrowed observations are recomputed after every growth (`pool_priors`): the
+            // new buffer starts empty.
+            let prior = Buffer::zeroed(ctx, "borrowed observations", capacity * PRIOR_BYTES)?;
+            (self.stats, self.delta, self.touched, self.prior) = (stats, delta, touched, prior);
             self.capacity = capacity as u32;
         }
         // The window sums of the slots past `slots` were never touched: zero, as fresh ones.
@@ -212,6 +219,25 @@ impl LearnedState {
             .write_at(old * slot, bytemuck::cast_slice(tail))?;
         self.slots = new as u32;
         Ok(())
+    }
+
+    /// Recomputes every slot's borrowed pseudo-observations from the totals
+    /// (src/learning/pooling.rs), at a fold boundary; the caller then refolds every slot's
+    /// coefficients. Returns how many slots borrow.
+    pub fn pool_priors(&mut self, budget: f32) -> Result<usize> {
+        let t0 = Instant::now();
+        let stats = self.read_stats()?;
+        let c = &self.cuts;
+        let priors = crate::learning::pooling::pooled_priors(
+            &c.grid.params,
+            &c.index,
+            &c.cuts,
+            &stats,
+            budget,
+        );
+        self.prior.write(bytemuck::cast_slice(&priors))?;
+        self.cut_seconds += t0.elapsed().as_secs_f64();
+        Ok(priors.iter().filter(|p| p[0] + p[1] > 0.0).count())
     }
 
     /// The totals and coefficients of the slots in use (the buffer may have room for more).
@@ -321,6 +347,9 @@ impl LearnedState {
         })
     }
 }
+
+/// Bytes of one slot's borrowed observations (a vec4 of fold.comp's `Prior`).
+const PRIOR_BYTES: u64 = 16;
 
 /// The empty list of touched slots (render.comp `mark_touched`, fold.comp) for `slots`
 /// slots: the fold's indirect workgroup counts (0, 1, 1), the count 0, then room for every

@@ -58,7 +58,7 @@ const LEARNED_SET: usize = 1;
 const FILM_SET: usize = 2;
 
 /// The storage blocks of `fold.comp` by binding number (set 0).
-pub const FOLD_BINDINGS: [&str; 4] = ["Stats", "Delta", "Learn", "Touched"];
+pub const FOLD_BINDINGS: [&str; 5] = ["Stats", "Delta", "Learn", "Touched", "Prior"];
 
 /// fold.comp's modes (its push constant `mode`): the slots the window listed (between
 /// passes, an indirect dispatch), or every slot with its coefficients recomputed.
@@ -233,11 +233,12 @@ impl PassKernels {
         ];
         let set = in_binding_order(&learned, RENDER_BINDINGS[LEARNED_SET]);
         self.render.bind_set(LEARNED_SET, &set)?;
-        let fold: [(&str, &Buffer); 4] = [
+        let fold: [(&str, &Buffer); 5] = [
             ("Stats", &l.stats),
             ("Delta", &l.delta),
             ("Learn", &l.params),
             ("Touched", &l.touched),
+            ("Prior", &l.prior),
         ];
         self.fold.bind(&in_binding_order(&fold, &FOLD_BINDINGS))
     }

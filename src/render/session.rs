@@ -26,7 +26,9 @@ use super::cuts::{check_region_index_fits, stats_header};
 use super::learned_state::{HostReduction, LearnedState};
 use super::passes::PassKernels;
 use super::result::mean_of;
-use super::{camera_vectors, GpuScene, Learned, RegionStats, RenderResult, RenderSettings};
+use super::{
+    camera_vectors, GpuScene, Learned, LightSampler, RegionStats, RenderResult, RenderSettings,
+};
 use crate::gpu::layout::{PixelAccum, RenderParams, SlotDelta, SlotStats};
 use crate::gpu::{Buffer, Context};
 use crate::learning::stats_file::{SavedStats, StatsHeader};
@@ -140,6 +142,10 @@ impl<'a> Session<'a> {
         session.bind_scene()?;
         session.bind_learned()?;
         session.bind_film()?;
+        if session.pools_priors() && settings.resume.is_some() {
+            // What the render that saved them pooled at its last growth point (pooling.rs).
+            session.learned.pool_priors(settings.learn.pool_priors)?;
+        }
         if session.is_learning() {
             // The weight coefficients of fresh or loaded statistics (under these settings).
             session.fold_from(0)?;
@@ -277,6 +283,13 @@ impl<'a> Session<'a> {
         }
     }
 
+    /// Whether cold slots borrow observations (`bayes` learning with `--pool-priors` > 0).
+    fn pools_priors(&self) -> bool {
+        self.is_learning()
+            && self.settings.sampler == LightSampler::Bayes
+            && self.settings.learn.pool_priors > 0.0
+    }
+
     /// Whether the window is empty (samplers that do not learn: always).
     fn at_fold_boundary(&self) -> bool {
         !self.window_open
@@ -301,11 +314,16 @@ impl<'a> Session<'a> {
             .refine(&self.ctx, &self.gpu.tree, &self.settings)?;
         if added + refined > 0 {
             self.bind_learned()?;
-            if self.is_learning() {
-                // The new slots' coefficients (the others' totals did not change): over all
-                // slots this fold was 4-5 ms of a growth's 6-9 ms (city, 128x96).
-                self.fold_from(before)?;
-            }
+        }
+        if self.pools_priors() {
+            // Every slot's borrowed observations anew from the totals, so every slot's
+            // coefficients too.
+            self.learned.pool_priors(self.settings.learn.pool_priors)?;
+            self.fold_from(0)?;
+        } else if added + refined > 0 && self.is_learning() {
+            // The new slots' coefficients (the others' totals did not change): over all
+            // slots this fold was 4-5 ms of a growth's 6-9 ms (city, 128x96).
+            self.fold_from(before)?;
         }
         Ok(added)
     }
@@ -374,6 +392,15 @@ impl<'a> Session<'a> {
             return Ok(Vec::new());
         }
         self.learned.read_stats()
+    }
+
+    /// Each slot's borrowed pseudo-observations (`--pool-priors`; learned samplers; empty
+    /// otherwise), as the last fold computed the coefficients with them.
+    pub fn borrowed_priors(&self) -> Result<Vec<[f32; 4]>> {
+        if !self.is_learning() {
+            return Ok(Vec::new());
+        }
+        self.learned.prior.read_first(self.learned.slots as usize)
     }
 
     /// The open learning window as the GPU holds it: every slot's window sums, and the list

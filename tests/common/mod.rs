@@ -114,9 +114,11 @@ pub fn gpu_samples_and_pmfs(
         &lightlearn::render::touched_list(stats.len() as u32),
     )
     .unwrap();
+    // No borrowed observations (--pool-priors): the coefficients of `stats` alone.
+    let pb = Buffer::zeroed(ctx, "borrowed", (stats.len() * 16) as u64).unwrap();
     let fold =
-        ComputePipeline::new(ctx, "fold", lightlearn::gpu::kernels::FOLD, 4, 12, &[]).unwrap();
-    fold.bind(&[&sb, &db, &lb, &tb]).unwrap();
+        ComputePipeline::new(ctx, "fold", lightlearn::gpu::kernels::FOLD, 5, 12, &[]).unwrap();
+    fold.bind(&[&sb, &db, &lb, &tb, &pb]).unwrap();
     let slots = [stats.len() as u32, 1, 0];
     ctx.submit(|cmd| {
         fold.dispatch(
