@@ -86,41 +86,33 @@ pub fn pooled_priors(
     if budget.is_nan() || budget <= 0.0 {
         return priors;
     }
-    // Each block's totals per node, summed in region order (deterministic), in f64.
+    // Each block's totals per node, summed in region order (deterministic), in f64; the cold
+    // slots with their keys, to be served after.
     let mut pooled: HashMap<u64, [f64; 4], BuildHasherDefault<KeyHasher>> = HashMap::default();
-    let slots = |o: u32| {
-        let o = o as usize;
-        (o + 1..o + 1 + cuts[o] as usize).map(move |i| (i, cuts[i]))
-    };
+    let mut cold = Vec::new();
     for (r, &o) in index.iter().enumerate() {
         if o == 0 {
             continue;
         }
-        for (i, node) in slots(o) {
+        let o = o as usize;
+        for (i, &node) in cuts.iter().enumerate().skip(o + 1).take(cuts[o] as usize) {
             let s = &stats[i];
+            let k = key(grid, r as u32, node);
             if s.n_zero + s.n_nonzero > 0.0 {
-                let e = pooled.entry(key(grid, r as u32, node)).or_insert([0.0; 4]);
+                let e = pooled.entry(k).or_insert([0.0; 4]);
                 e[0] += s.n_zero as f64;
                 e[1] += s.n_nonzero as f64;
                 e[2] += s.sum as f64;
                 e[3] += s.sum_sq as f64;
+            } else {
+                cold.push((i, k));
             }
         }
     }
-    for (r, &o) in index.iter().enumerate() {
-        if o == 0 {
-            continue;
-        }
-        for (i, node) in slots(o) {
-            if stats[i].n_zero + stats[i].n_nonzero > 0.0 {
-                continue;
-            }
-            // A cold slot added nothing to its block's totals: they are all the others'.
-            let Some(e) = pooled.get(&key(grid, r as u32, node)) else {
-                continue;
-            };
-            let n = e[0] + e[1];
-            let f = (budget as f64 / n).min(1.0);
+    for (i, k) in cold {
+        // A cold slot added nothing to its block's totals: they are all the others'.
+        if let Some(e) = pooled.get(&k) {
+            let f = (budget as f64 / (e[0] + e[1])).min(1.0);
             priors[i] = e.map(|v| (f * v.max(0.0)) as f32);
         }
     }

@@ -30,6 +30,8 @@ pub struct LearnedState {
     /// Each slot's borrowed pseudo-observations (`--pool-priors`, fold.comp `Prior`), as
     /// long as `stats`.
     pub prior: Buffer,
+    /// The host's copy of what `prior` holds for the slots in use.
+    borrowed: Vec<[f32; 4]>,
     pub params: Buffer,
     /// Regions without a cut that samples reached (render.comp `missing_regions`): a count
     /// of newly set bits, then one bit per region.
@@ -106,6 +108,7 @@ impl LearnedState {
             )?,
             touched: Buffer::indirect(ctx, "touched slots", &touched_list(slots))?,
             prior: Buffer::zeroed(ctx, "borrowed observations", slots as u64 * PRIOR_BYTES)?,
+            borrowed: Vec::new(),
             params: Buffer::from_slice(ctx, "learning parameters", &[settings.learn.gpu_params()])?,
             slots,
             capacity: slots,
@@ -208,9 +211,8 @@ impl LearnedState {
             // and the list is empty (every slot's `touched` flag 0): a new, empty one with
             // room for every slot of the capacity.
             let touched = Buffer::indirect(ctx, "touched slots", &touched_list(capacity as u32))?;
-            // Borrowed observations are recomputed after every growth (`pool_priors`): the
-            // new buffer starts empty.
             let prior = Buffer::zeroed(ctx, "borrowed observations", capacity * PRIOR_BYTES)?;
+            prior.copy_from(&self.prior)?;
             (self.stats, self.delta, self.touched, self.prior) = (stats, delta, touched, prior);
             self.capacity = capacity as u32;
         }
@@ -222,9 +224,13 @@ impl LearnedState {
     }
 
     /// Recomputes every slot's borrowed pseudo-observations from the totals
-    /// (src/learning/pooling.rs), at a fold boundary; the caller then refolds every slot's
-    /// coefficients. Returns how many slots borrow.
-    pub fn pool_priors(&mut self, budget: f32) -> Result<usize> {
+    /// (src/learning/pooling.rs), at a fold boundary, and lists the slots below `below` whose
+    /// borrowed observations changed in the (empty) touched list, for a fold of their
+    /// coefficients ([`super::passes::PassKernels::fold_listed`]; the slots from `below` on
+    /// are the caller's to fold). Returns how many it listed. Folding only those, not every
+    /// slot, halved the fold's part (cornell40, 128×96: 170k slots, 42–90k borrowing at passes
+    /// 1–8, 3.5k at 256; docs/results.md 2026-12-04).
+    pub fn pool_priors(&mut self, budget: f32, below: u32) -> Result<u32> {
         let t0 = Instant::now();
         let stats = self.read_stats()?;
         let c = &self.cuts;
@@ -235,9 +241,21 @@ impl LearnedState {
             &stats,
             budget,
         );
+        let before = |i: usize| self.borrowed.get(i).copied().unwrap_or([0.0; 4]);
+        let changed: Vec<u32> = (0..(below as usize).min(priors.len()))
+            .filter(|&i| priors[i] != before(i))
+            .map(|i| i as u32)
+            .collect();
         self.prior.write(bytemuck::cast_slice(&priors))?;
+        if !changed.is_empty() {
+            let n = changed.len() as u32;
+            let mut list = vec![n.div_ceil(64), 1, 1, n];
+            list.extend(&changed);
+            self.touched.write(bytemuck::cast_slice(&list))?;
+        }
+        self.borrowed = priors;
         self.cut_seconds += t0.elapsed().as_secs_f64();
-        Ok(priors.iter().filter(|p| p[0] + p[1] > 0.0).count())
+        Ok(changed.len() as u32)
     }
 
     /// The totals and coefficients of the slots in use (the buffer may have room for more).

@@ -276,6 +276,16 @@ impl PassKernels {
         ctx.submit(|cmd| self.fold.dispatch(cmd, bytemuck::cast_slice(&push), groups))
     }
 
+    /// Folds the slots listed in `learned`'s touched list (a fold boundary: their windows are
+    /// empty, so this recomputes their coefficients) and empties the list.
+    pub(super) fn fold_listed(&self, ctx: &Context, learned: &LearnedState) -> Result<()> {
+        let push = [learned.slots, FOLD_TOUCHED, 0];
+        ctx.submit(|cmd| {
+            self.fold
+                .dispatch_indirect(cmd, bytemuck::cast_slice(&push), &learned.touched, 0)
+        })
+    }
+
     /// `k` passes of a `width`×`height` film in one submission, from learning pass
     /// `params.sample_index` on; with `fold` (the learned samplers' --update-every and their
     /// clock before the first pass) the touched slots of `learned` are folded after every

@@ -144,7 +144,8 @@ impl<'a> Session<'a> {
         session.bind_film()?;
         if session.pools_priors() && settings.resume.is_some() {
             // What the render that saved them pooled at its last growth point (pooling.rs).
-            session.learned.pool_priors(settings.learn.pool_priors)?;
+            // Every slot's coefficients follow from the fold below.
+            session.learned.pool_priors(settings.learn.pool_priors, 0)?;
         }
         if session.is_learning() {
             // The weight coefficients of fresh or loaded statistics (under these settings).
@@ -316,11 +317,16 @@ impl<'a> Session<'a> {
             self.bind_learned()?;
         }
         if self.pools_priors() {
-            // Every slot's borrowed observations anew from the totals, so every slot's
-            // coefficients too.
-            self.learned.pool_priors(self.settings.learn.pool_priors)?;
-            self.fold_from(0)?;
-        } else if added + refined > 0 && self.is_learning() {
+            // Every slot's borrowed observations anew from the totals; the old slots whose
+            // borrowed observations changed get their coefficients again.
+            let listed = self
+                .learned
+                .pool_priors(self.settings.learn.pool_priors, before)?;
+            if listed > 0 {
+                self.kernels.fold_listed(&self.ctx, &self.learned)?;
+            }
+        }
+        if added + refined > 0 && self.is_learning() {
             // The new slots' coefficients (the others' totals did not change): over all
             // slots this fold was 4-5 ms of a growth's 6-9 ms (city, 128x96).
             self.fold_from(before)?;
