@@ -549,6 +549,23 @@ fn grown_slots_start_from_their_initial_statistics() {
         );
         checked += 1;
     }
+    // Every slot, old or new, cold or not: its coefficients are those of its totals and what
+    // it borrows now (old slots whose borrowed observations changed are refolded).
+    let mut stale = 0;
+    for (i, g) in stats.iter().enumerate() {
+        let want =
+            lightlearn::learning::fold_with_prior(g, &SlotDelta::default(), &priors[i], &set.learn);
+        let near = |a: f32, b: f32| (a - b).abs() <= 1e-5 * a.abs().max(b.abs()) + 1e-30;
+        stale += !(near(g.coef_a, want.coef_a)
+            && near(g.coef_b, want.coef_b)
+            && near(g.coef_c, want.coef_c)) as usize;
+    }
+    assert_eq!(
+        stale,
+        0,
+        "{stale} of {} slots have stale coefficients",
+        stats.len()
+    );
     eprintln!("{checked} appended slots without observations checked, {borrowing} borrowing");
     assert!(checked > 0);
     assert!(borrowing > 0, "no appended cold slot borrowed observations");
