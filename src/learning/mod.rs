@@ -90,9 +90,10 @@ impl Default for LearnSettings {
             // 6.50 → 8.84 (ci/bench_learning.sh ablation setting).
             prior_scale: 1.0 / (4.0 * std::f32::consts::PI),
             refine_cuts: 0,
-            // Measured 1.33× less variance on city at 64 spp (1.15× at 256, 1.35× path
-            // traced), 1.04–1.11× on city10k, strings5k and cornell40, even elsewhere, strings
-            // 0.92–1.0× (direct light, 128×96, docs/results.md 2026-12-04); 8 was no better.
+            // Measured 1.29× less variance on city at 64 spp (1.14× at 256, 1.35× path
+            // traced), cornell40 1.14–1.19×, city10k 1.07–1.08×, even elsewhere, strings
+            // 7–9 % worse without each run's ten worst pixels (direct light, 128×96,
+            // docs/results.md 2026-12-04); 8 was no better.
             pool_priors: 4.0,
         }
     }

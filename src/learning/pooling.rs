@@ -13,9 +13,10 @@
 //! [`COARSE`]³ cells, with the same normal bin. Borrowed data go only to slots with no
 //! observation of their own: pooling into every slot (N = 4) made strings 1.2–1.8× worse at
 //! 64 spp (tiny bulbs wound around objects: what a neighbour sees of a cluster is not what a
-//! region sees), cold slots alone left it at 0.92–1.0× while city kept its gain (1.33×;
-//! docs/results.md, 2026-12-04). A slot's own data replace the borrowed ones at the next
-//! pooling: the host recomputes them at every growth point (src/render/session.rs).
+//! region sees); cold slots alone cost it 7–9 % (without each run's ten worst pixels) while
+//! city gained 1.14× at 256 spp and 1.29× at 64 (docs/results.md, 2026-12-04). A slot's own
+//! data replace the borrowed ones at the next pooling (until then both count): the host
+//! recomputes them at every growth point (src/render/session.rs).
 //!
 //! The priors are a pure function of the totals, so a continuation of a render saved at a
 //! growth point pools what the uninterrupted render pooled there, and they never touch the
@@ -35,7 +36,8 @@ struct KeyHasher(u64);
 
 impl Hasher for KeyHasher {
     fn finish(&self) -> u64 {
-        self.0
+        // hashbrown takes its buckets from the low bits: fold the well-mixed high half in.
+        self.0 ^ (self.0 >> 32)
     }
     fn write(&mut self, bytes: &[u8]) {
         for &b in bytes {
@@ -111,9 +113,10 @@ pub fn pooled_priors(
     }
     for (i, k) in cold {
         // A cold slot added nothing to its block's totals: they are all the others'.
-        if let Some(e) = pooled.get(&k) {
+        // Damaged or lying totals (inf, NaN) lend nothing: the coefficients must stay finite.
+        if let Some(e) = pooled.get(&k).filter(|e| e.iter().all(|v| v.is_finite())) {
             let f = (budget as f64 / (e[0] + e[1])).min(1.0);
-            priors[i] = e.map(|v| (f * v.max(0.0)) as f32);
+            priors[i] = e.map(|v| (f * v.max(0.0)).min(f32::MAX as f64) as f32);
         }
     }
     priors
@@ -197,6 +200,17 @@ mod tests {
                 .iter()
                 .all(|p| *p == [0.0; 4]),
             "budget 0 is off"
+        );
+        // A neighbour with an infinite sum lends nothing (its block's node 7); huge but
+        // finite totals lend finite values.
+        stats[b + 1] = seen(2.0, 2.0, f32::INFINITY, 2.0);
+        stats[a + 2] = seen(0.0, 1.0, f32::MAX, f32::MAX);
+        let p = pooled_priors(&g, &index, &cuts, &stats, 4.0);
+        assert_eq!(p[e + 1], [0.0; 4], "node 7 with an infinite sum");
+        assert!(
+            p[e + 2].iter().all(|v| v.is_finite()),
+            "node 9: {:?}",
+            p[e + 2]
         );
     }
 }

@@ -258,6 +258,12 @@ impl LearnedState {
         Ok(changed.len() as u32)
     }
 
+    /// Each slot's borrowed pseudo-observations as last pooled (empty before the first
+    /// pooling; slots past its end borrow nothing).
+    pub fn borrowed(&self) -> &[[f32; 4]] {
+        &self.borrowed
+    }
+
     /// The totals and coefficients of the slots in use (the buffer may have room for more).
     pub fn read_stats(&self) -> Result<Vec<SlotStats>> {
         self.stats.read_first(self.slots as usize)

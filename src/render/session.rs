@@ -537,9 +537,11 @@ impl<'a> Session<'a> {
             // What is left of the window, folded here on the host (the CPU mirror of
             // fold.comp): the GPU's state, and so what later passes sample by, stays as it is.
             let delta: Vec<SlotDelta> = self.learned.read_delta()?;
-            for (s, d) in stats.iter_mut().zip(&delta) {
+            let borrowed = self.learned.borrowed();
+            for (i, (s, d)) in stats.iter_mut().zip(&delta).enumerate() {
                 if d.n_zero + d.n_nonzero > 0 {
-                    *s = crate::learning::fold(s, d, &self.settings.learn);
+                    let p = borrowed.get(i).unwrap_or(&[0.0; 4]);
+                    *s = crate::learning::fold_with_prior(s, d, p, &self.settings.learn);
                 }
             }
         }
