@@ -26,7 +26,8 @@
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
-use crate::abi::{GridParams, SlotStats};
+use crate::abi::SlotStats;
+use crate::lights::regions::Grid;
 
 /// A multiplicative hash of the u64 keys below. With the standard SipHash and tuple keys a
 /// growth point's pooling took 2.7–4.6 ms on city (47k slots, 128×96; reading the totals
@@ -60,16 +61,11 @@ pub const COARSE: u32 = 4;
 pub type SlotPrior = [f32; 4];
 
 /// The key of `node` in the pooling block and normal bin of `region`.
-fn key(g: &GridParams, region: u32, node: u32) -> u64 {
-    let flat = region / g.bins;
-    let (x, y, z) = (
-        flat % g.dims[0],
-        flat / g.dims[0] % g.dims[1],
-        flat / (g.dims[0] * g.dims[1]),
-    );
-    let b = g.dims.map(|d| d.div_ceil(COARSE) as u64);
+fn key(grid: &Grid, region: u32, node: u32) -> u64 {
+    let ([x, y, z], bin) = grid.cell_of(region);
+    let b = grid.params.dims.map(|d| d.div_ceil(COARSE) as u64);
     let block = ((z / COARSE) as u64 * b[1] + (y / COARSE) as u64) * b[0] + (x / COARSE) as u64;
-    (block * g.bins as u64 + (region % g.bins) as u64) << 32 | node as u64
+    (block * grid.params.bins as u64 + bin as u64) << 32 | node as u64
 }
 
 /// The borrowed pseudo-observations of every slot (indexed like `stats` and the cuts array)
@@ -78,7 +74,7 @@ fn key(g: &GridParams, region: u32, node: u32) -> u64 {
 /// scaled to at most `budget` observations; every other slot (and the fallback cut's) gets
 /// none.
 pub fn pooled_priors(
-    grid: &GridParams,
+    grid: &Grid,
     index: &[u32],
     cuts: &[u32],
     stats: &[SlotStats],
@@ -127,12 +123,14 @@ mod tests {
     use super::*;
 
     /// A 8×4×4 grid with 6 normal bins (region = flat cell × 6 + bin).
-    fn grid() -> GridParams {
-        GridParams {
-            lo: [0.0; 3],
-            cell: 1.0,
-            dims: [8, 4, 4],
-            bins: 6,
+    fn grid() -> Grid {
+        Grid {
+            params: crate::abi::GridParams {
+                lo: [0.0; 3],
+                cell: 1.0,
+                dims: [8, 4, 4],
+                bins: 6,
+            },
         }
     }
 

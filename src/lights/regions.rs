@@ -121,15 +121,22 @@ impl Grid {
         flat * g.bins + bin
     }
 
-    /// Centre and half-size of a region's cell.
-    pub fn cell_box(&self, region: u32) -> (Vec3, Vec3) {
+    /// A region's grid cell (x, y, z) and normal bin: [`Grid::region`] undone.
+    pub fn cell_of(&self, region: u32) -> ([u32; 3], u32) {
         let g = &self.params;
         let flat = region / g.bins;
-        let (x, y, z) = (
+        let cell = [
             flat % g.dims[0],
             flat / g.dims[0] % g.dims[1],
             flat / (g.dims[0] * g.dims[1]),
-        );
+        ];
+        (cell, region % g.bins)
+    }
+
+    /// Centre and half-size of a region's cell.
+    pub fn cell_box(&self, region: u32) -> (Vec3, Vec3) {
+        let g = &self.params;
+        let ([x, y, z], _) = self.cell_of(region);
         let lo = Vec3::from(g.lo) + Vec3::new(x as f32, y as f32, z as f32) * g.cell;
         (lo + Vec3::splat(0.5 * g.cell), Vec3::splat(0.5 * g.cell))
     }

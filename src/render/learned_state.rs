@@ -11,6 +11,7 @@ use super::cuts::{build_cuts, fill_initial, initial_stats};
 use super::{GpuScene, RenderSettings};
 use crate::gpu::layout::{SlotDelta, SlotStats};
 use crate::gpu::{Buffer, Context};
+use crate::learning::pooling::SlotPrior;
 use crate::learning::LearnSettings;
 use crate::lights::regions::{Cuts, Grid};
 use crate::lights::tree::LightTree;
@@ -31,7 +32,7 @@ pub struct LearnedState {
     /// long as `stats`.
     pub prior: Buffer,
     /// The host's copy of what `prior` holds for the slots in use.
-    borrowed: Vec<[f32; 4]>,
+    borrowed: Vec<SlotPrior>,
     pub params: Buffer,
     /// Regions without a cut that samples reached (render.comp `missing_regions`): a count
     /// of newly set bits, then one bit per region.
@@ -234,13 +235,8 @@ impl LearnedState {
         let t0 = Instant::now();
         let stats = self.read_stats()?;
         let c = &self.cuts;
-        let priors = crate::learning::pooling::pooled_priors(
-            &c.grid.params,
-            &c.index,
-            &c.cuts,
-            &stats,
-            budget,
-        );
+        let priors =
+            crate::learning::pooling::pooled_priors(&c.grid, &c.index, &c.cuts, &stats, budget);
         let before = |i: usize| self.borrowed.get(i).copied().unwrap_or([0.0; 4]);
         let changed: Vec<u32> = (0..(below as usize).min(priors.len()))
             .filter(|&i| priors[i] != before(i))
@@ -260,7 +256,7 @@ impl LearnedState {
 
     /// Each slot's borrowed pseudo-observations as last pooled (empty before the first
     /// pooling; slots past its end borrow nothing).
-    pub fn borrowed(&self) -> &[[f32; 4]] {
+    pub fn borrowed(&self) -> &[SlotPrior] {
         &self.borrowed
     }
 
@@ -373,7 +369,7 @@ impl LearnedState {
 }
 
 /// Bytes of one slot's borrowed observations (a vec4 of fold.comp's `Prior`).
-const PRIOR_BYTES: u64 = 16;
+const PRIOR_BYTES: u64 = std::mem::size_of::<SlotPrior>() as u64;
 
 /// The empty list of touched slots (render.comp `mark_touched`, fold.comp) for `slots`
 /// slots: the fold's indirect workgroup counts (0, 1, 1), the count 0, then room for every

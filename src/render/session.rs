@@ -402,7 +402,7 @@ impl<'a> Session<'a> {
 
     /// Each slot's borrowed pseudo-observations (`--pool-priors`; learned samplers; empty
     /// otherwise), as the last fold computed the coefficients with them.
-    pub fn borrowed_priors(&self) -> Result<Vec<[f32; 4]>> {
+    pub fn borrowed_priors(&self) -> Result<Vec<crate::learning::pooling::SlotPrior>> {
         if !self.is_learning() {
             return Ok(Vec::new());
         }
