@@ -279,7 +279,9 @@ bool path_vertex(inout Path st, uint depth) {
     if ((front || (m.flags & MATERIAL_TWO_SIDED) != 0u) && any(greaterThan(m.emission, vec3(0.0)))) {
         float w = 1.0;
         uint li = tri_light[tri.prim];
-        if (depth > 0u && li != NO_LIGHT) {
+        // Compiled out for direct light (depth is always 0 there): lavapipe runs an if's
+        // body even where no lane takes it, and this one repeats the light choice's pmf.
+        if (!DIRECT_ONLY && depth > 0u && li != NO_LIGHT) {
             // The light sampler's pdf of this point, in solid angle at prev_x.
             select_brdf(st.prev_bsdf, st.prev_wo, st.prev_n, brdf_select);
             float p_sel = (KNOCK_OUT & KNOCK_MIS_PMF) != 0u
@@ -533,13 +535,22 @@ void main() {
     // 0.75–0.8× with windows of 4 (docs/results.md, 2026-12-03).
     uvec2 px = uvec2(gl_GlobalInvocationID.x, gl_GlobalInvocationID.y + params.row0);
     if (px.x >= params.width || px.y >= params.height) return;
+    // Bottom-tested: llvmpipe (lavapipe) runs every loop body once more, with all lanes
+    // masked off, when a top test fails (its loops only branch back at the end, and its ifs
+    // never branch around a body), so a `for` over the passes cost a whole masked pass per
+    // dispatch: a lone pass took 1.44× a batched one (`uniform`, cornell40 from
+    // ci/bench_outside.py, 128×96, 256 spp: 0.49 against 0.34 s), 1.15× with this loop
+    // (0.386 against 0.335 s). The same reason shapes the loops of bvh.glsl, light_tree.glsl,
+    // regions.glsl and learning.glsl (docs/results.md, 2026-12-04, fifth session).
     uint passes = max(params.passes, 1u);
-    for (uint j = 0u; j < passes; ++j) {
+    uint j = 0u;
+    do {
         sample_s = params.sample_index + j;
         st = camera_path(px);
         for (depth = 0u; depth <= params.max_depth; ++depth) {
             if (!path_vertex(st, depth)) break;
         }
         finish_path(st);
-    }
+        ++j;
+    } while (j < passes);
 }

@@ -136,12 +136,16 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
             uint fb = n.b_ref & ~BVH_LEAF_BIT;
             uint fc = n.c_ref & ~BVH_LEAF_BIT;
             uint fd = n.d_ref & ~BVH_LEAF_BIT;
-            for (uint k = 0u; k < nabc + nd; ++k) {
+            // Bottom-tested (nabc + nd > 0 here): a top test costs lavapipe one more masked
+            // triangle test per node (render.comp main says why).
+            uint k = 0u;
+            do {
                 uint i = k < na ? fa + k : (k < nab ? fb + (k - na) : (k < nabc ? fc + (k - nab) : fd + (k - nabc)));
                 float t = intersect_tri(bvh_tri(i), o, d, tmin, best_t);
                 if (t >= 0.0) { best_t = t; best = i; }
                 if (any_hit && best != NO_HIT) break;
-            }
+                ++k;
+            } while (k < nabc + nd);
             if (any_hit && best != NO_HIT) break;
         }
         // Interior children that can still hold a closer hit, nearest first; the others sort

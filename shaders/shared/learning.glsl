@@ -124,10 +124,12 @@ float learned_weights(uint o, vec3 p, vec3 n, float brdf, out float cv_total) {
         return sum_imp;
     }
     sel_prior_scale = learn[0].prior_scale;
-    for (uint i = 0u; i < count; ++i) {
+    uint i = 0u;
+    if (count > 0u) do {
         cut_w[i] = bayes_slot_weight(o, i, p, n, brdf, cv_total);
         total += cut_w[i];
-    }
+        ++i;
+    } while (i < count);
     return total;
 }
 

@@ -95,7 +95,7 @@ float light_importance(GpuLightNode nd, vec3 p, vec3 n) {
 float descent_pmf(uint node, uint pos, vec3 p, vec3 n, bool by_importance, out uint leaf) {
     float pmf = 1.0;
     leaf = node;
-    while (light_node(node).count > 1u && pmf > 0.0) {
+    if (light_node(node).count > 1u && pmf > 0.0) do {
         uint l = node + 1u;
         uint r = light_node(node).right;
         float pl;
@@ -111,7 +111,7 @@ float descent_pmf(uint node, uint pos, vec3 p, vec3 n, bool by_importance, out u
         pmf *= left ? pl : 1.0 - pl;
         node = left ? l : r;
         leaf = node;
-    }
+    } while (light_node(node).count > 1u && pmf > 0.0);
     return pmf;
 }
 
@@ -127,7 +127,7 @@ float light_tree_pmf(uint pos, vec3 p, vec3 n) {
 uint sample_light_tree(vec3 p, vec3 n, float u, out float pmf) {
     uint node = 0u;
     pmf = 1.0;
-    while (light_node(node).count > 1u) {
+    if (light_node(node).count > 1u) do {
         uint l = node + 1u;
         uint r = light_node(node).right;
         float il = light_importance(light_node(l), p, n);
@@ -143,7 +143,7 @@ uint sample_light_tree(vec3 p, vec3 n, float u, out float pmf) {
             pmf *= 1.0 - pl;
             node = r;
         }
-    }
+    } while (light_node(node).count > 1u);
     GpuLightNode leaf = light_node(node);
     if (light_importance(leaf, p, n) <= 0.0) return NO_LIGHT;
     return light_order[leaf.begin];

@@ -53,19 +53,21 @@ uint pick_in_cut(uint o, uint count, float total, float u, vec3 p, vec3 n, out f
     k = 0u;
     float acc_k = 0.0;
     bool chosen = false;
-    for (uint i = 0u; i < count && !chosen; ++i) {
+    uint i = 0u;
+    if (count > 0u) do {
         if (cut_w[i] > 0.0) {
             k = i;
             acc_k = acc;
             if (target < acc + cut_w[i]) chosen = true;
             else acc += cut_w[i];
         }
-    }
+        ++i;
+    } while (i < count && !chosen);
     float v = clamp((target - acc_k) / cut_w[k], 0.0, ONE_MINUS_EPSILON);
     uint node = cut_word(o + 1u + k);
     p_slot = cut_w[k] / total;
     pmf = p_slot;
-    while (light_node(node).count > 1u) {
+    if (light_node(node).count > 1u) do {
         uint l = node + 1u;
         uint r = light_node(node).right;
         float pl;
@@ -89,7 +91,7 @@ uint pick_in_cut(uint o, uint count, float total, float u, vec3 p, vec3 n, out f
             pmf *= 1.0 - pl;
             node = r;
         }
-    }
+    } while (light_node(node).count > 1u);
     return light_order[light_node(node).begin];
 }
 
@@ -97,10 +99,15 @@ uint pick_in_cut(uint o, uint count, float total, float u, vec3 p, vec3 n, out f
 float wang_weights(uint o, vec3 p, vec3 n) {
     uint count = cut_word(o);
     float total = 0.0;
-    for (uint i = 0u; i < count; ++i) {
+    // Bottom-tested loops here and in pick_in_cut, learned_weights and the descents of
+    // light_tree.glsl: lavapipe runs a failed top test's body once more, masked
+    // (render.comp main).
+    uint i = 0u;
+    if (count > 0u) do {
         cut_w[i] = light_importance(light_node(cut_word(o + 1u + i)), p, n);
         total += cut_w[i];
-    }
+        ++i;
+    } while (i < count);
     return total;
 }
 
