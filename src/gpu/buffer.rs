@@ -113,6 +113,24 @@ impl Buffer {
         buf.with_view(vk::Format::R32_UINT, texels)
     }
 
+    /// A device-local buffer of `len` words readable as R32UI texels, as [`Buffer::words`],
+    /// with its contents not set: for the caller to fill before any kernel reads it (one
+    /// upload among others, [`super::Transfers`]).
+    pub fn words_unfilled(ctx: &Arc<Context>, name: &str, len: usize) -> Result<Buffer> {
+        let texels = check_texels(ctx, name, len as u64)?;
+        let buf = Buffer::new(
+            ctx,
+            name,
+            4 * len as u64,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::TRANSFER_SRC
+                | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
+            MemoryLocation::GpuOnly,
+        )?;
+        buf.with_view(vk::Format::R32_UINT, texels)
+    }
+
     /// A zero-filled device-local buffer of `size` bytes (a multiple of 16) that kernels can
     /// read as texels, as [`Buffer::texels`].
     pub fn zeroed_texels(ctx: &Arc<Context>, name: &str, size: u64) -> Result<Buffer> {
@@ -314,13 +332,13 @@ impl Buffer {
             .collect())
     }
 
-    fn mapped(&self) -> Result<&[u8]> {
+    pub(super) fn mapped(&self) -> Result<&[u8]> {
         let a = self.allocation.as_ref().expect("live buffer");
         a.mapped_slice()
             .context("buffer is not host-visible (internal error)")
     }
 
-    fn mapped_mut(&mut self) -> Result<&mut [u8]> {
+    pub(super) fn mapped_mut(&mut self) -> Result<&mut [u8]> {
         let a = self.allocation.as_mut().expect("live buffer");
         a.mapped_slice_mut()
             .context("buffer is not host-visible (internal error)")

@@ -9,10 +9,12 @@ pub use crate::abi as layout;
 pub mod pipeline;
 pub mod spirv;
 pub mod swapchain;
+pub mod transfer;
 
 pub use buffer::Buffer;
 pub use context::{Context, ContextOptions};
 pub use pipeline::ComputePipeline;
+pub use transfer::Transfers;
 
 /// Compiled kernels (build.rs runs glslangValidator on shaders/*.comp).
 pub mod kernels {

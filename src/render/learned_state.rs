@@ -10,7 +10,8 @@ use anyhow::Result;
 use super::cuts::{build_cuts, fill_initial, initial_stats};
 use super::{GpuScene, RenderSettings};
 use crate::gpu::layout::{SlotDelta, SlotStats};
-use crate::gpu::{Buffer, Context};
+use crate::gpu::transfer::read_many;
+use crate::gpu::{Buffer, Context, Transfers};
 use crate::learning::pooling::SlotPrior;
 use crate::learning::LearnSettings;
 use crate::lights::regions::{Cuts, Grid};
@@ -122,28 +123,55 @@ impl LearnedState {
         })
     }
 
+    /// What a growth point reads back, in one submission: the bits of the regions reached
+    /// without a cut (`missing`: a count, then the bits), and with `stats` the totals of the
+    /// slots in use (for pooling, [`LearnedState::pool_priors_into`]; empty without).
+    pub fn read_growth_inputs(
+        &self,
+        ctx: &Arc<Context>,
+        stats: bool,
+    ) -> Result<(Vec<u32>, Vec<SlotStats>)> {
+        let stat_bytes = if stats {
+            self.slots as u64 * std::mem::size_of::<SlotStats>() as u64
+        } else {
+            0
+        };
+        let got = read_many(
+            ctx,
+            &[
+                (&self.missing, self.missing.size),
+                (&self.stats, stat_bytes),
+            ],
+        )?;
+        Ok((pod_vec(&got[0]), pod_vec(&got[1])))
+    }
+
     /// Builds and appends the cuts (and, for the learned samplers, the starting statistics)
-    /// of the regions flagged in `missing`, at a fold boundary (the window is empty, so the
-    /// statistics grow by appending totals alone). Stops growing, unbiased (the fallback
-    /// cut serves the rest), before the cuts or statistics would outgrow one storage buffer.
-    /// Returns how many regions got a cut; the caller rebinds.
+    /// of the regions flagged in `words` (the `missing` bits as read at this point,
+    /// [`LearnedState::read_growth_inputs`]), at a fold boundary (the window is empty, so the
+    /// statistics grow by appending totals alone). Its uploads (the bits cleared, the index,
+    /// the cuts, the new slots' totals) go into `up`, for the caller to submit before the
+    /// next pass; only a statistics buffer that must grow is copied at once. Stops growing,
+    /// unbiased (the fallback cut serves the rest), before the cuts or statistics would
+    /// outgrow one storage buffer. Returns how many regions got a cut; the caller rebinds.
     pub fn grow(
         &mut self,
         ctx: &Arc<Context>,
         tree: &LightTree,
         settings: &RenderSettings,
+        words: &[u32],
+        up: &mut Transfers,
     ) -> Result<usize> {
         let learning = settings.sampler.learned();
         if self.full {
             return Ok(0);
         }
         let l = self;
-        if l.missing.read_first::<u32>(1)?[0] == 0 {
+        if words.first().is_none_or(|&n| n == 0) {
             return Ok(0);
         }
         let t0 = Instant::now();
-        let words: Vec<u32> = l.missing.read()?;
-        l.missing.clear()?;
+        up.clear(&l.missing);
         let mut regions = Vec::new();
         for (w, &bits) in words[1..].iter().enumerate() {
             let mut b = bits;
@@ -171,15 +199,16 @@ impl LearnedState {
         if added.is_empty() {
             return Ok(0);
         }
-        l.index.write(bytemuck::cast_slice(&l.cuts.index))?;
-        l.cuts_buf = Buffer::words(ctx, "cuts", &l.cuts.cuts)?;
+        up.write(&l.index, 0, bytemuck::cast_slice(&l.cuts.index));
+        l.cuts_buf = Buffer::words_unfilled(ctx, "cuts", l.cuts.cuts.len())?;
+        up.write(&l.cuts_buf, 0, bytemuck::cast_slice(&l.cuts.cuts));
         if learning {
             let (old, new) = (l.slots as usize, l.cuts.cuts.len());
             let mut fresh = vec![SlotStats::default(); new];
             for &(r, o) in &added {
                 fill_initial(&mut fresh, tree, &l.cuts, o, Some(r), &settings.learn);
             }
-            l.append_slots(ctx, &fresh[old..])?;
+            l.append_slots(ctx, &fresh[old..], up)?;
         }
         l.regions_added += added.len();
         l.cut_seconds += t0.elapsed().as_secs_f64();
@@ -188,11 +217,16 @@ impl LearnedState {
 
     /// Grows the statistics and window-sum buffers by `tail` (the totals of the slots
     /// appended to `cuts`; their window sums start empty), keeping every existing slot.
-    /// Within the capacity the tail is written in place (one upload); beyond it the three
+    /// Within the capacity the tail is written in place (an upload into `up`); beyond it the three
     /// buffers are made anew with twice the room (up to what the device allows): of the 10
     /// growths of a 256-pass render on city (128x96) only the first reallocates now, and a
     /// reallocation with its copies was 1-3.5 ms of a growth.
-    fn append_slots(&mut self, ctx: &Arc<Context>, tail: &[SlotStats]) -> Result<()> {
+    fn append_slots(
+        &mut self,
+        ctx: &Arc<Context>,
+        tail: &[SlotStats],
+        up: &mut Transfers,
+    ) -> Result<()> {
         let (old, new) = (self.slots as u64, self.slots as u64 + tail.len() as u64);
         let slot = std::mem::size_of::<SlotStats>() as u64;
         if new > self.capacity as u64 {
@@ -218,8 +252,7 @@ impl LearnedState {
             self.capacity = capacity as u32;
         }
         // The window sums of the slots past `slots` were never touched: zero, as fresh ones.
-        self.stats
-            .write_at(old * slot, bytemuck::cast_slice(tail))?;
+        up.write(&self.stats, old * slot, bytemuck::cast_slice(tail));
         self.slots = new as u32;
         Ok(())
     }
@@ -231,9 +264,26 @@ impl LearnedState {
     /// are the caller's to fold). Returns how many it listed. Folding only those, not every
     /// slot, halved the fold's part (cornell40, 128×96: 170k slots, 42–90k borrowing at passes
     /// 1–8, 3.5k at 256; docs/results.md 2026-12-04).
-    pub fn pool_priors(&mut self, budget: f32, below: u32) -> Result<u32> {
-        let t0 = Instant::now();
+    pub fn pool_priors(&mut self, ctx: &Arc<Context>, budget: f32, below: u32) -> Result<u32> {
         let stats = self.read_stats()?;
+        let mut up = Transfers::new();
+        let listed = self.pool_priors_into(budget, below, stats, &mut up)?;
+        up.submit(ctx, |_| {})?;
+        Ok(listed)
+    }
+
+    /// [`LearnedState::pool_priors`] from `stats`, the totals of the first slots as read
+    /// (the slots past them are taken as fresh: no observations, which lend nothing and
+    /// borrow, as a growth's new slots), its uploads into `up` for the caller to submit.
+    pub fn pool_priors_into(
+        &mut self,
+        budget: f32,
+        below: u32,
+        mut stats: Vec<SlotStats>,
+        up: &mut Transfers,
+    ) -> Result<u32> {
+        let t0 = Instant::now();
+        stats.resize(self.slots as usize, SlotStats::default());
         let c = &self.cuts;
         let priors =
             crate::learning::pooling::pooled_priors(&c.grid, &c.index, &c.cuts, &stats, budget);
@@ -242,12 +292,12 @@ impl LearnedState {
             .filter(|&i| priors[i] != before(i))
             .map(|i| i as u32)
             .collect();
-        self.prior.write(bytemuck::cast_slice(&priors))?;
+        up.write(&self.prior, 0, bytemuck::cast_slice(&priors));
         if !changed.is_empty() {
             let n = changed.len() as u32;
             let mut list = vec![n.div_ceil(64), 1, 1, n];
             list.extend(&changed);
-            self.touched.write(bytemuck::cast_slice(&list))?;
+            up.write(&self.touched, 0, bytemuck::cast_slice(&list));
         }
         self.borrowed = priors;
         self.cut_seconds += t0.elapsed().as_secs_f64();
@@ -330,7 +380,9 @@ impl LearnedState {
         self.cuts.offsets.sort_unstable();
         self.index.write(bytemuck::cast_slice(&self.cuts.index))?;
         self.cuts_buf = Buffer::words(ctx, "cuts", &self.cuts.cuts)?;
-        self.append_slots(ctx, &fresh)?;
+        let mut up = Transfers::new();
+        self.append_slots(ctx, &fresh, &mut up)?;
+        up.submit(ctx, |_| {})?;
         self.regions_refined += plans.len();
         self.cut_seconds += t0.elapsed().as_secs_f64();
         Ok(plans.len())
@@ -378,4 +430,12 @@ pub fn touched_list(slots: u32) -> Vec<u32> {
     let mut list = vec![0, 1, 1, 0];
     list.resize(4 + slots.div_ceil(64) as usize * 64, u32::MAX);
     list
+}
+
+/// `bytes` (a whole number of `T`s) as `T`s; the bytes may not be aligned for `T`.
+fn pod_vec<T: bytemuck::Pod>(bytes: &[u8]) -> Vec<T> {
+    bytes
+        .chunks_exact(std::mem::size_of::<T>())
+        .map(bytemuck::pod_read_unaligned)
+        .collect()
 }

@@ -11,7 +11,7 @@ use anyhow::Result;
 use super::learned_state::LearnedState;
 use super::{GpuScene, LightPoint, RenderSettings};
 use crate::gpu::layout::RenderParams;
-use crate::gpu::{kernels, Buffer, ComputePipeline, Context};
+use crate::gpu::{kernels, Buffer, ComputePipeline, Context, Transfers};
 use crate::learning::{LearningClock, UpdateEvery};
 
 /// The bindings of `render.comp` by descriptor set and binding number, as the kernel names
@@ -271,18 +271,42 @@ impl PassKernels {
     /// as the others' totals did not change); between passes the fold visits the touched
     /// slots alone ([`PassKernels::submit`]).
     pub(super) fn fold_from(&self, ctx: &Context, first: u32, slots: u32) -> Result<()> {
+        ctx.submit(|cmd| self.record_fold_from(cmd, first, slots))
+    }
+
+    fn record_fold_from(&self, cmd: ash::vk::CommandBuffer, first: u32, slots: u32) {
         let push = [slots, FOLD_ALL, first];
         let groups = [(slots - first).div_ceil(64).max(1), 1, 1];
-        ctx.submit(|cmd| self.fold.dispatch(cmd, bytemuck::cast_slice(&push), groups))
+        self.fold.dispatch(cmd, bytemuck::cast_slice(&push), groups)
     }
 
     /// Folds the slots listed in `learned`'s touched list (a fold boundary: their windows are
     /// empty, so this recomputes their coefficients) and empties the list.
-    pub(super) fn fold_listed(&self, ctx: &Context, learned: &LearnedState) -> Result<()> {
+    fn record_fold_listed(&self, cmd: ash::vk::CommandBuffer, learned: &LearnedState) {
         let push = [learned.slots, FOLD_TOUCHED, 0];
-        ctx.submit(|cmd| {
-            self.fold
-                .dispatch_indirect(cmd, bytemuck::cast_slice(&push), &learned.touched, 0)
+        self.fold
+            .dispatch_indirect(cmd, bytemuck::cast_slice(&push), &learned.touched, 0)
+    }
+
+    /// A growth point's uploads `up` and, after them in the same submission, the fold of
+    /// the slots listed in `learned`'s touched list (`listed`: the borrowed observations of
+    /// those changed) and of the slots from `fold_new` on (appended: their coefficients).
+    pub(super) fn submit_growth(
+        &self,
+        ctx: &Arc<Context>,
+        up: Transfers,
+        listed: bool,
+        fold_new: Option<u32>,
+        learned: &LearnedState,
+    ) -> Result<()> {
+        up.submit(ctx, |cmd| {
+            if listed {
+                self.record_fold_listed(cmd, learned);
+                ctx.barrier(cmd);
+            }
+            if let Some(first) = fold_new {
+                self.record_fold_from(cmd, first, learned.slots);
+            }
         })
     }
 

@@ -30,7 +30,7 @@ use super::{
     camera_vectors, GpuScene, Learned, LightSampler, RegionStats, RenderResult, RenderSettings,
 };
 use crate::gpu::layout::{PixelAccum, RenderParams, SlotDelta, SlotStats};
-use crate::gpu::{Buffer, Context};
+use crate::gpu::{Buffer, Context, Transfers};
 use crate::learning::stats_file::{SavedStats, StatsHeader};
 use crate::learning::LearningClock;
 use crate::scene::{Camera, Scene};
@@ -145,7 +145,9 @@ impl<'a> Session<'a> {
         if session.pools_priors() && settings.resume.is_some() {
             // What the render that saved them pooled at its last growth point (pooling.rs).
             // Every slot's coefficients follow from the fold below.
-            session.learned.pool_priors(settings.learn.pool_priors, 0)?;
+            session
+                .learned
+                .pool_priors(&session.ctx, settings.learn.pool_priors, 0)?;
         }
         if session.is_learning() {
             // The weight coefficients of fresh or loaded statistics (under these settings).
@@ -306,30 +308,51 @@ impl<'a> Session<'a> {
         if !self.settings.sampler.uses_cuts() || !self.at_fold_boundary() {
             return Ok(0);
         }
+        // Two submissions a growth point: one read-back (the missing regions' bits, and the
+        // totals when pooling), then the uploads with the folds after them
+        // (src/gpu/transfer.rs says why). --refine-cuts reads and writes on its own.
         let before = self.learned.slots;
-        let added = self
+        let pools = self.pools_priors();
+        let refining = self.settings.learn.refine_cuts > 0;
+        let (words, stats) = self
             .learned
-            .grow(&self.ctx, &self.gpu.tree, &self.settings)?;
-        let refined = self
-            .learned
-            .refine(&self.ctx, &self.gpu.tree, &self.settings)?;
+            .read_growth_inputs(&self.ctx, pools && !refining)?;
+        let mut up = Transfers::new();
+        let added =
+            self.learned
+                .grow(&self.ctx, &self.gpu.tree, &self.settings, &words, &mut up)?;
+        let mut refined = 0;
+        if refining {
+            std::mem::take(&mut up).submit(&self.ctx, |_| {})?;
+            refined = self
+                .learned
+                .refine(&self.ctx, &self.gpu.tree, &self.settings)?;
+        }
         if added + refined > 0 {
             self.bind_learned()?;
         }
-        if self.pools_priors() {
+        let mut listed = 0;
+        if pools {
             // Every slot's borrowed observations anew from the totals; the old slots whose
             // borrowed observations changed get their coefficients again.
-            let listed = self
-                .learned
-                .pool_priors(self.settings.learn.pool_priors, before)?;
-            if listed > 0 {
-                self.kernels.fold_listed(&self.ctx, &self.learned)?;
-            }
+            let stats = if refining {
+                self.learned.read_stats()?
+            } else {
+                stats
+            };
+            listed = self.learned.pool_priors_into(
+                self.settings.learn.pool_priors,
+                before,
+                stats,
+                &mut up,
+            )?;
         }
-        if added + refined > 0 && self.is_learning() {
-            // The new slots' coefficients (the others' totals did not change): over all
-            // slots this fold was 4-5 ms of a growth's 6-9 ms (city, 128x96).
-            self.fold_from(before)?;
+        // The new slots' coefficients (the others' totals did not change): over all slots
+        // this fold was 4-5 ms of a growth's 6-9 ms (city, 128x96).
+        let fold_new = (added + refined > 0 && self.is_learning()).then_some(before);
+        if !up.is_empty() || listed > 0 || fold_new.is_some() {
+            self.kernels
+                .submit_growth(&self.ctx, up, listed > 0, fold_new, &self.learned)?;
         }
         Ok(added)
     }
