@@ -11,7 +11,9 @@ use lightlearn::accel::Bvh;
 use lightlearn::gpu::layout::{SlotDelta, SlotStats};
 use lightlearn::learning::stats_file::SavedStats;
 use lightlearn::learning::UpdateEvery;
-use lightlearn::render::{Budget, GpuScene, LightSampler, RenderResult, RenderSettings, Session};
+use lightlearn::render::{
+    Budget, GpuScene, LightSampler, RenderResult, RenderSettings, Session, POOL_AGE_MAX,
+};
 use lightlearn::scene::{gltf_load, Camera, Scene};
 
 fn scene(name: &str) -> Scene {
@@ -573,4 +575,44 @@ fn grown_slots_start_from_their_initial_statistics() {
     eprintln!("{checked} appended slots without observations checked, {borrowing} borrowing");
     assert!(checked > 0);
     assert!(borrowing > 0, "no appended cold slot borrowed observations");
+}
+
+/// Cold slots borrow (`--pool-priors`) only while the learning is young: at the first growth
+/// point past `POOL_AGE_MAX` passes every slot's borrowed observations are dropped on the
+/// GPU, and the slots that borrowed get their coefficients from their own totals again.
+#[test]
+fn borrowed_observations_end_with_the_young_age() {
+    let ctx = common::ctx();
+    let s = scene("rooms16.glb");
+    let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
+    let mut set = settings(LightSampler::Bayes, 5);
+    (set.width, set.height) = (16, 12);
+    let mut x = Session::new(&ctx, &s, &gpu, &set).unwrap();
+    x.run_passes(POOL_AGE_MAX).unwrap();
+    let young = x.borrowed_priors().unwrap();
+    let lending = young.iter().filter(|p| p[0] + p[1] > 0.0).count();
+    assert!(lending > 0, "no slot borrowed at the young age");
+    // The next growth point (every 64th pass) is past the young age.
+    x.run_passes(64).unwrap();
+    let priors = x.borrowed_priors().unwrap();
+    let still = priors.iter().filter(|p| **p != [0.0; 4]).count();
+    assert_eq!(still, 0, "{still} slots still borrow past the young age");
+    let stats = x.sampling_stats().unwrap();
+    let stale = stats
+        .iter()
+        .filter(|g| {
+            let own = lightlearn::learning::fold_with_prior(
+                g,
+                &SlotDelta::default(),
+                &[0.0; 4],
+                &set.learn,
+            );
+            !same_weight(g, &own)
+        })
+        .count();
+    assert_eq!(
+        stale, 0,
+        "{stale} slots keep the coefficients of what they borrowed"
+    );
+    eprintln!("{lending} slots borrowed at {POOL_AGE_MAX} passes, none after");
 }

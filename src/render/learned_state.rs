@@ -304,6 +304,11 @@ impl LearnedState {
         Ok(changed.len() as u32)
     }
 
+    /// Whether any slot borrows observations now.
+    pub fn borrowing(&self) -> bool {
+        self.borrowed.iter().any(|p| p.iter().any(|&v| v != 0.0))
+    }
+
     /// Each slot's borrowed pseudo-observations as last pooled (empty before the first
     /// pooling; slots past its end borrow nothing).
     pub fn borrowed(&self) -> &[SlotPrior] {

@@ -142,7 +142,7 @@ impl<'a> Session<'a> {
         session.bind_scene()?;
         session.bind_learned()?;
         session.bind_film()?;
-        if session.pools_priors() && settings.resume.is_some() {
+        if session.pools_now() && settings.resume.is_some() {
             // What the render that saved them pooled at its last growth point (pooling.rs).
             // Every slot's coefficients follow from the fold below.
             session
@@ -286,7 +286,13 @@ impl<'a> Session<'a> {
         }
     }
 
-    /// Whether cold slots borrow observations (`bayes` learning with `--pool-priors` > 0).
+    /// Whether cold slots borrow observations now: `bayes` learning with `--pool-priors` > 0
+    /// while the learning is young ([`POOL_AGE_MAX`]).
+    fn pools_now(&self) -> bool {
+        self.pools_priors() && self.clock().age <= POOL_AGE_MAX
+    }
+
+    /// Whether cold slots borrow observations at all (`bayes` learning with `--pool-priors` > 0).
     fn pools_priors(&self) -> bool {
         self.is_learning()
             && self.settings.sampler == LightSampler::Bayes
@@ -312,7 +318,9 @@ impl<'a> Session<'a> {
         // totals when pooling), then the uploads with the folds after them
         // (src/gpu/transfer.rs says why). --refine-cuts reads and writes on its own.
         let before = self.learned.slots;
-        let pools = self.pools_priors();
+        let pools = self.pools_now();
+        // Past the young age the borrowed observations are dropped, once.
+        let drops = !pools && self.pools_priors() && self.learned.borrowing();
         let refining = self.settings.learn.refine_cuts > 0;
         let (words, stats) = self
             .learned
@@ -332,7 +340,12 @@ impl<'a> Session<'a> {
             self.bind_learned()?;
         }
         let mut listed = 0;
-        if pools {
+        if drops {
+            // Budget 0: nothing borrowed; the slots that borrowed get their coefficients again.
+            listed = self
+                .learned
+                .pool_priors_into(0.0, before, Vec::new(), &mut up)?;
+        } else if pools {
             // Every slot's borrowed observations anew from the totals; the old slots whose
             // borrowed observations changed get their coefficients again.
             let stats = if refining {
@@ -626,6 +639,16 @@ impl<'a> Session<'a> {
 /// Most passes a session takes (learned ones included): the random streams are indexed by
 /// a u32 and must never repeat.
 pub const MAX_PASSES: u32 = 1 << 31;
+
+/// Cold slots borrow their neighbours' observations (`--pool-priors`) at the growth points of
+/// the learning's first passes, up to this age (the film's passes after a camera move, else
+/// the learned passes, as `--update-every auto` counts them); at the first growth point past
+/// it every slot's borrowed observations are dropped. Why: pooling paid at 64–256 passes
+/// (city 1.29× less variance at 64 spp, 1.14× at 256), while each pooling reads the totals
+/// back and uploads the priors: on an NVIDIA H200 it took bayes from 0.14 to 0.21 s for
+/// 1024 passes at 512×384 (city; docs/results.md, 2026-12-04, fifth session). A pure function
+/// of the clock, so a `--load-stats` continuation pools (or not) as the render it continues.
+pub const POOL_AGE_MAX: u32 = 256;
 
 /// Whether regions reached without a cut get one after `n` passes: 1, 2, 4, 8, 16, 32,
 /// then every 64th (soon after the start or a camera move, rarely once settled).
