@@ -11,6 +11,7 @@ use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 
 use super::context::Context;
+use super::transfer::{pod_vec, read_many, Transfers};
 
 pub struct Buffer {
     ctx: Arc<Context>,
@@ -108,9 +109,9 @@ impl Buffer {
     /// each) besides as a storage buffer: the per-lane gather of [`Buffer::texels`] for
     /// arrays of words (cuts, region index).
     pub fn words(ctx: &Arc<Context>, name: &str, data: &[u32]) -> Result<Buffer> {
-        let texels = check_texels(ctx, name, data.len() as u64)?;
-        let buf = Buffer::holding(ctx, name, data, vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER)?;
-        buf.with_view(vk::Format::R32_UINT, texels)
+        let buf = Buffer::words_unfilled(ctx, name, data.len())?;
+        buf.write(bytemuck::cast_slice(data))?;
+        Ok(buf)
     }
 
     /// A device-local buffer of `len` words readable as R32UI texels, as [`Buffer::words`],
@@ -118,17 +119,13 @@ impl Buffer {
     /// upload among others, [`super::Transfers`]).
     pub fn words_unfilled(ctx: &Arc<Context>, name: &str, len: usize) -> Result<Buffer> {
         let texels = check_texels(ctx, name, len as u64)?;
-        let buf = Buffer::new(
+        Buffer::device_local(
             ctx,
             name,
             4 * len as u64,
-            vk::BufferUsageFlags::STORAGE_BUFFER
-                | vk::BufferUsageFlags::TRANSFER_DST
-                | vk::BufferUsageFlags::TRANSFER_SRC
-                | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
-            MemoryLocation::GpuOnly,
-        )?;
-        buf.with_view(vk::Format::R32_UINT, texels)
+            vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER,
+        )?
+        .with_view(vk::Format::R32_UINT, texels)
     }
 
     /// A zero-filled device-local buffer of `size` bytes (a multiple of 16) that kernels can
@@ -207,20 +204,29 @@ impl Buffer {
         extra: vk::BufferUsageFlags,
     ) -> Result<Buffer> {
         let bytes: &[u8] = bytemuck::cast_slice(data);
-        let buf = Buffer::new(
+        let buf = Buffer::device_local(ctx, name, bytes.len() as u64, extra)?;
+        buf.write(bytes)?;
+        Ok(buf)
+    }
+
+    /// A device-local storage buffer of `size` bytes, with `extra` usage, its contents not
+    /// set.
+    fn device_local(
+        ctx: &Arc<Context>,
+        name: &str,
+        size: u64,
+        extra: vk::BufferUsageFlags,
+    ) -> Result<Buffer> {
+        Buffer::new(
             ctx,
             name,
-            bytes.len() as u64,
+            size,
             vk::BufferUsageFlags::STORAGE_BUFFER
                 | vk::BufferUsageFlags::TRANSFER_DST
                 | vk::BufferUsageFlags::TRANSFER_SRC
                 | extra,
             MemoryLocation::GpuOnly,
-        )?;
-        if !bytes.is_empty() {
-            buf.write(bytes)?;
-        }
-        Ok(buf)
+        )
     }
 
     /// A zero-filled device-local storage buffer of `size` bytes.
@@ -235,27 +241,16 @@ impl Buffer {
         size: u64,
         extra: vk::BufferUsageFlags,
     ) -> Result<Buffer> {
-        let buf = Buffer::new(
-            ctx,
-            name,
-            size,
-            vk::BufferUsageFlags::STORAGE_BUFFER
-                | vk::BufferUsageFlags::TRANSFER_DST
-                | vk::BufferUsageFlags::TRANSFER_SRC
-                | extra,
-            MemoryLocation::GpuOnly,
-        )?;
+        let buf = Buffer::device_local(ctx, name, size, extra)?;
         buf.clear()?;
         Ok(buf)
     }
 
     /// Fills the buffer with zeros.
     pub fn clear(&self) -> Result<()> {
-        self.ctx.submit(|cmd| unsafe {
-            self.ctx
-                .device
-                .cmd_fill_buffer(cmd, self.raw, 0, vk::WHOLE_SIZE, 0);
-        })
+        let mut up = Transfers::new();
+        up.clear(self);
+        up.submit(&self.ctx, |_| {})
     }
 
     /// Copies `bytes` to the start of the buffer through a staging buffer.
@@ -278,22 +273,9 @@ impl Buffer {
         if bytes.is_empty() {
             return Ok(());
         }
-        let mut staging = Buffer::new(
-            &self.ctx,
-            "staging upload",
-            bytes.len() as u64,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::CpuToGpu,
-        )?;
-        staging.mapped_mut()?[..bytes.len()].copy_from_slice(bytes);
-        let region = [vk::BufferCopy::default()
-            .dst_offset(offset)
-            .size(bytes.len() as u64)];
-        self.ctx.submit(|cmd| unsafe {
-            self.ctx
-                .device
-                .cmd_copy_buffer(cmd, staging.raw, self.raw, &region)
-        })
+        let mut up = Transfers::new();
+        up.write(self, offset, bytes);
+        up.submit(&self.ctx, |_| {})
     }
 
     /// Reads the first `count` `T`s back.
@@ -311,25 +293,8 @@ impl Buffer {
     /// Copies the first `bytes` bytes to a host-visible staging buffer and returns the
     /// first `count` `T`s of them.
     fn read_bytes<T: Pod>(&self, bytes: u64, count: usize) -> Result<Vec<T>> {
-        let staging = Buffer::new(
-            &self.ctx,
-            "staging readback",
-            bytes,
-            vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuToCpu,
-        )?;
-        let region = [vk::BufferCopy::default().size(bytes)];
-        self.ctx.submit(|cmd| unsafe {
-            self.ctx
-                .device
-                .cmd_copy_buffer(cmd, self.raw, staging.raw, &region)
-        })?;
-        let mapped = staging.mapped()?;
-        let n = std::mem::size_of::<T>();
-        // The mapping may not be aligned for T: copy element-wise through pod_read_unaligned.
-        Ok((0..count)
-            .map(|i| bytemuck::pod_read_unaligned(&mapped[i * n..(i + 1) * n]))
-            .collect())
+        let got = read_many(&self.ctx, &[(self, bytes)])?;
+        Ok(pod_vec(&got[0][..count * std::mem::size_of::<T>()]))
     }
 
     pub(super) fn mapped(&self) -> Result<&[u8]> {

@@ -152,3 +152,11 @@ pub fn read_many(ctx: &Arc<Context>, reads: &[(&Buffer, u64)]) -> Result<Vec<Vec
         .map(|(&(_, bytes), &a)| mapped[a..a + bytes as usize].to_vec())
         .collect())
 }
+
+/// `bytes` (a whole number of `T`s) as `T`s; a read-back's bytes may not be aligned for `T`.
+pub fn pod_vec<T: bytemuck::Pod>(bytes: &[u8]) -> Vec<T> {
+    bytes
+        .chunks_exact(std::mem::size_of::<T>())
+        .map(bytemuck::pod_read_unaligned)
+        .collect()
+}

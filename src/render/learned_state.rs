@@ -10,7 +10,7 @@ use anyhow::Result;
 use super::cuts::{build_cuts, fill_initial, initial_stats};
 use super::{GpuScene, RenderSettings};
 use crate::gpu::layout::{SlotDelta, SlotStats};
-use crate::gpu::transfer::read_many;
+use crate::gpu::transfer::{pod_vec, read_many};
 use crate::gpu::{Buffer, Context, Transfers};
 use crate::learning::pooling::SlotPrior;
 use crate::learning::LearnSettings;
@@ -260,7 +260,7 @@ impl LearnedState {
     /// Recomputes every slot's borrowed pseudo-observations from the totals
     /// (src/learning/pooling.rs), at a fold boundary, and lists the slots below `below` whose
     /// borrowed observations changed in the (empty) touched list, for a fold of their
-    /// coefficients ([`super::passes::PassKernels::fold_listed`]; the slots from `below` on
+    /// coefficients ([`super::passes::PassKernels::submit_growth`]; the slots from `below` on
     /// are the caller's to fold). Returns how many it listed. Folding only those, not every
     /// slot, halved the fold's part (cornell40, 128×96: 170k slots, 42–90k borrowing at passes
     /// 1–8, 3.5k at 256; docs/results.md 2026-12-04).
@@ -435,12 +435,4 @@ pub fn touched_list(slots: u32) -> Vec<u32> {
     let mut list = vec![0, 1, 1, 0];
     list.resize(4 + slots.div_ceil(64) as usize * 64, u32::MAX);
     list
-}
-
-/// `bytes` (a whole number of `T`s) as `T`s; the bytes may not be aligned for `T`.
-fn pod_vec<T: bytemuck::Pod>(bytes: &[u8]) -> Vec<T> {
-    bytes
-        .chunks_exact(std::mem::size_of::<T>())
-        .map(bytemuck::pod_read_unaligned)
-        .collect()
 }
