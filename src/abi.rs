@@ -211,6 +211,8 @@ pub const LEARN_PRIORS: u32 = 4;
 pub const LEARN_BRDF: u32 = 8;
 pub const LEARN_CONTROL_VARIATES: u32 = 16;
 pub const LEARN_BRDF_SELECT: u32 = 32;
+/// With LEARN_REGRESSION: the regressor is Ĩ_C(x) instead of 1/d² (`--regression importance`).
+pub const LEARN_REGRESS_IMPORTANCE: u32 = 64;
 
 /// Hyperparameters and switches of the learned samplers.
 #[repr(C)]

@@ -16,7 +16,8 @@ use lightlearn::gpu::layout::{SlotDelta, SlotStats};
 use lightlearn::gpu::{kernels, Buffer, ComputePipeline};
 use lightlearn::learning::stats_file::SavedStats;
 use lightlearn::learning::{
-    fold, fold_with_prior, learned_weights, predicted_means, LearnSettings, Posterior, UpdateEvery,
+    fold, fold_with_prior, learned_weights, predicted_means, LearnSettings, Posterior, Regression,
+    UpdateEvery,
 };
 use lightlearn::lights::regions::{pmf_in_cut, Cuts, Grid, RegionSettings};
 use lightlearn::lights::tree::LightTree;
@@ -302,8 +303,15 @@ fn learned_pmfs_are_exact_cover_every_light_and_match_the_gpu() {
             for seed in [1u64, 2] {
                 let st = adversarial_stats(cuts.cuts.len(), seed);
                 // Control variates on: bayes reports its g's (checked below), donikian 0.
+                // Seed 1 regresses on the unoccluded importance (the default), seed 2 on
+                // distance.
                 let l = LearnSettings {
                     control_variates: true,
+                    regression: if seed == 1 {
+                        Regression::Importance
+                    } else {
+                        Regression::Distance
+                    },
                     ..Default::default()
                 };
                 let gpu = common::gpu_learned_samples(
@@ -850,7 +858,16 @@ fn bad_statistics_files_are_refused_with_the_fix() {
                 "--regression".into(),
                 "off".into(),
             ],
-            "--regression on",
+            "--regression importance",
+        ),
+        (
+            vec![
+                "--sampler".into(),
+                "bayes".into(),
+                "--regression".into(),
+                "distance".into(),
+            ],
+            "--regression importance",
         ),
         (vec!["--sampler".into(), "wang".into()], "learning sampler"),
     ];

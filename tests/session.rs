@@ -538,7 +538,7 @@ fn grown_slots_start_from_their_initial_statistics() {
     assert!(appends >= 3, "too few growths to test: {grown:?}");
     let stats = x.sampling_stats().unwrap();
     let priors = x.borrowed_priors().unwrap();
-    let init = lightlearn::render::initial_stats(&gpu.tree, x.cuts(), &set.learn);
+    let init = lightlearn::render::initial_stats(&gpu.tree, x.cuts(), set.observed_regression());
     assert_eq!(stats.len(), init.len());
     assert_eq!(priors.len(), init.len());
     let mut checked = 0;

@@ -22,6 +22,11 @@
 const uint BAYES_FLAGS = SAMPLER == SAMPLER_BAYES ? LEARN_FLAGS : 0u;
 const bool REGRESSION_ON = (LEARN_FLAGS & LEARN_REGRESSION) != 0u;
 const bool CV_ON = (BAYES_FLAGS & LEARN_CONTROL_VARIATES) != 0u;
+// --regression importance (the default): the regressor is the cluster's unoccluded
+// importance Ĩ_C(x) (wang's weight) instead of 1/d², so y = Î_C / Ĩ_C, the share of the
+// unoccluded estimate that arrives: Ĩ's cosine bounds vary across a region as its distance
+// does (docs/method.md §3).
+const bool REGRESS_IMPORTANCE = (BAYES_FLAGS & LEARN_REGRESS_IMPORTANCE) != 0u;
 
 // --brdf-select: a factor > 0 on slot weights for the BRDF at the shading point towards the
 // node's cluster; every including kernel defines it (render.comp: the BRDF; the test kernel
@@ -77,12 +82,14 @@ float bayes_slot_weight(uint o, uint i, vec3 p, vec3 n, float brdf, inout float 
         float di = REGRESSION_ON ? dn : 1.0;
         // The prior mean of y = Î · d²: Ĩ · d² (Ĩ without its distance) in the
         // observation's units (prior_scale: 1/π maps a one-sided emitter's power
-        // Φ = π A L to A L). Before any data w ∝ Ĩ: bayes starts as wang.
-        float mu0 = imp * di * brdf * sel_prior_scale;
+        // Φ = π A L to A L); by importance (y = Î / Ĩ) the same without Ĩ. Before any data
+        // w ∝ Ĩ: bayes starts as wang.
+        float mu0 = REGRESS_IMPORTANCE ? brdf * sel_prior_scale : imp * di * brdf * sel_prior_scale;
         SlotStats st = slot_stats_at(o + 1u + i);
-        w = bayes_weight(st, mu0) / di;
+        // By importance: Ĩ × the weight of y, a product where 1/d² takes a division.
+        w = REGRESS_IMPORTANCE ? bayes_weight(st, mu0) * imp : bayes_weight(st, mu0) / di;
         if ((LEARN_FLAGS & LEARN_BRDF_SELECT) != 0u) w *= brdf_toward(nd, p, n);
-        if (CV_ON && w > 0.0) cv_total += predicted_mean(st, mu0, di, brdf);
+        if (CV_ON && w > 0.0) cv_total += predicted_mean(st, mu0, REGRESS_IMPORTANCE ? 1.0 / imp : di, brdf);
     }
     return w;
 }
@@ -160,15 +167,17 @@ uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint
     uint li = pick_in_cut(o, count, total, u, p, n, pmf, k, p_slot);
     if (o != 0u) {
         slot = o + 1u + k;
-        if (regression && SAMPLER == SAMPLER_BAYES) d2 = node_d2(light_node(cut_word(slot)), p);
+        if (REGRESS_IMPORTANCE) d2 = 1.0 / light_importance(light_node(cut_word(slot)), p, n);
+        else if (regression && SAMPLER == SAMPLER_BAYES) d2 = node_d2(light_node(cut_word(slot)), p);
     }
     if (cv) {
         // The chosen slot's g again, by the same arithmetic as in the sum above (the
         // estimator is unbiased only if this g is the one that Σ counted).
         float dn;
         float imp = light_importance_d2(light_node(cut_word(o + 1u + k)), p, n, dn);
-        float di = regression ? dn : 1.0;
-        cv_chosen = predicted_mean(slot_stats_at(o + 1u + k), imp * di * brdf * learn[0].prior_scale, di, brdf);
+        float di = REGRESS_IMPORTANCE ? 1.0 / imp : (regression ? dn : 1.0);
+        float mu0 = REGRESS_IMPORTANCE ? brdf * learn[0].prior_scale : imp * di * brdf * learn[0].prior_scale;
+        cv_chosen = predicted_mean(slot_stats_at(o + 1u + k), mu0, di, brdf);
     }
     return li;
 }

@@ -105,6 +105,7 @@ struct SlotDelta {
 #define LEARN_BRDF 8u
 #define LEARN_CONTROL_VARIATES 16u
 #define LEARN_BRDF_SELECT 32u
+#define LEARN_REGRESS_IMPORTANCE 64u
 
 // Hyperparameters and switches of the learned samplers (src/learning/mod.rs LearnSettings).
 struct LearnParams {

@@ -23,7 +23,7 @@ use anyhow::{bail, Result};
 
 use crate::abi::{
     LearnParams, SlotDelta, SlotStats, LEARN_BRDF, LEARN_BRDF_SELECT, LEARN_CONTROL_VARIATES,
-    LEARN_PRIORS, LEARN_REGRESSION, LEARN_TARGET_MEAN,
+    LEARN_PRIORS, LEARN_REGRESSION, LEARN_REGRESS_IMPORTANCE, LEARN_TARGET_MEAN,
 };
 
 /// Settings of the learned samplers; defaults are docs/method.md's [ours] values.
@@ -31,8 +31,8 @@ use crate::abi::{
 pub struct LearnSettings {
     /// When the observations are folded into the posteriors.
     pub update_every: UpdateEvery,
-    /// The 1/d² regression (off: d ≡ 1).
-    pub regression: bool,
+    /// What a cluster's contribution is regressed on (docs/method.md §3).
+    pub regression: Regression,
     /// Sample ∝ the learned mean instead of sqrt(mean² + variance).
     pub target_mean: bool,
     /// Use the priors (off: all pseudo-counts 0, divisions guarded).
@@ -68,11 +68,40 @@ pub struct LearnSettings {
     pub pool_priors: f32,
 }
 
+/// The regression of a cluster's contribution Î_C at a shading point x: the model learns
+/// y = Î_C · d2 with the regressor 1/d2 (docs/method.md §3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Regression {
+    /// d2 ≡ 1: one constant per slot.
+    Off,
+    /// d2 = the clamped squared distance to the cluster (the paper's).
+    Distance,
+    /// d2 = 1 / Ĩ_C(x), the cluster's unoccluded importance at x (*ours*): y is the share
+    /// of the unoccluded estimate that arrives, so the cosine bounds that vary across a
+    /// region are not in what is learned. Equal spp against `distance`: strings 1.29×
+    /// less variance (paths 1.47×), strings5k 1.42× (2.31×), the other committed and
+    /// outside scenes 0.99–1.07× (docs/results.md, 2026-12-04, sixth session).
+    Importance,
+}
+
+impl Regression {
+    /// The d2 of a slot whose node is `nd`, with unoccluded importance `imp` > 0 at `p`
+    /// (learning.glsl `bayes_slot_weight` and `sample_learned`, the same f32 arithmetic).
+    pub fn d2(self, nd: &crate::abi::LightNode, imp: f32, p: glam::Vec3) -> f32 {
+        match self {
+            Regression::Off => 1.0,
+            Regression::Distance => node_d2(nd, p),
+            Regression::Importance => 1.0 / imp,
+        }
+    }
+}
+
 impl Default for LearnSettings {
     fn default() -> Self {
         LearnSettings {
             update_every: UpdateEvery::Auto,
-            regression: true,
+            regression: Regression::Importance,
             target_mean: false,
             priors: true,
             brdf_aware: false,
@@ -152,12 +181,16 @@ impl LearnSettings {
             prior_alpha: self.prior_alpha,
             prior_cv: self.prior_cv,
             lambda: self.lambda,
-            flags: flag(self.regression, LEARN_REGRESSION)
+            flags: flag(self.regression != Regression::Off, LEARN_REGRESSION)
                 | flag(self.target_mean, LEARN_TARGET_MEAN)
                 | flag(self.priors, LEARN_PRIORS)
                 | flag(self.brdf_aware, LEARN_BRDF)
                 | flag(self.brdf_select, LEARN_BRDF_SELECT)
-                | flag(self.control_variates, LEARN_CONTROL_VARIATES),
+                | flag(self.control_variates, LEARN_CONTROL_VARIATES)
+                | flag(
+                    self.regression == Regression::Importance,
+                    LEARN_REGRESS_IMPORTANCE,
+                ),
             prior_scale: self.prior_scale,
         }
     }
@@ -257,8 +290,12 @@ impl Posterior {
 }
 
 /// The prior mean of y at a shading point from the cluster's unoccluded importance Ĩ and
-/// regression distance² d2 (1 without regression): Ĩ · d2 · brdf · prior_scale.
+/// regression distance² d2 (1 without regression): Ĩ · d2 · brdf · prior_scale, and by
+/// importance (d2 = 1/Ĩ) brdf · prior_scale, without the round trip through Ĩ.
 pub fn prior_mean(importance: f32, d2: f32, brdf: f32, l: &LearnSettings) -> f32 {
+    if l.regression == Regression::Importance {
+        return brdf * l.prior_scale;
+    }
     importance * d2 * brdf * l.prior_scale
 }
 
@@ -509,7 +546,13 @@ pub fn learned_weights(
     }
     per_bayes_slot(tree, cut, slots, &imp, p, l, |s, i, d2| {
         let c = [s.coef_a, s.coef_b, s.coef_c];
-        coefficient_weight(s, c, prior_mean(i, d2, brdf, l), l) / d2
+        let w = coefficient_weight(s, c, prior_mean(i, d2, brdf, l), l);
+        // The weight of y times 1/d2 (learning.glsl: a product by importance).
+        if l.regression == Regression::Importance {
+            w * i
+        } else {
+            w / d2
+        }
     })
 }
 
@@ -531,11 +574,7 @@ fn per_bayes_slot(
             if i <= 0.0 {
                 return 0.0;
             }
-            let d2 = if l.regression {
-                node_d2(&tree.nodes[node as usize], p)
-            } else {
-                1.0
-            };
+            let d2 = l.regression.d2(&tree.nodes[node as usize], i, p);
             // What fold.comp leaves in the slot: its coefficients (and a scale of 1 if unset).
             f(&fold(s, &SlotDelta::default(), l), i, d2)
         })

@@ -31,7 +31,12 @@ pub struct StatsHeader {
     pub sampler: String,
     pub grid: u32,
     pub normal_bins: bool,
+    /// Any regression (`--regression distance` or `importance`).
     pub regression: bool,
+    /// The regressor is the unoccluded importance (`--regression importance`; absent in
+    /// files saved before it existed, which regress on distance).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub regression_importance: bool,
     pub brdf_aware: bool,
     /// Passes already taken: a continuation starts its sample indices here.
     pub samples_done: u32,
@@ -459,8 +464,8 @@ impl SavedStats {
             ),
             (
                 "--regression",
-                on_off(h.regression),
-                on_off(want.regression),
+                regression_name(h).to_string(),
+                regression_name(want).to_string(),
             ),
             (
                 "--brdf-aware",
@@ -485,6 +490,14 @@ impl SavedStats {
             bail!("'{p}' was saved for other scene bounds (region grid differs); load it only with the scene it was saved from");
         }
         Ok(())
+    }
+}
+
+fn regression_name(h: &StatsHeader) -> &'static str {
+    match (h.regression, h.regression_importance) {
+        (false, _) => "off",
+        (true, false) => "distance",
+        (true, true) => "importance",
     }
 }
 
@@ -566,5 +579,51 @@ mod tests {
             (2.0, 4.0, 8.0, 16.0)
         );
         assert_eq!(two.scale, 2.0);
+    }
+
+    /// A file saved before `--regression importance` existed regressed on distance: its
+    /// header (no `regression_importance`) reads as that, and a render with the new default
+    /// is refused with the flag that loads it.
+    #[test]
+    fn headers_without_the_regressor_regress_on_distance() {
+        let new = StatsHeader {
+            scene: "s".into(),
+            sampler: "bayes".into(),
+            grid: 32,
+            normal_bins: true,
+            regression: true,
+            regression_importance: true,
+            brdf_aware: false,
+            samples_done: 0,
+            grid_params: [0.0; 4],
+            grid_dims: [1; 4],
+            regions: 0,
+            cuts_len: 0,
+            tau: None,
+            k_max: None,
+            start_forget: None,
+            skipped_passes: None,
+        };
+        let mut json = serde_json::to_value(&new).unwrap();
+        json.as_object_mut()
+            .unwrap()
+            .remove("regression_importance");
+        let old: StatsHeader = serde_json::from_value(json).unwrap();
+        assert_eq!(regression_name(&old), "distance");
+        assert_eq!(regression_name(&new), "importance");
+        let saved = SavedStats {
+            header: old,
+            index: Vec::new(),
+            cuts: Vec::new(),
+            stats: Vec::new(),
+        };
+        let err = saved
+            .check_matches(&new, Path::new("old.stats"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("--regression distance"),
+            "the fix should be named: {err}"
+        );
     }
 }

@@ -9,7 +9,7 @@ use super::{camera_vectors, GpuScene, RenderSettings};
 use crate::gpu::layout::SlotStats;
 use crate::gpu::Context;
 use crate::learning::stats_file::{self, SavedStats, StatsHeader};
-use crate::learning::LearnSettings;
+use crate::learning::Regression;
 use crate::lights;
 use crate::lights::regions::{Cuts, Grid, RegionSettings};
 use crate::scene::Scene;
@@ -85,7 +85,8 @@ pub fn stats_header(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) ->
         sampler: settings.sampler.name().to_string(),
         grid: settings.regions.grid,
         normal_bins: settings.regions.normal_bins,
-        regression: settings.learn.regression,
+        regression: settings.learn.regression != Regression::Off,
+        regression_importance: settings.learn.regression == Regression::Importance,
         brdf_aware: settings.learn.brdf_aware,
         samples_done: 0,
         grid_params,
@@ -112,42 +113,47 @@ fn cosine_direction(n: Vec3, u0: f32, u1: f32) -> Vec3 {
 
 /// Starting totals: no data; the first window's fixed-point scale is the slot's largest
 /// plausible y: Φ/π (y = Î d² ≈ A L cosθ cosθ ≤ Φ/π for a one-sided emitter), ÷ d² to the
-/// region's cell centre without regression (y = Î).
+/// region's cell centre without regression (y = Î), 1/π by importance (y = Î / Ĩ, Ĩ ≥ Φ
+/// cosθ cosθ / d²).
 pub fn initial_stats(
     tree: &lights::tree::LightTree,
     cuts: &Cuts,
-    l: &LearnSettings,
+    regression: Regression,
 ) -> Vec<SlotStats> {
     let mut stats = vec![SlotStats::default(); cuts.cuts.len()];
-    fill_initial(&mut stats, tree, cuts, 0, None, l);
+    fill_initial(&mut stats, tree, cuts, 0, None, regression);
     let mut done = std::collections::HashSet::new();
     for (r, &o) in cuts.index.iter().enumerate() {
         if o != 0 && done.insert(o) {
-            fill_initial(&mut stats, tree, cuts, o, Some(r as u32), l);
+            fill_initial(&mut stats, tree, cuts, o, Some(r as u32), regression);
         }
     }
     stats
 }
 
 /// The starting totals of the cut at offset `o` (of `region`; None: the fallback) into
-/// `stats` (indexed like `cuts.cuts`).
+/// `stats` (indexed like `cuts.cuts`); `regression`: what the observations are regressed on
+/// ([`RenderSettings::observed_regression`]).
 pub fn fill_initial(
     stats: &mut [SlotStats],
     tree: &lights::tree::LightTree,
     cuts: &Cuts,
     o: u32,
     region: Option<u32>,
-    l: &LearnSettings,
+    regression: Regression,
 ) {
     let o = o as usize;
     let centre = region.map(|r| cuts.grid.cell_box(r).0);
     for k in 0..cuts.cuts[o] as usize {
         let nd = &tree.nodes[cuts.cuts[o + 1 + k] as usize];
-        let d2 = match (l.regression, centre) {
-            (false, Some(c)) => crate::learning::node_d2(nd, c),
-            _ => 1.0,
+        let y_max = match (regression, centre) {
+            (Regression::Importance, _) => std::f32::consts::FRAC_1_PI,
+            (Regression::Off, Some(c)) => {
+                nd.phi * std::f32::consts::FRAC_1_PI / crate::learning::node_d2(nd, c)
+            }
+            _ => nd.phi * std::f32::consts::FRAC_1_PI,
         };
-        stats[o + 1 + k].scale = (nd.phi * std::f32::consts::FRAC_1_PI / d2).max(1e-30);
+        stats[o + 1 + k].scale = y_max.max(1e-30);
     }
 }
 

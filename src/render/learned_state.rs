@@ -89,7 +89,7 @@ impl LearnedState {
         // One entry per cuts entry (1 dummy entry for the samplers that do not learn).
         let stats: Vec<SlotStats> = match (&settings.resume, settings.sampler.learned()) {
             (Some(saved), true) => saved.stats.clone(),
-            (None, true) => initial_stats(&gpu.tree, &cuts, &settings.learn),
+            (None, true) => initial_stats(&gpu.tree, &cuts, settings.observed_regression()),
             (_, false) => vec![SlotStats::default()],
         };
         let slots = stats.len() as u32;
@@ -206,7 +206,14 @@ impl LearnedState {
             let (old, new) = (l.slots as usize, l.cuts.cuts.len());
             let mut fresh = vec![SlotStats::default(); new];
             for &(r, o) in &added {
-                fill_initial(&mut fresh, tree, &l.cuts, o, Some(r), &settings.learn);
+                fill_initial(
+                    &mut fresh,
+                    tree,
+                    &l.cuts,
+                    o,
+                    Some(r),
+                    settings.observed_regression(),
+                );
             }
             l.append_slots(ctx, &fresh[old..], up)?;
         }
@@ -354,9 +361,15 @@ impl LearnedState {
             if o == 0 {
                 continue;
             }
-            if let Some(p) =
-                super::refine::refined_cut(tree, &self.cuts, &stats, o as usize, splits, k_max)
-            {
+            if let Some(p) = super::refine::refined_cut(
+                tree,
+                &self.cuts,
+                &stats,
+                o as usize,
+                splits,
+                k_max,
+                settings.learn.regression,
+            ) {
                 plans.push((r, o, p));
             }
         }

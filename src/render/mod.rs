@@ -176,6 +176,15 @@ pub struct RenderSettings {
 }
 
 impl RenderSettings {
+    /// What the learned sampler's observations are regressed on: `bayes` follows
+    /// `--regression`; `donikian` records y = Î (no regression) whatever it says.
+    pub fn observed_regression(&self) -> crate::learning::Regression {
+        match self.sampler {
+            LightSampler::Bayes => self.learn.regression,
+            _ => crate::learning::Regression::Off,
+        }
+    }
+
     /// `sampler` on a `width`×`height` film with paths of `max_depth` vertices and every
     /// other setting at its default (one pass, seed 0, the default regions and learning,
     /// stratified numbers, area sampling of triangle lights, nothing loaded): for programs

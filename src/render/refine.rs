@@ -12,7 +12,9 @@
 //! Unbiased: the cut changes only at a fold boundary, between passes, and the new cut tiles
 //! the same lights. Deterministic: the decision reads the totals, which are exact sums.
 //! The children inherit the parent's statistics as a prior split by power share f (counts
-//! halved, so the data soon outweigh it; mean × f, second moment × f²): their weights start
+//! halved, so the data soon outweigh it; mean × f, second moment × f²; f = 1 under
+//! `--regression importance`, where y is a share of Ĩ, which splits with the power): their
+//! weights start
 //! summing to about the parent's, where fresh priors would forget what the region learned
 //! about occlusion.
 //!
@@ -23,6 +25,7 @@
 //! 1.09× the variance of off. It is off by default.
 
 use crate::abi::SlotStats;
+use crate::learning::Regression;
 use crate::lights::regions::Cuts;
 use crate::lights::tree::LightTree;
 
@@ -34,7 +37,8 @@ pub const MIN_CV2: f64 = 1.0;
 /// The new cut of the region at offset `o` and each new slot's statistics, or None when no
 /// cluster qualifies or the cut is full. At most `splits` clusters split, the largest
 /// sqrt(E[y²]) · cv²/(1 + cv²) (the slot's weight times the share of its second moment
-/// that is spread) first.
+/// that is spread) first. `regression`: the units of y (by importance a child inherits the
+/// parent's y as it is).
 pub fn refined_cut(
     tree: &LightTree,
     cuts: &Cuts,
@@ -42,6 +46,7 @@ pub fn refined_cut(
     o: usize,
     splits: usize,
     k_max: usize,
+    regression: Regression,
 ) -> Option<(Vec<u32>, Vec<SlotStats>)> {
     let count = cuts.cuts[o] as usize;
     let cut = &cuts.cuts[o + 1..o + 1 + count];
@@ -86,7 +91,11 @@ pub fn refined_cut(
         // Children in tree order (left = node + 1 starts where the parent does), so the cut
         // stays sorted by range start.
         for child in [node + 1, nd.right] {
-            let f = if nd.phi > 0.0 {
+            // y's share of the parent by power; by importance (y = Î / Ĩ) a child's y is the
+            // parent's, as Ĩ splits with the power.
+            let f = if regression == Regression::Importance {
+                1.0
+            } else if nd.phi > 0.0 {
                 tree.nodes[child as usize].phi / nd.phi
             } else {
                 0.5
