@@ -50,7 +50,7 @@ void main() {
     // The pmf of the chosen light again, as render.comp's MIS weight takes it (from the
     // choice's cut and total: light_pmf_of_cut), and light_pmf of the query's own light
     // (q.light; none: 0) summed afresh.
-    c.pmf_again = c.light == NO_LIGHT ? 0.0 : light_pmf_of_cut(sel_cut, sel_total, q.p, q.n, c.light, 0u, 1.0);
+    c.pmf_again = c.light == NO_LIGHT ? 0.0 : light_pmf_of_cut(sel_cut, sel_total, sel_lambda, q.p, q.n, c.light, 0u, 1.0);
     c.pmf_query = q.light == NO_LIGHT ? 0.0 : light_pmf(q.p, q.n, q.light, 0u, 1.0);
     choices[i] = c;
 }

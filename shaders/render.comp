@@ -216,6 +216,7 @@ struct Path {
     // The cut and weight total of the previous vertex's light choice (light_pmf_of_cut).
     uint prev_cut;
     float prev_cut_total;
+    float prev_cut_lambda;  // sel_lambda (--defensive)
     Bsdf prev_bsdf;  // only with --brdf-select (select_brdf at an emitter hit)
 };
 
@@ -253,6 +254,7 @@ Path camera_path(uvec2 px) {
     st.prev_bsdf_pdf = 0.0;
     st.prev_cut = 0u;
     st.prev_cut_total = 0.0;
+    st.prev_cut_lambda = 0.0;
     st.prev_bsdf = Bsdf(vec3(0.0), 0.0, vec3(0.0), 0.0, 0.0, 0.0, 0.0, true);
     return st;
 }
@@ -286,7 +288,7 @@ bool path_vertex(inout Path st, uint depth) {
             select_brdf(st.prev_bsdf, st.prev_wo, st.prev_n, brdf_select);
             float p_sel = (KNOCK_OUT & KNOCK_MIS_PMF) != 0u
                 ? 1.0 / float(params.light_count)
-                : light_pmf_of_cut(st.prev_cut, st.prev_cut_total, st.prev_x, st.prev_n, li, params.light_count, st.prev_brdf);
+                : light_pmf_of_cut(st.prev_cut, st.prev_cut_total, st.prev_cut_lambda, st.prev_x, st.prev_n, li, params.light_count, st.prev_brdf);
             vec3 to = st.origin + t * st.dir - st.prev_x;
             float cos_l = abs(dot(ng, st.dir));
             GpuLight hit_light = light_at(li);
@@ -406,6 +408,7 @@ bool path_vertex(inout Path st, uint depth) {
     st.prev_bsdf_pdf = bsdf_pdf_o;
     st.prev_cut = sel_cut;
     st.prev_cut_total = sel_total;
+    st.prev_cut_lambda = sel_lambda;
     st.origin = x + n * params.ray_eps;
     st.dir = wn;
     if (depth + 1u >= 3u) {
@@ -441,7 +444,10 @@ Path load_path(uint q, uint i) {
     st.dir = uintBitsToFloat(b.xyz);
     st.zero_samples = uintBitsToFloat(b.w);
     st.beta = uintBitsToFloat(c.xyz);
-    st.light_samples = uintBitsToFloat(c.w);
+    // Every vertex before this bounce took one light sample (path_vertex), so the count is
+    // the bounce, and its place in the queue carries the previous choice's λ instead.
+    st.light_samples = float(params.bounce);
+    st.prev_cut_lambda = uintBitsToFloat(c.w);
     st.L = uintBitsToFloat(d.xyz);
     st.prev_cut = d.w;
     st.prev_x = uintBitsToFloat(e.xyz);
@@ -469,7 +475,7 @@ void push_path(Path st) {
     int t = int((q * params.queue_cap + i) * PATH_TEXELS);
     imageStore(path_image, t, uvec4(floatBitsToUint(st.origin), st.pixel));
     imageStore(path_image, t + 1, uvec4(floatBitsToUint(st.dir), floatBitsToUint(st.zero_samples)));
-    imageStore(path_image, t + 2, uvec4(floatBitsToUint(st.beta), floatBitsToUint(st.light_samples)));
+    imageStore(path_image, t + 2, uvec4(floatBitsToUint(st.beta), floatBitsToUint(st.prev_cut_lambda)));
     imageStore(path_image, t + 3, uvec4(floatBitsToUint(st.L), st.prev_cut));
     imageStore(path_image, t + 4, uvec4(floatBitsToUint(st.prev_x), floatBitsToUint(st.prev_cut_total)));
     imageStore(path_image, t + 5, uvec4(floatBitsToUint(st.prev_n), floatBitsToUint(st.prev_brdf)));

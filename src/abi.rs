@@ -213,6 +213,7 @@ pub const LEARN_CONTROL_VARIATES: u32 = 16;
 pub const LEARN_BRDF_SELECT: u32 = 32;
 /// With LEARN_REGRESSION: the regressor is Ĩ_C(x) instead of 1/d² (`--regression importance`).
 pub const LEARN_REGRESS_IMPORTANCE: u32 = 64;
+pub const LEARN_DEFENSIVE: u32 = 128;
 
 /// Hyperparameters and switches of the learned samplers.
 #[repr(C)]
@@ -227,6 +228,9 @@ pub struct LearnParams {
     pub flags: u32,
     /// μ0 = Ĩ · d² · prior_scale: Ĩ's power Φ in the units of the observations.
     pub prior_scale: f32,
+    /// `bayes`: ε of the defensive mixture with `wang`'s pmf (`--defensive`; read only
+    /// under LEARN_DEFENSIVE).
+    pub defensive: f32,
 }
 
 pub const MATERIAL_TWO_SIDED: u32 = 1;

@@ -311,7 +311,8 @@ fn host_and_shader_structs_match() {
             prior_cv,
             lambda,
             flags,
-            prior_scale
+            prior_scale,
+            defensive
         }),
         rust_layout!(GridParams {
             lo,

@@ -27,6 +27,7 @@ const bool CV_ON = (BAYES_FLAGS & LEARN_CONTROL_VARIATES) != 0u;
 // unoccluded estimate that arrives: Ĩ's cosine bounds vary across a region as its distance
 // does (docs/method.md §3).
 const bool REGRESS_IMPORTANCE = (BAYES_FLAGS & LEARN_REGRESS_IMPORTANCE) != 0u;
+const bool DEFENSIVE_ON = (BAYES_FLAGS & LEARN_DEFENSIVE) != 0u;
 
 // --brdf-select: a factor > 0 on slot weights for the BRDF at the shading point towards the
 // node's cluster; every including kernel defines it (render.comp: the BRDF; the test kernel
@@ -73,10 +74,22 @@ float predicted_mean(SlotStats s, float mu0, float di, float brdf) {
 // depth 8: 2.30 s -> 2.02-2.10 s).
 float sel_prior_scale = 0.0;
 
-float bayes_slot_weight(uint o, uint i, vec3 p, vec3 n, float brdf, inout float cv_total) {
+// --defensive ε (DEFENSIVE_ON, bayes): the cluster pmf is the mixture
+// (1 − ε) w_C / W + ε Ĩ_C / I of the learned weights and wang's (Ĩ; their totals W, I),
+// i.e. weights w_C + λ Ĩ_C of total W + λ I with λ = ε / (1 − ε) · W / I, so no cluster is
+// drawn with less than ε times wang's chance. cut_imp: the cut's Ĩ_C for the mixing;
+// sel_lambda: the λ of the last choice, which light_pmf_of_cut needs to repeat its pmf
+// (render.comp keeps it with the path).
+float cut_imp[MAX_CUT];
+float sel_lambda = 0.0;
+
+float mixed_weight(float w, float imp, float lambda) { return w + lambda * imp; }
+
+// imp: the slot's unoccluded importance Ĩ_C at (p, n), wang's weight (--defensive mixes it in).
+float bayes_slot_weight(uint o, uint i, vec3 p, vec3 n, float brdf, inout float cv_total, out float imp) {
     GpuLightNode nd = light_node(cut_word(o + 1u + i));
     float dn;
-    float imp = light_importance_d2(nd, p, n, dn);
+    imp = light_importance_d2(nd, p, n, dn);
     float w = 0.0;
     if (imp > 0.0) {
         float di = REGRESSION_ON ? dn : 1.0;
@@ -131,12 +144,31 @@ float learned_weights(uint o, vec3 p, vec3 n, float brdf, out float cv_total) {
         return sum_imp;
     }
     sel_prior_scale = learn[0].prior_scale;
+    float imp_total = 0.0;
     uint i = 0u;
     if (count > 0u) do {
-        cut_w[i] = bayes_slot_weight(o, i, p, n, brdf, cv_total);
+        float imp;
+        cut_w[i] = bayes_slot_weight(o, i, p, n, brdf, cv_total, imp);
         total += cut_w[i];
+        if (DEFENSIVE_ON) {
+            cut_imp[i] = imp;
+            imp_total += imp;
+        }
         ++i;
     } while (i < count);
+    sel_lambda = 0.0;
+    if (DEFENSIVE_ON) {
+        if (total > 0.0 && imp_total > 0.0) {
+            float eps = learn[0].defensive;
+            sel_lambda = eps / (1.0 - eps) * (total / imp_total);
+            i = 0u;
+            do {
+                cut_w[i] = mixed_weight(cut_w[i], cut_imp[i], sel_lambda);
+                ++i;
+            } while (i < count);
+            total = mixed_weight(total, imp_total, sel_lambda);
+        }
+    }
     return total;
 }
 

@@ -34,7 +34,8 @@ float light_pmf(vec3 p, vec3 n, uint li, uint count, float brdf) {
 // pixels unchanged). The MIS weight of every emitter a BSDF ray hits needs it; summing the
 // cut again there cost 12 % of a bayes pass (`lightlearn profile`). Other samplers:
 // light_pmf.
-float light_pmf_of_cut(uint o, float total, vec3 p, vec3 n, uint li, uint count, float brdf) {
+// lambda: the choice's sel_lambda (bayes under --defensive; else unused).
+float light_pmf_of_cut(uint o, float total, float lambda, vec3 p, vec3 n, uint li, uint count, float brdf) {
     if (SAMPLER != SAMPLER_WANG && SAMPLER != SAMPLER_BAYES) return light_pmf(p, n, li, count, brdf);
     uint pos = light_position[li];
     uint k = slot_holding(o, pos);
@@ -44,8 +45,10 @@ float light_pmf_of_cut(uint o, float total, vec3 p, vec3 n, uint li, uint count,
         w = light_importance(light_node(cut_word(o + 1u + k)), p, n);
     } else {
         float cv = 0.0;
+        float imp;
         sel_prior_scale = learn[0].prior_scale;
-        w = bayes_slot_weight(o, k, p, n, brdf, cv);
+        w = bayes_slot_weight(o, k, p, n, brdf, cv, imp);
+        if (DEFENSIVE_ON) w = mixed_weight(w, imp, lambda);
     }
     return pmf_in_slot(o, k, w, total, pos, p, n);
 }

@@ -106,11 +106,13 @@ struct SlotDelta {
 #define LEARN_CONTROL_VARIATES 16u
 #define LEARN_BRDF_SELECT 32u
 #define LEARN_REGRESS_IMPORTANCE 64u
+#define LEARN_DEFENSIVE 128u
 
 // Hyperparameters and switches of the learned samplers (src/learning/mod.rs LearnSettings).
 struct LearnParams {
     float prior_zero; float prior_nonzero; float prior_n; float prior_alpha;
     float prior_cv; float lambda; uint flags; float prior_scale;
+    float defensive;
 };
 
 #define MATERIAL_TWO_SIDED 1u

@@ -247,6 +247,10 @@ pub struct LearnArgs {
     /// 7–9 % more on strings; 0: off.
     #[arg(long, default_value_t = 4.0, value_name = "N")]
     pub pool_priors: f32,
+    /// bayes: defensive mixture. Clusters are drawn with (1 − ε) × the learned pmf + ε ×
+    /// wang's, so none gets less than ε times wang's chance. 0: off.
+    #[arg(long, default_value_t = 0.0, value_name = "ε")]
+    pub defensive: f32,
 }
 
 impl RegionArgs {
@@ -282,6 +286,7 @@ impl LearnArgs {
             ("--lambda", self.lambda.to_string()),
             ("--refine-cuts", self.refine_cuts.to_string()),
             ("--pool-priors", self.pool_priors.to_string()),
+            ("--defensive", self.defensive.to_string()),
         ]
         .into_iter()
         .flat_map(|(k, v)| [k.to_string(), v])
@@ -324,6 +329,7 @@ impl LearnArgs {
                 .unwrap_or(LearnSettings::default().prior_scale),
             refine_cuts: self.refine_cuts,
             pool_priors: self.pool_priors,
+            defensive: self.defensive,
         };
         s.check()?;
         Ok(s)

@@ -23,7 +23,7 @@ use anyhow::{bail, Result};
 
 use crate::abi::{
     LearnParams, SlotDelta, SlotStats, LEARN_BRDF, LEARN_BRDF_SELECT, LEARN_CONTROL_VARIATES,
-    LEARN_PRIORS, LEARN_REGRESSION, LEARN_REGRESS_IMPORTANCE, LEARN_TARGET_MEAN,
+    LEARN_DEFENSIVE, LEARN_PRIORS, LEARN_REGRESSION, LEARN_REGRESS_IMPORTANCE, LEARN_TARGET_MEAN,
 };
 
 /// Settings of the learned samplers; defaults are docs/method.md's [ours] values.
@@ -66,6 +66,10 @@ pub struct LearnSettings {
     /// pseudo-observations of the same node from its neighbouring regions (`--pool-priors`,
     /// 0 = off; src/learning/pooling.rs).
     pub pool_priors: f32,
+    /// `bayes`: ε of the defensive mixture (`--defensive ε`): clusters are drawn with
+    /// (1 − ε) × the learned pmf + ε × `wang`'s (learning.glsl), so none gets less than ε
+    /// times the chance `wang` gives it. 0: the learned pmf alone.
+    pub defensive: f32,
 }
 
 /// The regression of a cluster's contribution Î_C at a shading point x: the model learns
@@ -124,6 +128,7 @@ impl Default for LearnSettings {
             // 7–9 % worse without each run's ten worst pixels (direct light, 128×96,
             // docs/results.md 2026-12-04); 8 was no better.
             pool_priors: 4.0,
+            defensive: 0.0,
         }
     }
 }
@@ -162,6 +167,12 @@ impl LearnSettings {
                 self.prior_scale
             );
         }
+        if !(self.defensive.is_finite() && (0.0..1.0).contains(&self.defensive)) {
+            bail!(
+                "--defensive {} is out of range: use a fraction in [0, 1) (0: off; 1 would be wang)",
+                self.defensive
+            );
+        }
         if !(self.lambda > 0.0 && self.lambda <= 1.0) {
             bail!(
                 "--lambda {} is out of range: use (0, 1] (0 would starve clusters: biased)",
@@ -190,8 +201,10 @@ impl LearnSettings {
                 | flag(
                     self.regression == Regression::Importance,
                     LEARN_REGRESS_IMPORTANCE,
-                ),
+                )
+                | flag(self.defensive > 0.0, LEARN_DEFENSIVE),
             prior_scale: self.prior_scale,
+            defensive: self.defensive,
         }
     }
 }
@@ -544,7 +557,7 @@ pub fn learned_weights(
         }
         return imp;
     }
-    per_bayes_slot(tree, cut, slots, &imp, p, l, |s, i, d2| {
+    let mut w = per_bayes_slot(tree, cut, slots, &imp, p, l, |s, i, d2| {
         let c = [s.coef_a, s.coef_b, s.coef_c];
         let w = coefficient_weight(s, c, prior_mean(i, d2, brdf, l), l);
         // The weight of y times 1/d2 (learning.glsl: a product by importance).
@@ -553,7 +566,20 @@ pub fn learned_weights(
         } else {
             w / d2
         }
-    })
+    });
+    if l.defensive > 0.0 {
+        // The defensive mixture as learning.glsl forms it: w + λ Ĩ, λ = ε/(1 − ε) · W / I
+        // (the totals summed in the kernel's order).
+        let total: f32 = w.iter().sum();
+        let imp_total: f32 = imp.iter().sum();
+        if total > 0.0 && imp_total > 0.0 {
+            let lambda = l.defensive / (1.0 - l.defensive) * (total / imp_total);
+            for (w, &i) in w.iter_mut().zip(&imp) {
+                *w += lambda * i;
+            }
+        }
+    }
+    w
 }
 
 /// `f(slot as fold.comp leaves it, Ĩ, regression d²)` for every slot of a cut whose Ĩ > 0,
