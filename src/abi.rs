@@ -226,7 +226,8 @@ pub struct LearnParams {
     pub prior_cv: f32,
     pub lambda: f32,
     pub flags: u32,
-    /// μ0 = Ĩ · d² · prior_scale: Ĩ's power Φ in the units of the observations.
+    /// μ0 = Ĩ · d² · prior_scale: Ĩ's power Φ in the units of the observations (by
+    /// importance μ0 = prior_scale: y is a share of Ĩ).
     pub prior_scale: f32,
     /// `bayes`: ε of the defensive mixture with `wang`'s pmf (`--defensive`; read only
     /// under LEARN_DEFENSIVE).

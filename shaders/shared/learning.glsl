@@ -43,8 +43,8 @@ float brdf_toward(GpuLightNode nd, vec3 p, vec3 n);
 #define FIX_CLAMP 4096.0
 #define TWO_POW_32 4294967296.0
 
-// The posterior's sampling weight of one slot at x (docs/method.md §4) before the 1/d² factor,
-// from the coefficients fold.comp stored (posterior.glsl); mu0 is the prior mean of y at x.
+// The posterior's sampling weight of one slot at x (docs/method.md §4) before the 1/d² factor
+// (by importance: before the factor Ĩ_C(x)), from the coefficients fold.comp stored (posterior.glsl); mu0 is the prior mean of y at x.
 float bayes_weight(SlotStats s, float mu0) {
     // t is clamped so that t² stays a normal float: only absurd prior/scale ratios are
     // touched, and the weight stays positive and finite (the estimator unbiased).
@@ -56,7 +56,7 @@ float bayes_weight(SlotStats s, float mu0) {
 }
 
 // The posterior's predicted mean of the observation Î_C at x (docs/method.md §6): (1 − p̂0) μ / d²
-// with μ the regression constant's posterior mean at prior mean mu0, divided by the
+// (d² = 1/Ĩ_C(x) by importance) with μ the regression constant's posterior mean at prior mean mu0, divided by the
 // observation's BRDF factor (brdf; 1 unless --brdf-aware) so that it predicts Î_C itself.
 float predicted_mean(SlotStats s, float mu0, float di, float brdf) {
     if (!(brdf > 0.0)) return 0.0;
@@ -108,7 +108,8 @@ float bayes_slot_weight(uint o, uint i, vec3 p, vec3 n, float brdf, inout float 
 }
 
 // Fills cut_w with the learned weights of the cut at offset o at (p, n) and returns their
-// sum (0: no cluster can light x); cv_total as in sample_learned.
+// sum (0: no cluster can light x); cv_total as in sample_learned. Under --defensive the
+// weights and the sum are the mixture's and sel_lambda its λ (0 otherwise).
 float learned_weights(uint o, vec3 p, vec3 n, float brdf, out float cv_total) {
     uint count = cut_word(o);
     const bool regression = REGRESSION_ON;
@@ -175,7 +176,8 @@ float learned_weights(uint o, vec3 p, vec3 n, float brdf, out float cv_total) {
 // A cluster of the region's cut by the learned weights, then a light inside (pick_in_cut).
 // slot: the index of the chosen slot in `cuts` (and in the statistics), NO_SLOT where the
 // region has no cut of its own (the shared fallback cut does not learn: it samples as
-// `wang`). p_slot: P(C | x); d2: the regression distance² to C (1 without regression);
+// `wang`). p_slot: P(C | x); d2: what the observation is multiplied by, the regression
+// distance² to C (1/Ĩ_C(x) by importance, 1 without regression);
 // brdf: the observation's BRDF factor (1 unless --brdf-aware). With --control-variates
 // (bayes only) cv_total = Σ_C g_C(x) over the cut and cv_chosen = g of the chosen slot, the
 // predicted means of Î_C (predicted_mean; 0 for a slot of weight 0, which lights nothing

@@ -39,7 +39,7 @@ uint region_cut(vec3 p, vec3 n) {
 float cut_w[MAX_CUT];
 // The cut (offset) and weight total of the last choice by sample_wang / sample_learned: what
 // light_pmf_of_cut needs to repeat that choice's pmf at the same point without summing the
-// cut again.
+// cut again (with learning.glsl's sel_lambda under --defensive).
 uint sel_cut = 0u;
 float sel_total = 0.0;
 

@@ -56,7 +56,8 @@ pub struct LearnSettings {
     /// `donikian`: weight λ of the unoccluded estimate in the defensive mixture.
     pub lambda: f32,
     /// The prior mean is μ0 = Ĩ_C(x) · d² · prior_scale: Ĩ counts power Φ, while the
-    /// observation y = Î d² ≈ Φ/π for a one-sided area light and Φ/(4π) for a point light.
+    /// observation y = Î d² ≈ Φ/π for a one-sided area light and Φ/(4π) for a point light
+    /// (by importance μ0 = prior_scale · brdf: y = Î / Ĩ is a share).
     pub prior_scale: f32,
     /// Learned cut refinement (`--refine-cuts N`, 0 = off): at each growth point a region
     /// splits up to N of its clusters whose observations vary the most into their two
@@ -514,7 +515,8 @@ pub fn diagnostics(
 }
 
 /// The CPU mirror of `sample_learned`'s weights (learning.glsl) over the cut at offset `o`:
-/// `bayes` (posterior weight / d², 0 where Ĩ = 0) or `donikian` (defensive mixture).
+/// `bayes` (posterior weight / d², × Ĩ by importance, 0 where Ĩ = 0; with `--defensive` the
+/// mixture's weights) or `donikian` (its own defensive mixture).
 #[allow(clippy::too_many_arguments)]
 pub fn learned_weights(
     tree: &crate::lights::tree::LightTree,

@@ -6,8 +6,9 @@
 //! (direct light, 128×96, variance over seeds: city 3.2× at 64 spp, 1.75× at 256; city
 //! path traced 2.6× at 64 spp), while a coarser `--grid` learned city faster but made
 //! strings 2.2× worse: its cuts need small regions. Pooling keeps the fine regions and their
-//! cuts and shares only evidence. Because y = Î d² is regressed on the distance, a node's
-//! observations from nearby regions are in the same units.
+//! cuts and shares only evidence. Because y = Î d² is regressed on the distance (Î / Ĩ by
+//! importance, the default), a node's observations from nearby regions are in the same
+//! units.
 //!
 //! The neighbourhood: the fine regions whose grid cells fall in the same block of
 //! [`COARSE`]³ cells, with the same normal bin. Borrowed data go only to slots with no

@@ -463,17 +463,20 @@ impl SavedStats {
                 on_off(want.normal_bins),
             ),
             (
-                "--regression",
-                regression_name(h).to_string(),
-                regression_name(want).to_string(),
-            ),
-            (
                 "--brdf-aware",
                 on_off(h.brdf_aware),
                 on_off(want.brdf_aware),
             ),
         ];
         let mut fields = fields.to_vec();
+        // Only bayes regresses (donikian records y = Î whatever --regression says).
+        if h.sampler == "bayes" {
+            fields.push((
+                "--regression",
+                regression_name(h).to_string(),
+                regression_name(want).to_string(),
+            ));
+        }
         // The cut settings (files of version 1 do not record them).
         if let (Some(a), Some(b)) = (h.tau, want.tau) {
             fields.push(("--tau", a.to_string(), b.to_string()));

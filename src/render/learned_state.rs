@@ -368,7 +368,7 @@ impl LearnedState {
                 o as usize,
                 splits,
                 k_max,
-                settings.learn.regression,
+                settings.observed_regression(),
             ) {
                 plans.push((r, o, p));
             }

@@ -6,8 +6,11 @@
 //! 0.005`) cut that term 3.2× on strings but cost 1.3–1.5× per sample everywhere
 //! (docs/results.md, "Where the variance is"). A cluster whose lights are partly hidden
 //! gives observations that are often 0 and sometimes large: a large squared coefficient of
-//! variation cv² = E[y²]/E[y]² − 1 of y = Î_C d². Splitting only those grows the cut where
-//! the choice inside the cluster costs variance.
+//! variation cv² = E[y²]/E[y]² − 1 of y = Î_C d² (Î_C / Ĩ_C by importance, the default
+//! since 2026-12-04: then the score below ranks by the spread share of that ratio, not by
+//! the slot's weight, and dim clusters may split before bright ones; measured that way:
+//! docs/results.md, sixth session). Splitting only those grows the cut where the choice
+//! inside the cluster costs variance.
 //!
 //! Unbiased: the cut changes only at a fold boundary, between passes, and the new cut tiles
 //! the same lights. Deterministic: the decision reads the totals, which are exact sums.
