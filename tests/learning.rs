@@ -1133,6 +1133,15 @@ fn assert_matches_lightbvh(what: &str, reference: (&[f64], f64), got: (&[f64], f
 /// which tests/mitsuba.rs cannot resolve).
 #[test]
 fn brdf_select_stays_unbiased_with_mis_on_glossy_floors() {
+    glossy_floors_match_lightbvh(
+        "bayes --brdf-select",
+        &["--sampler", "bayes", "--seed", "2"],
+    );
+}
+
+/// rooms16-glossy path traced (64×48, depth 8, 256 spp) with `args` against `lightbvh`:
+/// the image means within 5σ ([`assert_matches_lightbvh`]).
+fn glossy_floors_match_lightbvh(what: &str, args: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/rooms16-glossy.glb");
     let render = |name: &str, extra: &[&str]| {
@@ -1140,8 +1149,8 @@ fn brdf_select_stays_unbiased_with_mis_on_glossy_floors() {
         (mean, var)
     };
     let (reference, var_r) = render("lightbvh", &["--sampler", "lightbvh", "--seed", "1"]);
-    let (select, var_s) = render("select", &["--sampler", "bayes", "--seed", "2"]);
-    assert_matches_lightbvh("bayes --brdf-select", (&reference, var_r), (&select, var_s));
+    let (got, var_g) = render("variant", args);
+    assert_matches_lightbvh(what, (&reference, var_r), (&got, var_g));
 }
 
 /// `--defensive ε` mixes `wang`'s pmf into the learned one; the MIS weight of an emitter a
@@ -1152,16 +1161,8 @@ fn brdf_select_stays_unbiased_with_mis_on_glossy_floors() {
 /// λ is caught by `light_pmf_equals_the_samplers_pmf` (here only z = 2 at ε = 0.3).
 #[test]
 fn defensive_mixture_stays_unbiased_with_mis() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/rooms16-glossy.glb");
-    let render = |name: &str, extra: &[&str]| {
-        let (mean, var, _) = image_mean(&render_depth8(dir.path(), &scene, (64, 48), name, extra));
-        (mean, var)
-    };
-    let (reference, var_r) = render("lightbvh", &["--sampler", "lightbvh", "--seed", "1"]);
     let mixed = ["--sampler", "bayes", "--seed", "2", "--defensive", "0.9"];
-    let (got, var_g) = render("mixed", &mixed);
-    assert_matches_lightbvh("bayes --defensive 0.9", (&reference, var_r), (&got, var_g));
+    glossy_floors_match_lightbvh("bayes --defensive 0.9", &mixed);
 }
 
 /// `--refine-cuts` replaces clusters by their children between passes: the cut must still
