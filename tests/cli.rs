@@ -411,5 +411,18 @@ fn profile_times_every_stage_of_a_learning_path_tracer() {
         let seconds: f64 = line.split('|').nth(2).unwrap().trim().parse().unwrap();
         assert!(seconds > 0.0 && seconds.is_finite(), "{line}");
     }
+    // The learned state the real kernel left: what the atomics and folds scale with.
+    let state = text
+        .lines()
+        .find_map(|l| l.strip_prefix("learned state: "))
+        .unwrap_or_else(|| panic!("no learned state in:\n{text}"));
+    let words: Vec<&str> = state.split_whitespace().collect();
+    let slots: usize = words[0].parse().unwrap();
+    let regions: usize = words[4].parse().unwrap();
+    let observations: f64 = words[6].parse().unwrap();
+    assert!(
+        regions > 0 && slots >= regions && observations > 0.0,
+        "{state}"
+    );
     expect_failure(&["profile", "--spp", "0"], dir.path(), &[], &["--spp"]);
 }

@@ -10,7 +10,7 @@ use std::sync::Arc;
 use anyhow::Result;
 
 use crate::gpu::Context;
-use crate::learning::UpdateEvery;
+use crate::learning::{LearnDiagnostics, UpdateEvery};
 use crate::render::{GpuScene, RenderSettings, Session};
 use crate::scene::Scene;
 
@@ -48,7 +48,12 @@ fn variants(settings: &RenderSettings) -> Vec<(&'static str, u32, bool)> {
     v
 }
 
-/// Times `passes` passes of each variant on fresh sessions, the fastest of `repeats`.
+/// Times `passes` passes of each variant on fresh sessions, the fastest of `repeats`; with the
+/// learning's diagnostics after the real kernel's passes (learned samplers). Where slots see
+/// few observations each, the statistics atomics and the folds cost per observation: each
+/// one meets a slot of its own, far apart in memory, and each slot gets a fold of its own
+/// (docs/results.md, seventh session: cornell40 at 128×96, 256 spp, 12 observations a slot,
+/// `bayes` took 1.48× `wang`'s time; with `--grid 16`, 4× fewer slots, 1.25×).
 pub fn profile(
     ctx: &Arc<Context>,
     scene: &Scene,
@@ -57,8 +62,9 @@ pub fn profile(
     passes: u32,
     repeats: u32,
     progress: &mut dyn FnMut(&str),
-) -> Result<Vec<StageTime>> {
+) -> Result<(Vec<StageTime>, Option<LearnDiagnostics>)> {
     let mut out = Vec::new();
+    let mut learned = None;
     for (name, mask, folds) in variants(settings) {
         let mut s = settings.clone();
         if !folds {
@@ -73,6 +79,9 @@ pub fn profile(
             let mut session = Session::new(ctx, scene, gpu, &s)?;
             session.knock_out(mask)?;
             best = best.min(session.run_passes(passes)?);
+            if mask == 0 && folds {
+                learned = session.result()?.learned.map(|l| l.diagnostics);
+            }
         }
         progress(&format!("without {name}: {best:.3} s"));
         out.push(StageTime {
@@ -80,7 +89,7 @@ pub fn profile(
             seconds: best,
         });
     }
-    Ok(out)
+    Ok((out, learned))
 }
 
 /// A markdown table: each variant, its time, and what leaving the stage out saved.

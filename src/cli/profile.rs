@@ -60,7 +60,7 @@ impl ProfileArgs {
             resume: None,
             light_point: Default::default(),
         };
-        let times = lightlearn::bench::stages::profile(
+        let (times, learned) = lightlearn::bench::stages::profile(
             &ctx,
             &scene,
             &gpu,
@@ -71,7 +71,7 @@ impl ProfileArgs {
         )?;
         let paths = self.spp as f64 * self.width as f64 * self.height as f64;
         Ok(format!(
-            "{}: {} triangles, {} lights; {} on {}; {}×{}, {} spp, depth {}: {:.3} M paths/s\n\n{}",
+            "{}: {} triangles, {} lights; {} on {}; {}×{}, {} spp, depth {}: {:.3} M paths/s{}\n\n{}",
             scene.source,
             scene.triangles.len(),
             scene.lights.len(),
@@ -82,6 +82,13 @@ impl ProfileArgs {
             self.spp,
             self.max_depth,
             paths / times[0].seconds / 1e6,
+            learned.map_or(String::new(), |d| format!(
+                "\nlearned state: {} cluster slots in {} regions, {} observations ({:.3} a slot)",
+                d.slots,
+                d.regions_with_cuts,
+                d.observations,
+                d.observations / d.slots.max(1) as f64
+            )),
             lightlearn::bench::stages::table(&times)
         ))
     }
