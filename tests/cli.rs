@@ -418,10 +418,11 @@ fn profile_times_every_stage_of_a_learning_path_tracer() {
         .unwrap_or_else(|| panic!("no learned state in:\n{text}"));
     let words: Vec<&str> = state.split_whitespace().collect();
     let slots: usize = words[0].parse().unwrap();
-    let regions: usize = words[4].parse().unwrap();
-    let observations: f64 = words[6].parse().unwrap();
+    let cuts: usize = words[4].parse().unwrap();
+    let regions: usize = words[7].parse().unwrap();
+    let observations: f64 = words[9].parse().unwrap();
     assert!(
-        regions > 0 && slots >= regions && observations > 0.0,
+        cuts > 0 && regions >= cuts && slots >= cuts && observations > 0.0,
         "{state}"
     );
     expect_failure(&["profile", "--spp", "0"], dir.path(), &[], &["--spp"]);

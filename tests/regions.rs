@@ -7,7 +7,7 @@ mod common;
 use std::path::Path;
 
 use glam::Vec3;
-use lightlearn::lights::regions::{Cuts, Grid, RegionSettings};
+use lightlearn::lights::regions::{build_cut, Cuts, Grid, RegionSettings};
 use lightlearn::lights::tree::LightTree;
 use lightlearn::rng::SplitMix64;
 use lightlearn::scene::{gltf_load, Scene};
@@ -53,6 +53,7 @@ fn cuts_partition_the_lights() {
                 normal_bins: false,
                 grid: 8,
                 in_cluster_importance: true,
+                coarse_blocks: false,
             },
         ] {
             let (cuts, _) = cuts_for(&s, &tree, &settings);
@@ -211,6 +212,83 @@ fn gpu_and_cpu_wang_agree() {
             same * 1000 >= points.len() * 995,
             "{name}: only {same} of {} agree",
             points.len()
+        );
+    }
+}
+
+/// `coarse_blocks` (the default): the regions of a block of 2×2×2 cells whose box holds no
+/// light share one cut, built for the block; a region of a block with a light has a cut of
+/// its own, built for its cell. Off, every region has its own.
+#[test]
+fn blocks_without_lights_share_one_cut() {
+    use std::collections::HashMap;
+    for name in ["rooms.glb", "cornell.glb"] {
+        let s = scene(name);
+        let tree = LightTree::build(&s);
+        let on = RegionSettings::default();
+        assert!(on.coarse_blocks, "the default shares");
+        let (cuts, _) = cuts_for(&s, &tree, &on);
+        let cut = |o: u32| {
+            let o = o as usize;
+            cuts.cuts[o + 1..o + 1 + cuts.cuts[o] as usize].to_vec()
+        };
+        let mut members: HashMap<u32, Vec<u32>> = HashMap::new();
+        for (r, &o) in cuts.index.iter().enumerate() {
+            if o != 0 {
+                members.entry(o).or_default().push(r as u32);
+            }
+        }
+        let (mut shared, mut own) = (0, 0);
+        for (&o, regions) in &members {
+            let (key, c, h) = cuts.grid.block_of(regions[0]);
+            if lightlearn::lights::regions::light_in_box(&tree, c, h) {
+                // Near a light: one region, its own cell's cut.
+                assert_eq!(
+                    regions.len(),
+                    1,
+                    "{name}: a block with a light shares cut {o}"
+                );
+                let (cc, ch) = cuts.grid.cell_box(regions[0]);
+                assert_eq!(
+                    cut(o),
+                    build_cut(&tree, cc, ch, &on),
+                    "{name}: region {}",
+                    regions[0]
+                );
+                own += 1;
+            } else {
+                // Every region of the block has this cut, built for the block.
+                for &r in regions {
+                    assert_eq!(cuts.grid.block_of(r).0, key, "{name}: cut {o} spans blocks");
+                }
+                assert_eq!(cut(o), build_cut(&tree, c, h, &on), "{name}: block cut {o}");
+                shared += (regions.len() > 1) as usize;
+            }
+        }
+        assert!(
+            shared > 0 && own > 0,
+            "{name}: {shared} shared cuts, {own} own cuts"
+        );
+        assert!(
+            cuts.built() > cuts.distinct(),
+            "{name}: regions {} cuts {}",
+            cuts.built(),
+            cuts.distinct()
+        );
+        let off = RegionSettings {
+            coarse_blocks: false,
+            ..on
+        };
+        let (fine, _) = cuts_for(&s, &tree, &off);
+        assert_eq!(
+            fine.built(),
+            fine.distinct(),
+            "{name}: off, every region its own cut"
+        );
+        assert_eq!(
+            fine.built(),
+            cuts.built(),
+            "{name}: the same regions reached"
         );
     }
 }

@@ -83,8 +83,9 @@ impl ProfileArgs {
             self.max_depth,
             paths / times[0].seconds / 1e6,
             learned.map_or(String::new(), |d| format!(
-                "\nlearned state: {} cluster slots in {} regions, {} observations ({:.3} a slot)",
+                "\nlearned state: {} cluster slots in {} cuts for {} regions, {} observations ({:.3} a slot)",
                 d.slots,
+                d.cuts,
                 d.regions_with_cuts,
                 d.observations,
                 d.observations / d.slots.max(1) as f64

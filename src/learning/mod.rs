@@ -455,8 +455,10 @@ pub fn coefficient_weight(s: &SlotStats, c: [f32; 3], mu0: f32, l: &LearnSetting
 pub struct LearnDiagnostics {
     /// Regions with their own cut that received at least one observation.
     pub regions_touched: usize,
-    /// Regions with their own cut.
+    /// Regions with a cut (their own, or the one their block shares).
     pub regions_with_cuts: usize,
+    /// Distinct cuts (the regions of a block without lights share one).
+    pub cuts: usize,
     /// Cut slots (over all regions with a cut) and the fraction that have any observation.
     pub slots: usize,
     pub fraction_slots_with_data: f64,
@@ -470,16 +472,19 @@ pub struct LearnDiagnostics {
     pub stats_bytes: usize,
 }
 
-/// Summarises the totals of every built cut (`cuts[o]` = count, then the slots).
+/// Summarises the totals of every built cut (`cuts[o]` = count, then the slots; `offsets`:
+/// the distinct cuts, of `regions` regions).
 pub fn diagnostics(
     cuts: &[u32],
     offsets: &[u32],
+    regions: usize,
     stats: &[SlotStats],
     l: &LearnSettings,
     samples_in_fallback: u64,
 ) -> LearnDiagnostics {
     let mut d = LearnDiagnostics {
-        regions_with_cuts: offsets.len(),
+        regions_with_cuts: regions,
+        cuts: offsets.len(),
         samples_in_fallback,
         stats_bytes: stats.len() * 2 * std::mem::size_of::<SlotStats>(),
         ..Default::default()

@@ -89,8 +89,10 @@ pub fn pooled_priors(
     // slots with their keys, to be served after.
     let mut pooled: HashMap<u64, [f64; 4], BuildHasherDefault<KeyHasher>> = HashMap::default();
     let mut cold = Vec::new();
+    // A cut that regions share (a block without lights) counts once, for its first region.
+    let mut seen = vec![false; cuts.len()];
     for (r, &o) in index.iter().enumerate() {
-        if o == 0 {
+        if o == 0 || std::mem::replace(&mut seen[o as usize], true) {
             continue;
         }
         let o = o as usize;

@@ -26,6 +26,9 @@ pub struct RegionSettings {
     /// Inside a chosen cluster pick the light by importance at the shading point (a
     /// lightbvh-style descent of the cluster's subtree) instead of by power.
     pub in_cluster_importance: bool,
+    /// The regions of a block of 2×2×2 cells (one normal bin) whose box holds no light share
+    /// one cut, built for the block, and one set of statistics ([`Cuts::append`]).
+    pub coarse_blocks: bool,
 }
 
 /// Largest `--grid`: with 6 normal bins a cubic scene has 6·grid³ regions, which must stay
@@ -64,6 +67,11 @@ impl Default for RegionSettings {
             // wang 1.48e-4 → 1.32e-4 and 6.65e-3 → 3.06e-3, bayes 6.0e-5 → 5.1e-5 and
             // 1.99e-3 → 7.4e-4 with importance instead of power inside the cluster.
             in_cluster_importance: true,
+            // Measured (docs/results.md, seventh session): variance over seeds 0.96–1.04×
+            // on ten scenes (strings 1.01×, where a coarser grid everywhere was 1.9× worse),
+            // time 0.85× on cornell40 (3.7× fewer slots), 0.94–0.99× elsewhere, path traced
+            // hall 0.875×.
+            coarse_blocks: true,
         }
     }
 }
@@ -133,6 +141,24 @@ impl Grid {
         (cell, region % g.bins)
     }
 
+    /// The block of 2×2×2 cells (with the region's normal bin) that holds a region: a key
+    /// unique to the block and bin, and the block's centre and half-size (clamped to the
+    /// grid at its far edges).
+    pub fn block_of(&self, region: u32) -> (u64, Vec3, Vec3) {
+        let g = &self.params;
+        let ([x, y, z], bin) = self.cell_of(region);
+        let b = [x / 2, y / 2, z / 2];
+        let blocks = g.dims.map(|d| d.div_ceil(2) as u64);
+        let key = ((b[2] as u64 * blocks[1] + b[1] as u64) * blocks[0] + b[0] as u64)
+            * g.bins as u64
+            + bin as u64;
+        let lo = Vec3::from(g.lo);
+        let cells = Vec3::new(g.dims[0] as f32, g.dims[1] as f32, g.dims[2] as f32);
+        let b_lo = lo + Vec3::new(b[0] as f32, b[1] as f32, b[2] as f32) * 2.0 * g.cell;
+        let b_hi = (b_lo + Vec3::splat(2.0 * g.cell)).min(lo + cells * g.cell);
+        (key, 0.5 * (b_lo + b_hi), 0.5 * (b_hi - b_lo))
+    }
+
     /// Centre and half-size of a region's cell.
     pub fn cell_box(&self, region: u32) -> (Vec3, Vec3) {
         let g = &self.params;
@@ -198,6 +224,27 @@ impl Ord for Ranked {
     }
 }
 
+/// Whether the box (centre c, half-size h) meets the bounding box of a light of `tree`
+/// (touching counts): a descent of the tree that skips the nodes whose boxes miss it.
+pub fn light_in_box(tree: &LightTree, c: Vec3, h: Vec3) -> bool {
+    let (lo, hi) = (c - h, c + h);
+    let mut stack = vec![0u32];
+    while let Some(i) = stack.pop() {
+        let Some(nd) = tree.nodes.get(i as usize) else {
+            continue;
+        };
+        if Vec3::from(nd.bmin).cmpgt(hi).any() || Vec3::from(nd.bmax).cmplt(lo).any() {
+            continue;
+        }
+        if nd.count <= 1 {
+            return true;
+        }
+        stack.push(i + 1);
+        stack.push(nd.right);
+    }
+    false
+}
+
 /// The cut of a region: node indices covering every light exactly once, sorted by the start
 /// of their light range. Refines the largest splittable node until it is ≤ τ × the total or
 /// the cut has `k_max` nodes.
@@ -250,6 +297,14 @@ pub struct Cuts {
     pub offsets: Vec<u32>,
     /// Lights inside a cluster by importance (else by power).
     pub in_cluster_importance: bool,
+    /// Blocks of 2×2×2 cells met so far ([`Grid::block_of`] keys; `coarse_blocks` only): the
+    /// offset of the cut their regions share, or 0 for a block that holds a light, whose
+    /// regions get cuts of their own.
+    pub blocks: HashMap<u64, u32>,
+    /// Whether blocks without lights share one cut ([`RegionSettings::coarse_blocks`]).
+    pub coarse_blocks: bool,
+    /// Regions with a cut (several regions may share one).
+    assigned: usize,
 }
 
 impl Cuts {
@@ -270,29 +325,21 @@ impl Cuts {
         );
         cuts.push(whole.len() as u32);
         cuts.extend(&whole);
-        let mut index = vec![0u32; grid.region_count() as usize];
-        let mut seen: HashMap<u32, u32> = HashMap::new();
-        for r in reached {
-            if seen.contains_key(&r) {
-                continue;
-            }
-            let (c, h) = grid.cell_box(r);
-            let cut = build_cut(tree, c, h, s);
-            let offset = cuts.len() as u32;
-            cuts.push(cut.len() as u32);
-            cuts.extend(&cut);
-            index[r as usize] = offset;
-            seen.insert(r, offset);
-        }
-        let mut offsets: Vec<u32> = seen.into_values().collect();
-        offsets.sort_unstable();
-        Cuts {
+        let mut built = Cuts {
+            index: vec![0u32; grid.region_count() as usize],
             grid,
-            index,
             cuts,
-            offsets,
+            offsets: Vec::new(),
             in_cluster_importance: s.in_cluster_importance,
-        }
+            blocks: HashMap::new(),
+            coarse_blocks: s.coarse_blocks,
+            assigned: 0,
+        };
+        // In the order given (the same cuts at the same offsets on every run); a region
+        // listed twice keeps its first cut.
+        let reached: Vec<u32> = reached.into_iter().collect();
+        built.append(tree, &reached, s);
+        built
     }
 
     /// Builds and appends the cuts of `regions` that have none yet (regions a moved camera
@@ -310,38 +357,111 @@ impl Cuts {
             if self.index[r as usize] != 0 {
                 continue;
             }
-            let (c, h) = self.grid.cell_box(r);
-            let cut = build_cut(tree, c, h, s);
-            let offset = self.cuts.len() as u32;
-            self.cuts.push(cut.len() as u32);
-            self.cuts.extend(&cut);
+            // A block without a light: its regions share one cut, built for the block, and
+            // its statistics. Where no light is near, what a point sees changes slowly
+            // across the block (its lights are all at least a cell away), so finer regions
+            // only divide the same observations; near lights (strings' bulbs on their
+            // objects) regions stay fine: a coarser grid everywhere made strings 1.9×
+            // worse (docs/results.md, seventh session).
+            let shared = if self.coarse_blocks {
+                let (key, c, h) = self.grid.block_of(r);
+                match self.blocks.get(&key) {
+                    Some(&o) => Some(o),
+                    None => {
+                        let o = if light_in_box(tree, c, h) {
+                            0
+                        } else {
+                            self.push_cut(&build_cut(tree, c, h, s))
+                        };
+                        self.blocks.insert(key, o);
+                        Some(o)
+                    }
+                }
+            } else {
+                None
+            };
+            let offset = match shared {
+                Some(o) if o != 0 => o,
+                _ => {
+                    let (c, h) = self.grid.cell_box(r);
+                    self.push_cut(&build_cut(tree, c, h, s))
+                }
+            };
             self.index[r as usize] = offset;
-            self.offsets.push(offset);
+            self.assigned += 1;
             added.push((r, offset));
         }
         added
     }
 
-    /// Cuts read back from a statistics file (`--load-stats`).
+    /// Appends a cut; its offset.
+    fn push_cut(&mut self, cut: &[u32]) -> u32 {
+        let offset = self.cuts.len() as u32;
+        self.cuts.push(cut.len() as u32);
+        self.cuts.extend(cut);
+        self.offsets.push(offset);
+        offset
+    }
+
+    /// Points every region whose cut was at `old` to `new` (cut refinement replaced it).
+    pub fn replace(&mut self, old: u32, new: u32) {
+        for o in self.index.iter_mut().filter(|o| **o == old) {
+            *o = new;
+        }
+        for o in self.blocks.values_mut().filter(|o| **o == old) {
+            *o = new;
+        }
+        if let Ok(i) = self.offsets.binary_search(&old) {
+            self.offsets.remove(i);
+        }
+        let i = self.offsets.partition_point(|&o| o < new);
+        self.offsets.insert(i, new);
+    }
+
+    /// Cuts read back from a statistics file (`--load-stats`). With `coarse_blocks` the
+    /// shared cut of each block without lights is found again from the regions that have it
+    /// (the first in region order), so that regions reached later join it as they would
+    /// have in the render that saved the file.
     pub fn from_parts(
+        tree: &LightTree,
         grid: Grid,
         index: Vec<u32>,
         cuts: Vec<u32>,
-        in_cluster_importance: bool,
+        s: &RegionSettings,
     ) -> Cuts {
         let mut offsets: Vec<u32> = index.iter().copied().filter(|&o| o != 0).collect();
         offsets.sort_unstable();
         offsets.dedup();
+        let mut blocks = HashMap::new();
+        if s.coarse_blocks {
+            for (r, &o) in index.iter().enumerate() {
+                if o != 0 {
+                    let (key, c, h) = grid.block_of(r as u32);
+                    blocks
+                        .entry(key)
+                        .or_insert_with(|| if light_in_box(tree, c, h) { 0 } else { o });
+                }
+            }
+        }
         Cuts {
+            assigned: index.iter().filter(|&&o| o != 0).count(),
             grid,
             index,
             cuts,
             offsets,
-            in_cluster_importance,
+            in_cluster_importance: s.in_cluster_importance,
+            blocks,
+            coarse_blocks: s.coarse_blocks,
         }
     }
 
+    /// Regions with a cut of their own or a shared one.
     pub fn built(&self) -> usize {
+        self.assigned
+    }
+
+    /// Distinct cuts built (a block's shared cut counts once).
+    pub fn distinct(&self) -> usize {
         self.offsets.len()
     }
 

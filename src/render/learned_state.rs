@@ -77,10 +77,11 @@ impl LearnedState {
             Some(saved) => {
                 let (lo, hi) = scene.grid_bounds();
                 Cuts::from_parts(
+                    &gpu.tree,
                     Grid::new(lo, hi, &settings.regions),
                     saved.index.clone(),
                     saved.cuts.clone(),
-                    settings.regions.in_cluster_importance,
+                    &settings.regions,
                 )
             }
             None => build_cuts(scene, gpu, settings, camera),
@@ -205,7 +206,8 @@ impl LearnedState {
         if learning {
             let (old, new) = (l.slots as usize, l.cuts.cuts.len());
             let mut fresh = vec![SlotStats::default(); new];
-            for &(r, o) in &added {
+            // Regions that joined a block's shared cut made no new slots.
+            for &(r, o) in added.iter().filter(|&&(_, o)| o as usize >= old) {
                 fill_initial(
                     &mut fresh,
                     tree,
@@ -357,10 +359,8 @@ impl LearnedState {
         // --k-max caps the cut as built; refinement may grow it to what the kernel holds.
         let k_max = crate::lights::regions::MAX_K as usize;
         let mut plans = Vec::new();
-        for (r, &o) in self.cuts.index.iter().enumerate() {
-            if o == 0 {
-                continue;
-            }
+        // Once per cut: the regions of a block share theirs.
+        for &o in &self.cuts.offsets {
             if let Some(p) = super::refine::refined_cut(
                 tree,
                 &self.cuts,
@@ -370,32 +370,27 @@ impl LearnedState {
                 k_max,
                 settings.observed_regression(),
             ) {
-                plans.push((r, o, p));
+                plans.push((o, p));
             }
         }
         if plans.is_empty() {
             return Ok(0);
         }
-        let grown: usize = plans.iter().map(|(_, _, (c, _))| c.len() + 1).sum();
+        let grown: usize = plans.iter().map(|(_, (c, _))| c.len() + 1).sum();
         let max_bytes = ctx.properties.limits.max_storage_buffer_range as usize;
         if (self.cuts.cuts.len() + grown) * std::mem::size_of::<SlotStats>() > max_bytes {
             self.full = true;
             return Ok(0);
         }
         let mut fresh = Vec::with_capacity(grown);
-        for (r, o, (cut, st)) in &plans {
+        for (o, (cut, st)) in &plans {
             let offset = self.cuts.cuts.len() as u32;
             self.cuts.cuts.push(cut.len() as u32);
             self.cuts.cuts.extend(cut);
             fresh.push(SlotStats::default());
             fresh.extend(st);
-            self.cuts.index[*r] = offset;
-            if let Ok(i) = self.cuts.offsets.binary_search(o) {
-                self.cuts.offsets.remove(i);
-            }
-            self.cuts.offsets.push(offset);
+            self.cuts.replace(*o, offset);
         }
-        self.cuts.offsets.sort_unstable();
         self.index.write(bytemuck::cast_slice(&self.cuts.index))?;
         self.cuts_buf = Buffer::words(ctx, "cuts", &self.cuts.cuts)?;
         let mut up = Transfers::new();

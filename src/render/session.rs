@@ -605,6 +605,7 @@ impl<'a> Session<'a> {
                 diagnostics: crate::learning::diagnostics(
                     &saved.cuts,
                     &self.learned.cuts.offsets,
+                    self.learned.cuts.built(),
                     &saved.stats,
                     &self.settings.learn,
                     counters[1] as u64,
