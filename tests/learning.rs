@@ -1249,4 +1249,21 @@ fn refined_cuts_tile_the_lights_in_order() {
         longest > 32,
         "no cut grew past its built size: longest {longest}"
     );
+    // Every region points to a live cut: the regions of a block that share a refined cut
+    // all moved to its replacement (not only the first of them).
+    let (mut shared, mut seen) = (0, std::collections::HashMap::new());
+    for (r, &o) in cuts.index.iter().enumerate() {
+        if o != 0 {
+            assert!(
+                cuts.offsets.binary_search(&o).is_ok(),
+                "region {r} points to the replaced cut at {o}"
+            );
+            *seen.entry(o).or_insert(0) += 1;
+        }
+    }
+    shared += seen.values().filter(|&&n| n > 1).count();
+    assert!(
+        shared > 0,
+        "no shared cut in this render: the check above tests nothing"
+    );
 }

@@ -403,19 +403,21 @@ impl Cuts {
         offset
     }
 
-    /// Points every region whose cut was at `old` to `new` (cut refinement replaced it).
-    pub fn replace(&mut self, old: u32, new: u32) {
-        for o in self.index.iter_mut().filter(|o| **o == old) {
-            *o = new;
+    /// Points every region (and block) whose cut was at an old offset of `moved` to its new
+    /// one (cut refinement replaced those cuts by cuts appended at the new offsets): one pass
+    /// over the index, whatever the number of cuts replaced.
+    pub fn replace(&mut self, moved: &HashMap<u32, u32>) {
+        for o in self.index.iter_mut().chain(self.blocks.values_mut()) {
+            if let Some(&new) = moved.get(o) {
+                *o = new;
+            }
         }
-        for o in self.blocks.values_mut().filter(|o| **o == old) {
-            *o = new;
+        for o in &mut self.offsets {
+            if let Some(&new) = moved.get(o) {
+                *o = new;
+            }
         }
-        if let Ok(i) = self.offsets.binary_search(&old) {
-            self.offsets.remove(i);
-        }
-        let i = self.offsets.partition_point(|&o| o < new);
-        self.offsets.insert(i, new);
+        self.offsets.sort_unstable();
     }
 
     /// Cuts read back from a statistics file (`--load-stats`). With `coarse_blocks` the

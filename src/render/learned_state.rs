@@ -383,14 +383,16 @@ impl LearnedState {
             return Ok(0);
         }
         let mut fresh = Vec::with_capacity(grown);
+        let mut moved = std::collections::HashMap::new();
         for (o, (cut, st)) in &plans {
             let offset = self.cuts.cuts.len() as u32;
             self.cuts.cuts.push(cut.len() as u32);
             self.cuts.cuts.extend(cut);
             fresh.push(SlotStats::default());
             fresh.extend(st);
-            self.cuts.replace(*o, offset);
+            moved.insert(*o, offset);
         }
+        self.cuts.replace(&moved);
         self.index.write(bytemuck::cast_slice(&self.cuts.index))?;
         self.cuts_buf = Buffer::words(ctx, "cuts", &self.cuts.cuts)?;
         let mut up = Transfers::new();
