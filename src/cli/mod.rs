@@ -161,8 +161,8 @@ pub struct RegionArgs {
     pub in_cluster: String,
     /// The regions of a block of 2×2×2 cells (one normal bin) that holds no light share one
     /// cut and one set of statistics; near lights each region keeps its own. Measured: the
-    /// same variance (0.96–1.04× on ten scenes) in 0.85× the time on cornell40, 0.94–0.99×
-    /// elsewhere, 0.875× path traced on hall (docs/results.md, seventh session).
+    /// same variance (0.96–1.04× on ten scenes), 0.84× the time on cornell40 (3.7× fewer
+    /// slots), elsewhere within the noise (docs/results.md, seventh session).
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     pub coarse_blocks: String,
 }

@@ -68,9 +68,9 @@ impl Default for RegionSettings {
             // 1.99e-3 → 7.4e-4 with importance instead of power inside the cluster.
             in_cluster_importance: true,
             // Measured (docs/results.md, seventh session): variance over seeds 0.96–1.04×
-            // on ten scenes (strings 1.01×, where a coarser grid everywhere was 1.9× worse),
-            // time 0.85× on cornell40 (3.7× fewer slots), 0.94–0.99× elsewhere, path traced
-            // hall 0.875×.
+            // on ten scenes (strings 1.00×, where a coarser grid everywhere was 1.9× worse),
+            // time 0.84× on cornell40 (3.7× fewer slots), elsewhere within the timing noise
+            // (0.98–1.06×, interleaved best of 3).
             coarse_blocks: true,
         }
     }
@@ -358,9 +358,9 @@ impl Cuts {
                 continue;
             }
             // A block without a light: its regions share one cut, built for the block, and
-            // its statistics. Where no light is near, what a point sees changes slowly
-            // across the block (its lights are all at least a cell away), so finer regions
-            // only divide the same observations; near lights (strings' bulbs on their
+            // its statistics. With every light outside the block, what a point sees changes
+            // more slowly across it than next to a light, so finer regions there mostly
+            // divide the same observations between more slots; near lights (strings' bulbs on their
             // objects) regions stay fine: a coarser grid everywhere made strings 1.9×
             // worse (docs/results.md, seventh session).
             let shared = if self.coarse_blocks {
