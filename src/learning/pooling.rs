@@ -63,10 +63,7 @@ pub type SlotPrior = [f32; 4];
 
 /// The key of `node` in the pooling block and normal bin of `region`.
 fn key(grid: &Grid, region: u32, node: u32) -> u64 {
-    let ([x, y, z], bin) = grid.cell_of(region);
-    let b = grid.params.dims.map(|d| d.div_ceil(COARSE) as u64);
-    let block = ((z / COARSE) as u64 * b[1] + (y / COARSE) as u64) * b[0] + (x / COARSE) as u64;
-    (block * grid.params.bins as u64 + bin as u64) << 32 | node as u64
+    grid.block_key(region, COARSE) << 32 | node as u64
 }
 
 /// The borrowed pseudo-observations of every slot (indexed like `stats` and the cuts array)

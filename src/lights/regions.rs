@@ -146,17 +146,24 @@ impl Grid {
     /// grid at its far edges).
     pub fn block_of(&self, region: u32) -> (u64, Vec3, Vec3) {
         let g = &self.params;
-        let ([x, y, z], bin) = self.cell_of(region);
+        let ([x, y, z], _) = self.cell_of(region);
         let b = [x / 2, y / 2, z / 2];
-        let blocks = g.dims.map(|d| d.div_ceil(2) as u64);
-        let key = ((b[2] as u64 * blocks[1] + b[1] as u64) * blocks[0] + b[0] as u64)
-            * g.bins as u64
-            + bin as u64;
+        let key = self.block_key(region, 2);
         let lo = Vec3::from(g.lo);
         let cells = Vec3::new(g.dims[0] as f32, g.dims[1] as f32, g.dims[2] as f32);
         let b_lo = lo + Vec3::new(b[0] as f32, b[1] as f32, b[2] as f32) * 2.0 * g.cell;
         let b_hi = (b_lo + Vec3::splat(2.0 * g.cell)).min(lo + cells * g.cell);
         (key, 0.5 * (b_lo + b_hi), 0.5 * (b_hi - b_lo))
+    }
+
+    /// A key unique to the block of `size`³ cells and the normal bin that hold a region
+    /// (blocks shared by their regions here, pooling blocks in src/learning/pooling.rs).
+    pub fn block_key(&self, region: u32, size: u32) -> u64 {
+        let g = &self.params;
+        let ([x, y, z], bin) = self.cell_of(region);
+        let b = g.dims.map(|d| d.div_ceil(size) as u64);
+        let block = ((z / size) as u64 * b[1] + (y / size) as u64) * b[0] + (x / size) as u64;
+        block * g.bins as u64 + bin as u64
     }
 
     /// Centre and half-size of a region's cell.
@@ -300,9 +307,9 @@ pub struct Cuts {
     /// Blocks of 2×2×2 cells met so far ([`Grid::block_of`] keys; `coarse_blocks` only): the
     /// offset of the cut their regions share, or 0 for a block that holds a light, whose
     /// regions get cuts of their own.
-    pub blocks: HashMap<u64, u32>,
+    blocks: HashMap<u64, u32>,
     /// Whether blocks without lights share one cut ([`RegionSettings::coarse_blocks`]).
-    pub coarse_blocks: bool,
+    coarse_blocks: bool,
     /// Regions with a cut (several regions may share one).
     assigned: usize,
 }
@@ -342,10 +349,12 @@ impl Cuts {
         built
     }
 
-    /// Builds and appends the cuts of `regions` that have none yet (regions a moved camera
-    /// or a later sample reached), in the order given; returns (region, offset) of each new
-    /// cut. A cut is a pure function of its region, the tree and the settings, so where the
-    /// new cuts are appended changes no sample.
+    /// Gives the `regions` that have no cut yet (regions a moved camera or a later sample
+    /// reached) theirs, in the order given: a new cut of their own, or, in a block without
+    /// lights, the block's shared cut (built by the block's first region); returns (region,
+    /// offset) of each region given a cut, joined or new. A cut is a pure function of its
+    /// region (or its block), the tree and the settings, so where the new cuts are appended
+    /// changes no sample.
     pub fn append(
         &mut self,
         tree: &LightTree,
