@@ -34,7 +34,11 @@ fn main() -> Result<()> {
         regions: Default::default(),
         learn: Default::default(),
         resume: None,
-        stratified: sampler != LightSampler::Lightbvh,
+        stratify: if sampler != LightSampler::Lightbvh {
+            lightlearn::render::Stratify::Sobol
+        } else {
+            lightlearn::render::Stratify::Off
+        },
         max_depth: 1,
         light_point: Default::default(),
     };

@@ -137,9 +137,13 @@ void mark_touched(uint slot) {
 #define DIMS_PER_VERTEX 6u
 
 // Random number `dim` (DIM_LIGHT … DIM_BSDF_V) of vertex `depth`: stratified over the passes
-// at the first vertex (rng.glsl first_vertex_r5) when the jitter is, independent elsewhere.
+// at the first vertex (rng.glsl first_vertex_sobol or first_vertex_r5) when the jitter is,
+// independent elsewhere.
 float vertex_rand(uint seed, uint pixel, uint s, uint depth, uint dim) {
-    if (params.stratified != 0u && depth == 0u) return first_vertex_r5(seed, pixel, s, dim - DIM_LIGHT);
+    if (params.stratified != 0u && depth == 0u) {
+        return params.stratified == STRATIFY_SOBOL ? first_vertex_sobol(seed, pixel, dim - DIM_LIGHT)
+                                                   : first_vertex_r5(seed, pixel, s, dim - DIM_LIGHT);
+    }
     return sample_rand(seed, pixel, s, depth * DIMS_PER_VERTEX + dim);
 }
 
@@ -236,8 +240,10 @@ Path camera_path(uvec2 px) {
     st.pixel = px.y * params.width + px.x;
     uint s = sample_s;
     uint seed = params.seed;
-    vec2 jitter = params.stratified != 0u
-        ? pixel_jitter_r2(seed, st.pixel, s)
+    // The sample's Sobol' point, once for its jitter and its first vertex (rng.glsl).
+    if (params.stratified == STRATIFY_SOBOL) sobol_point(s, sobol_lo, sobol_hi);
+    vec2 jitter = params.stratified == STRATIFY_SOBOL ? pixel_jitter_sobol(seed, st.pixel)
+        : params.stratified == STRATIFY_R2 ? pixel_jitter_r2(seed, st.pixel, s)
         : vec2(sample_rand(seed, st.pixel, s, DIM_JITTER_X), sample_rand(seed, st.pixel, s, DIM_JITTER_Y));
     vec2 ndc = vec2((float(px.x) + jitter.x) / float(params.width) * 2.0 - 1.0,
                     1.0 - (float(px.y) + jitter.y) / float(params.height) * 2.0);

@@ -53,6 +53,82 @@ pub fn first_vertex_r5(seed: u32, pixel: u32, s: u32, k: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
+/// Degree, coefficients and initial direction numbers m of Sobol' dimensions 1 … 6 (Joe & Kuo
+/// 2008, new-joe-kuo-6.21201), as rng.glsl `sobol_dim` has them.
+pub const SOBOL_PARAMS: [(u32, u32, [u32; 4]); 6] = [
+    (1, 0, [1, 0, 0, 0]),
+    (2, 1, [1, 3, 0, 0]),
+    (3, 1, [1, 3, 1, 0]),
+    (3, 2, [1, 1, 1, 0]),
+    (4, 1, [1, 1, 3, 3]),
+    (4, 4, [1, 3, 5, 13]),
+];
+
+/// Dimension `d` (0 … 6) of the unscrambled Sobol' point `i` in 32-bit fixed point (mirror of
+/// `sobol_dim` in rng.glsl): the direction numbers by their recurrence.
+pub fn sobol_dim(i: u32, d: u32) -> u32 {
+    if d == 0 {
+        return i.reverse_bits();
+    }
+    let (deg, a, m) = SOBOL_PARAMS[d as usize - 1];
+    let mut r = [0u32; 4];
+    let mut x = 0;
+    let mut b = 0;
+    while b < 32 && (i >> b) != 0 {
+        let v = if b < deg {
+            m[b as usize] << (31 - b)
+        } else {
+            let vs = r[deg as usize - 1];
+            let mut v = vs ^ (vs >> deg);
+            for k in 1..deg {
+                if (a >> (deg - 1 - k)) & 1 != 0 {
+                    v ^= r[k as usize - 1];
+                }
+            }
+            v
+        };
+        if (i >> b) & 1 != 0 {
+            x ^= v;
+        }
+        r = [v, r[0], r[1], r[2]];
+        b += 1;
+    }
+    x
+}
+
+/// A nested uniform (Owen) scramble of the bits of `x`, keyed by `seed` (mirror of
+/// `owen_scramble` in rng.glsl; Burley 2020).
+pub fn owen_scramble(x: u32, seed: u32) -> u32 {
+    let mut x = x.reverse_bits().wrapping_add(seed);
+    x ^= x.wrapping_mul(0x6c50_b47c);
+    x ^= x.wrapping_mul(0xb82f_1e52);
+    x ^= x.wrapping_mul(0xc7af_e638);
+    x ^= x.wrapping_mul(0x8d22_f6e6);
+    x.reverse_bits()
+}
+
+fn owen_sobol(i: u32, d: u32, seed: u32) -> f32 {
+    (owen_scramble(sobol_dim(i, d), seed) >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
+/// The point in the pixel of sample `s` under `--stratify sobol` (mirror of
+/// `pixel_jitter_sobol` in rng.glsl): Sobol' dimensions 0 and 1, Owen-scrambled per pixel.
+pub fn pixel_jitter_sobol(seed: u32, pixel: u32, s: u32) -> [f32; 2] {
+    let kx = hash32(seed ^ hash32(pixel ^ 0x68bc_21eb));
+    let ky = hash32(kx ^ 0x02e5_be93);
+    [owen_sobol(s, 0, kx), owen_sobol(s, 1, ky)]
+}
+
+/// Number `k` (0 … 4, as [`first_vertex_r5`]) of the first vertex of sample `s` under
+/// `--stratify sobol` (mirror of `first_vertex_sobol` in rng.glsl): Sobol' dimension 2 + k.
+pub fn first_vertex_sobol(seed: u32, pixel: u32, s: u32, k: u32) -> f32 {
+    owen_sobol(
+        s,
+        2 + k,
+        hash32(seed ^ hash32(pixel ^ hash32(k ^ 0xa511_e9b3))),
+    )
+}
+
 /// A small sequential generator (SplitMix64) for host-side work: scene generation, test data.
 #[derive(Clone, Debug)]
 pub struct SplitMix64(pub u64);
@@ -123,6 +199,122 @@ mod tests {
                 let gap = v.windows(2).map(|w| w[1] - w[0]).fold(wrap, f32::max);
                 assert!(gap < 4.0 / 256.0, "pixel {pixel}, number {k}: gap {gap}");
             }
+        }
+    }
+
+    /// The seven numbers of a pixel's sample s (jitter, then the first vertex's five) as
+    /// `--stratify sobol` makes them.
+    fn sobol_sample(pixel: u32, s: u32) -> [f32; 7] {
+        let j = pixel_jitter_sobol(1, pixel, s);
+        let mut v = [j[0], j[1], 0.0, 0.0, 0.0, 0.0, 0.0];
+        for k in 0..5 {
+            v[2 + k] = first_vertex_sobol(1, pixel, s, k as u32);
+        }
+        v
+    }
+
+    /// A pixel's first 2^m samples (m ≤ 8) put one number of each dimension in every interval
+    /// [i, i + 1) / 2^m; the jitter (dimensions 0, 1) is a (0, m, 2)-net (one point in every
+    /// 2^j × 2^(m−j) box) and the point on the light (3, 4) and the BSDF direction (5, 6) are
+    /// (2, m, 2)-nets (4 points in every box of 4 / 2^m): the t-values of these Sobol'
+    /// pairs, which a nested scramble keeps. An even initial direction number breaks it
+    /// (checked: m = (1, 2, 3, 3) for dimension 5).
+    #[test]
+    fn sobol_numbers_are_nets() {
+        for pixel in [0, 7, 12345] {
+            for m in 0..=8u32 {
+                let n = 1usize << m;
+                let pts: Vec<[f32; 7]> = (0..n as u32).map(|s| sobol_sample(pixel, s)).collect();
+                for d in 0..7 {
+                    let mut seen = vec![false; n];
+                    for p in &pts {
+                        seen[(p[d] * n as f32) as usize] = true;
+                    }
+                    assert!(
+                        seen.iter().all(|&b| b),
+                        "pixel {pixel}, 2^{m}, dimension {d}"
+                    );
+                }
+                for (a, b, t) in [(0, 1, 0), (3, 4, 2), (5, 6, 2)] {
+                    let t = t.min(m);
+                    for j in 0..=m - t {
+                        let (nx, ny) = (1usize << j, 1usize << (m - t - j));
+                        let mut count = vec![0usize; nx * ny];
+                        for p in &pts {
+                            let (x, y) = ((p[a] * nx as f32) as usize, (p[b] * ny as f32) as usize);
+                            count[y * nx + x] += 1;
+                        }
+                        assert!(
+                            count.iter().all(|&c| c == 1 << t),
+                            "pixel {pixel}, 2^{m}, dimensions {a}, {b}, boxes {nx}×{ny}: {count:?}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// The unscrambled points are Joe & Kuo's Sobol' sequence: scipy 1.x's
+    /// `qmc.Sobol(7, scramble=False, bits=32)` (new-joe-kuo-6.21201) gives the same set of the
+    /// first 2^16 points (checked once, 2026-12-05); two of them here. A wrong initial
+    /// direction number that still makes nets (m = (1, 1, 3, 1) for dimension 5) fails this.
+    #[test]
+    fn sobol_points_are_joe_kuo() {
+        let want: [(u32, [u32; 7]); 2] = [
+            (
+                65535,
+                [
+                    0xffff0000, 0x10000, 0xb0ff0000, 0x42f30000, 0xc3050000, 0x81110000, 0x8cad0000,
+                ],
+            ),
+            (
+                43690,
+                [
+                    0x55550000, 0x30000, 0x50990000, 0xc3990000, 0x410f0000, 0x9fef0000, 0x54330000,
+                ],
+            ),
+        ];
+        for (i, point) in want {
+            for (d, &x) in point.iter().enumerate() {
+                assert_eq!(sobol_dim(i, d as u32), x, "point {i}, dimension {d}");
+            }
+        }
+    }
+
+    /// The kernel's Sobol' constants (rng.glsl `sobol_point`: the direction numbers of bits
+    /// 0–15, the windows of bits 12–15 that the recurrence starts from, each dimension's
+    /// degree and coefficients) are the host's.
+    #[test]
+    fn sobol_constants_match_the_kernel() {
+        let glsl = include_str!("../shaders/shared/rng.glsl");
+        let v = |b: u32, d: u32| format!("{:#010x}u", sobol_dim(1 << b, d));
+        for b in 0..16 {
+            let bit = format!(
+                "    bit = (i >> {b}u) & 1u;\n    lo.yzw ^= bit * uvec3({}, {}, {});\n    \
+                 hi.xyz ^= bit * uvec3({}, {}, {});",
+                v(b, 1),
+                v(b, 2),
+                v(b, 3),
+                v(b, 4),
+                v(b, 5),
+                v(b, 6)
+            );
+            assert!(
+                glsl.contains(&bit),
+                "rng.glsl's bit {b} differs from:\n{bit}"
+            );
+        }
+        for (d, (deg, a, _)) in (1..=6).zip(SOBOL_PARAMS) {
+            let window = format!(
+                "uvec4 r{d} = uvec4({}, {}, {}, {});",
+                v(15, d),
+                v(14, d),
+                v(13, d),
+                v(12, d)
+            );
+            assert!(glsl.contains(&window), "rng.glsl lacks {window}");
+            let next = format!("sobol_next(r{d}, {deg}u, {a}u)");
+            assert!(glsl.contains(&next), "rng.glsl lacks {next}");
         }
     }
 }

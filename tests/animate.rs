@@ -279,7 +279,7 @@ fn reference(scene: &Path, t: f32) -> (f64, f64) {
         regions: Default::default(),
         learn: Default::default(),
         resume: None,
-        stratified: false,
+        stratify: lightlearn::render::Stratify::Off,
         max_depth: 1,
         light_point: Default::default(),
     };

@@ -132,11 +132,12 @@ fn light_point_reaches_the_kernel() {
     assert!(stderr(&o).contains("solid-angle"), "{}", stderr(&o));
 }
 
-/// `--stratify off` reaches the kernel: independent numbers give another image of the same
-/// mean, and the report says which.
+/// Each `--stratify` choice reaches the kernel: independent numbers, R2 and Sobol' give other
+/// images of the same mean, and the report says which.
 #[test]
 fn stratify_reaches_the_kernel() {
-    flag_reaches_the_kernel("--stratify", "stratify", ["on", "off"], "bayes");
+    flag_reaches_the_kernel("--stratify", "stratify", ["sobol", "off"], "bayes");
+    flag_reaches_the_kernel("--stratify", "stratify", ["r2", "sobol"], "wang");
 }
 
 #[test]

@@ -114,7 +114,7 @@ fn small_renders_keep_their_pixels() {
                     regions: Default::default(),
                     learn: Default::default(),
                     resume: None,
-                    stratified: true,
+                    stratify: lightlearn::render::Stratify::Sobol,
                     max_depth: depth,
                     light_point: Default::default(),
                 };

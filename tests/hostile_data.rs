@@ -33,7 +33,7 @@ fn settings(sampler: LightSampler, spp: u32, max_depth: u32) -> RenderSettings {
         regions: Default::default(),
         learn: Default::default(),
         resume: None,
-        stratified: true,
+        stratify: lightlearn::render::Stratify::Sobol,
         max_depth,
         light_point: Default::default(),
     }

@@ -561,7 +561,7 @@ fn adversarial_statistics_stay_unbiased() {
             learn,
             resume: resume.map(std::sync::Arc::new),
             // Independent jitter: the reference's per-pixel variance is then its true error.
-            stratified: false,
+            stratify: lightlearn::render::Stratify::Off,
             ..RenderSettings::new(sampler, size.0, size.1, 1)
         };
         render::render(&ctx, &s, &gpu, &settings, &mut |_, _| {}).unwrap()
@@ -1220,7 +1220,7 @@ fn refined_cuts_tile_the_lights_in_order() {
             ..LearnSettings::default()
         },
         resume: None,
-        stratified: true,
+        stratify: lightlearn::render::Stratify::Sobol,
         max_depth: 1,
         light_point: Default::default(),
     };

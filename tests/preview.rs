@@ -486,7 +486,11 @@ fn learning_carries_across_a_camera_jump() {
         regions: Default::default(),
         learn: Default::default(),
         resume: None,
-        stratified: sampler != LightSampler::Lightbvh,
+        stratify: if sampler != LightSampler::Lightbvh {
+            lightlearn::render::Stratify::Sobol
+        } else {
+            lightlearn::render::Stratify::Off
+        },
         max_depth: 1,
         light_point: Default::default(),
     };

@@ -134,7 +134,7 @@ fn gpu_render(scene: &Scene, sampler: LightSampler, light_point: LightPoint) -> 
         regions: lightlearn::lights::regions::RegionSettings::default(),
         learn: Default::default(),
         resume: None,
-        stratified: false,
+        stratify: lightlearn::render::Stratify::Off,
         max_depth: 1,
         light_point,
     };

@@ -33,7 +33,7 @@ fn settings(sampler: LightSampler, seed: u32) -> RenderSettings {
         regions: Default::default(),
         learn: Default::default(),
         resume: None,
-        stratified: true,
+        stratify: lightlearn::render::Stratify::Sobol,
         max_depth: 1,
         light_point: Default::default(),
     }

@@ -47,4 +47,142 @@ float first_vertex_r5(uint seed, uint pixel, uint s, uint k) {
     return float((s * R5_STEP[k] + o) >> 8) * (1.0 / 16777216.0);
 }
 
+// --stratify sobol (the default): the pixel jitter and the first vertex's five numbers as
+// dimensions 0–1 and 2–6 of the Sobol' sequence (Joe & Kuo 2008 direction numbers), each
+// Owen-scrambled per pixel and dimension by Burley's hash (2020, "Practical hash-based Owen
+// scrambling"; pbrt-v4 and Cycles sample this way). Every number stays uniform (unbiased), and
+// the first 2^m samples of a pixel are a (0, m, 2)-net in the jitter and (2, m, 2)-nets in the
+// point on the light and in the BSDF direction (src/rng.rs tests): edge pixels of visible emitters converge faster than with R2
+// (rooms16, direct light, 256 spp: `wang` 1.8×, `bayes` 1.6× less variance in 1.04× the time;
+// docs/results.md, eighth session). Mirror of src/rng.rs.
+
+// The next direction number of a Sobol' dimension of degree deg and coefficients a from the
+// window r of its last four (v[b-1], v[b-2], v[b-3], v[b-4]), which it shifts (Joe & Kuo
+// 2008's recurrence).
+uint sobol_next(inout uvec4 r, uint deg, uint a) {
+    uint vs = r[deg - 1u];
+    uint v = vs ^ (vs >> deg);
+    for (uint k = 1u; k < deg; ++k) {
+        if (((a >> (deg - 1u - k)) & 1u) != 0u) v ^= r[k - 1u];
+    }
+    r = uvec4(v, r.xyz);
+    return v;
+}
+
+// Dimensions 0–6 of the unscrambled Sobol' point i (lo: 0–3, hi: 4–6): the XOR of the
+// direction numbers of its set bits (Joe & Kuo 2008, new-joe-kuo-6.21201). Bits 0–15 with the
+// numbers as constants, bits 16–31 (a pixel's 65537th sample on) by the recurrence from the
+// numbers of bits 12–15; src/rng.rs checks both against its `sobol_dim`, and that against
+// scipy's Sobol' points. i is the pass index, the same in every lane. A table indexed per lane
+// made a pass 5× slower on lavapipe, and the recurrence for every bit 15 % slower (city,
+// `wang`, direct light); with these constants a direct pass costs about what R2's did
+// (docs/results.md, eighth session).
+void sobol_point(uint i, out uvec4 lo, out uvec4 hi) {
+    lo = uvec4(bitfieldReverse(i), 0u, 0u, 0u);
+    hi = uvec4(0u);
+    uint bit;
+    bit = (i >> 0u) & 1u;
+    lo.yzw ^= bit * uvec3(0x80000000u, 0x80000000u, 0x80000000u);
+    hi.xyz ^= bit * uvec3(0x80000000u, 0x80000000u, 0x80000000u);
+    bit = (i >> 1u) & 1u;
+    lo.yzw ^= bit * uvec3(0xc0000000u, 0xc0000000u, 0xc0000000u);
+    hi.xyz ^= bit * uvec3(0x40000000u, 0x40000000u, 0xc0000000u);
+    bit = (i >> 2u) & 1u;
+    lo.yzw ^= bit * uvec3(0xa0000000u, 0x60000000u, 0x20000000u);
+    hi.xyz ^= bit * uvec3(0x20000000u, 0x60000000u, 0xa0000000u);
+    bit = (i >> 3u) & 1u;
+    lo.yzw ^= bit * uvec3(0xf0000000u, 0x90000000u, 0x50000000u);
+    hi.xyz ^= bit * uvec3(0xb0000000u, 0x30000000u, 0xd0000000u);
+    bit = (i >> 4u) & 1u;
+    lo.yzw ^= bit * uvec3(0x88000000u, 0xe8000000u, 0xf8000000u);
+    hi.xyz ^= bit * uvec3(0xf8000000u, 0xc8000000u, 0x58000000u);
+    bit = (i >> 5u) & 1u;
+    lo.yzw ^= bit * uvec3(0xcc000000u, 0x5c000000u, 0x74000000u);
+    hi.xyz ^= bit * uvec3(0xdc000000u, 0x24000000u, 0x94000000u);
+    bit = (i >> 6u) & 1u;
+    lo.yzw ^= bit * uvec3(0xaa000000u, 0x8e000000u, 0xa2000000u);
+    hi.xyz ^= bit * uvec3(0x7a000000u, 0x56000000u, 0x3e000000u);
+    bit = (i >> 7u) & 1u;
+    lo.yzw ^= bit * uvec3(0xff000000u, 0xc5000000u, 0x93000000u);
+    hi.xyz ^= bit * uvec3(0x9d000000u, 0xfb000000u, 0xe3000000u);
+    bit = (i >> 8u) & 1u;
+    lo.yzw ^= bit * uvec3(0x80800000u, 0x68800000u, 0xd8800000u);
+    hi.xyz ^= bit * uvec3(0x5a800000u, 0xe0800000u, 0xbe800000u);
+    bit = (i >> 9u) & 1u;
+    lo.yzw ^= bit * uvec3(0xc0c00000u, 0x9cc00000u, 0x25400000u);
+    hi.xyz ^= bit * uvec3(0x2fc00000u, 0x70400000u, 0x23c00000u);
+    bit = (i >> 10u) & 1u;
+    lo.yzw ^= bit * uvec3(0xa0a00000u, 0xee600000u, 0x59e00000u);
+    hi.xyz ^= bit * uvec3(0xa1600000u, 0xa8600000u, 0x1e200000u);
+    bit = (i >> 11u) & 1u;
+    lo.yzw ^= bit * uvec3(0xf0f00000u, 0x55900000u, 0xe6d00000u);
+    hi.xyz ^= bit * uvec3(0xf0b00000u, 0x14300000u, 0xf3100000u);
+    bit = (i >> 12u) & 1u;
+    lo.yzw ^= bit * uvec3(0x88880000u, 0x80680000u, 0x78080000u);
+    hi.xyz ^= bit * uvec3(0xda880000u, 0x9ec80000u, 0x46780000u);
+    bit = (i >> 13u) & 1u;
+    lo.yzw ^= bit * uvec3(0xcccc0000u, 0xc09c0000u, 0xb40c0000u);
+    hi.xyz ^= bit * uvec3(0x6fc40000u, 0xdf240000u, 0x67840000u);
+    bit = (i >> 14u) & 1u;
+    lo.yzw ^= bit * uvec3(0xaaaa0000u, 0x60ee0000u, 0x82020000u);
+    hi.xyz ^= bit * uvec3(0x81620000u, 0xb6d60000u, 0x78460000u);
+    bit = (i >> 15u) & 1u;
+    lo.yzw ^= bit * uvec3(0xffff0000u, 0x90550000u, 0xc3050000u);
+    hi.xyz ^= bit * uvec3(0x40bb0000u, 0x8bbb0000u, 0x84670000u);
+    if (i >= 65536u) {
+        uvec4 r1 = uvec4(0xffff0000u, 0xaaaa0000u, 0xcccc0000u, 0x88880000u);
+        uvec4 r2 = uvec4(0x90550000u, 0x60ee0000u, 0xc09c0000u, 0x80680000u);
+        uvec4 r3 = uvec4(0xc3050000u, 0x82020000u, 0xb40c0000u, 0x78080000u);
+        uvec4 r4 = uvec4(0x40bb0000u, 0x81620000u, 0x6fc40000u, 0xda880000u);
+        uvec4 r5 = uvec4(0x8bbb0000u, 0xb6d60000u, 0xdf240000u, 0x9ec80000u);
+        uvec4 r6 = uvec4(0x84670000u, 0x78460000u, 0x67840000u, 0x46780000u);
+        uint b = 16u;
+        do {
+            uvec3 v = uvec3(sobol_next(r1, 1u, 0u), sobol_next(r2, 2u, 1u), sobol_next(r3, 3u, 1u));
+            uvec3 w = uvec3(sobol_next(r4, 3u, 2u), sobol_next(r5, 4u, 1u), sobol_next(r6, 4u, 4u));
+            bit = (i >> b) & 1u;
+            lo.yzw ^= bit * v;
+            hi.xyz ^= bit * w;
+            ++b;
+        } while (b < 32u && (i >> b) != 0u);
+    }
+}
+
+// A nested uniform (Owen) scramble of the bits of x, most significant first, keyed by seed:
+// Laine–Karras's permutation on the reversed bits (Burley 2020).
+uint owen_scramble(uint x, uint seed) {
+    x = bitfieldReverse(x);
+    x += seed;
+    x ^= x * 0x6c50b47cu;
+    x ^= x * 0xb82f1e52u;
+    x ^= x * 0xc7afe638u;
+    x ^= x * 0x8d22f6e6u;
+    return bitfieldReverse(x);
+}
+
+float owen_float(uint x, uint seed) {
+    return float(owen_scramble(x, seed) >> 8) * (1.0 / 16777216.0);
+}
+
+// The unscrambled point of the sample being traced (render.comp sets it with sample_s, once
+// per sample: every lane of a pass shares it).
+uvec4 sobol_lo;
+uvec4 sobol_hi;
+
+// The point in the pixel of the current sample (dimensions 0 and 1), keyed like
+// pixel_jitter_r2.
+vec2 pixel_jitter_sobol(uint seed, uint pixel) {
+    uint kx = hash32(seed ^ hash32(pixel ^ 0x68bc21ebu));
+    uint ky = hash32(kx ^ 0x02e5be93u);
+    return vec2(owen_float(sobol_lo.x, kx), owen_float(sobol_lo.y, ky));
+}
+
+// Number k (0 … 4, as first_vertex_r5) of the first vertex of the current sample: dimension
+// 2 + k (the point on the light 3, 4 and the BSDF direction 5, 6: no pair of dimensions 2–6
+// has t < 2).
+float first_vertex_sobol(uint seed, uint pixel, uint k) {
+    uint x = k == 0u ? sobol_lo.z : (k == 1u ? sobol_lo.w : (k == 2u ? sobol_hi.x : (k == 3u ? sobol_hi.y : sobol_hi.z)));
+    return owen_float(x, hash32(seed ^ hash32(pixel ^ hash32(k ^ 0xa511e9b3u))));
+}
+
 #endif

@@ -130,6 +130,11 @@ struct GpuTexture {
     uint offset; uint width; uint height; uint wrap;
 };
 
+// RenderParams.stratified: independent numbers, R2/R5 (rng.glsl) or Owen-scrambled Sobol'.
+#define STRATIFY_OFF 0u
+#define STRATIFY_R2 1u
+#define STRATIFY_SOBOL 2u
+
 struct RenderParams {
     vec4 cam_pos;
     vec4 cam_u;
@@ -141,7 +146,7 @@ struct RenderParams {
     uint seed;
     uint light_count;
     float ray_eps;
-    uint stratified;
+    uint stratified; // STRATIFY_OFF, STRATIFY_R2 or STRATIFY_SOBOL (src/abi.rs)
     uint max_depth;
     uint bounce;     // the wavefront's bounce (render.comp WAVEFRONT), 0 otherwise
     uint row0;       // the first film row of a dispatch that starts paths

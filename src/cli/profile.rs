@@ -55,7 +55,7 @@ impl ProfileArgs {
             sampler: self.sampler,
             regions: self.regions.settings()?,
             learn: self.learn.settings()?,
-            stratified: true,
+            stratify: lightlearn::render::Stratify::Sobol,
             max_depth: self.max_depth,
             resume: None,
             light_point: Default::default(),

@@ -261,7 +261,7 @@ pub fn run(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
             regions: req.regions,
             learn: req.learn,
             resume: None,
-            stratified: true,
+            stratify: crate::render::Stratify::Sobol,
             max_depth: req.max_depth,
             light_point: Default::default(),
         };

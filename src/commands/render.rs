@@ -30,8 +30,8 @@ pub struct RenderRequest {
     pub out: PathBuf,
     pub max_depth: u32,
     pub light_point: LightPoint,
-    /// `--stratify`: RenderSettings::stratified.
-    pub stratified: bool,
+    /// `--stratify`: RenderSettings::stratify.
+    pub stratify: crate::render::Stratify,
     pub regions: RegionSettings,
     pub learn: LearnSettings,
     pub save_stats: Option<PathBuf>,
@@ -121,7 +121,7 @@ pub fn run(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         regions: req.regions,
         learn: req.learn,
         resume: None,
-        stratified: req.stratified,
+        stratify: req.stratify,
         max_depth: req.max_depth,
         light_point: req.light_point,
     };

@@ -62,10 +62,11 @@ pub struct Row {
     pub measured: f64,
     /// Per decomposed pixel: spp · (a − b)² / 2 (the terms of `measured`).
     pub measured_pixels: Vec<f64>,
-    /// The same with the renderer's own jitter, stratified over the passes (R2): the
-    /// footprint term it leaves is this less the selection terms.
+    /// The same with the renderer's own jitter, stratified over the passes (the default
+    /// `--stratify`, Sobol'; R2 before 2026-12-05, hence the name): the footprint term it
+    /// leaves is this less the selection terms.
     pub measured_r2: f64,
-    /// The same at `max_depth` (None for direct light only), R2 jitter.
+    /// The same at `max_depth` (None for direct light only), stratified jitter.
     pub measured_gi: Option<f64>,
 }
 
@@ -193,7 +194,7 @@ fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> 
         regions: a.regions,
         learn: a.learn,
         // The decomposition's footprint term is that of independent jitter.
-        stratified: false,
+        stratify: crate::render::Stratify::Off,
         max_depth: depth,
         resume: None,
         light_point: Default::default(),
@@ -407,7 +408,11 @@ fn measure(
         let mut s = s.clone();
         s.seed = seed;
         s.max_depth = depth;
-        s.stratified = stratified;
+        s.stratify = if stratified {
+            crate::render::Stratify::Sobol
+        } else {
+            crate::render::Stratify::Off
+        };
         let mut session = Session::new(ctx, scene, gpu, &s)?;
         session.run_passes(a.spp)?;
         session.image()
@@ -470,10 +475,10 @@ fn table(a: &VarianceRequest, rows: &[Row]) -> String {
         rows.first().map_or(0, |r| r.pixels.len()),
         a.hits
     );
-    t += "| sampler | predicted | measured | ÷ wang | cluster | light in cluster | point on light | footprint (at emitter pixels) | measured, R2 jitter | R2 footprint | zero samples (lit hits) | dark hits | top pixel's share of measured |";
+    t += "| sampler | predicted | measured | ÷ wang | cluster | light in cluster | point on light | footprint (at emitter pixels) | measured, stratified | stratified footprint | zero samples (lit hits) | dark hits | top pixel's share of measured |";
     if a.max_depth > 1 {
         t += &format!(
-            " measured, depth {} (R2) | later vertices (beyond R2 direct) |",
+            " measured, depth {} (stratified) | later vertices (beyond stratified direct) |",
             a.max_depth
         );
     }

@@ -153,7 +153,7 @@ pub fn compare(
             regions: *regions,
             learn: *learn,
             resume: None,
-            stratified: true,
+            stratify: crate::render::Stratify::Sobol,
             max_depth,
             light_point,
         };

@@ -144,7 +144,7 @@ pub fn settings(
         regions: Default::default(),
         learn: Default::default(),
         resume: None,
-        stratified: false,
+        stratify: crate::render::Stratify::Off,
         max_depth,
         light_point: Default::default(),
     })

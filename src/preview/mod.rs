@@ -222,7 +222,7 @@ impl<'a> App<'a, '_> {
             regions: self.req.regions,
             learn: self.req.learn,
             resume: None,
-            stratified: true,
+            stratify: crate::render::Stratify::Sobol,
             max_depth: self.depth,
             light_point: Default::default(),
         }

@@ -147,6 +147,40 @@ pub enum Budget {
     Seconds(f64),
 }
 
+/// Which numbers the pixel jitter and the first vertex's light choice, point on the light and
+/// BSDF direction take over the passes (`--stratify`; rng.glsl, RenderParams.stratified).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Stratify {
+    /// Independent numbers per sample.
+    Off,
+    /// The R2 jitter and the R5 first vertex, rotated per pixel (the default until
+    /// 2026-12-05; docs/results.md, eighth session).
+    R2,
+    /// Dimensions 0–6 of the Sobol' sequence, Owen-scrambled per pixel and dimension.
+    #[default]
+    Sobol,
+}
+
+impl Stratify {
+    /// RenderParams.stratified (types.glsl STRATIFY_OFF, STRATIFY_R2, STRATIFY_SOBOL).
+    pub fn code(self) -> u32 {
+        match self {
+            Stratify::Off => 0,
+            Stratify::R2 => 1,
+            Stratify::Sobol => 2,
+        }
+    }
+
+    /// The name `--stratify` takes and the report writes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Stratify::Off => "off",
+            Stratify::R2 => "r2",
+            Stratify::Sobol => "sobol",
+        }
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct RenderSettings {
     pub width: u32,
@@ -158,13 +192,13 @@ pub struct RenderSettings {
     pub regions: RegionSettings,
     /// The learned samplers' settings.
     pub learn: LearnSettings,
-    /// Pixel jitter (R2) and the first vertex's light choice, point on the light and BSDF
-    /// direction (R5) stratified over passes, each rotated per pixel, rather than independent
-    /// per sample (rng.glsl). Each sample stays uniform, so both are unbiased (for the
+    /// Pixel jitter and the first vertex's light choice, point on the light and BSDF
+    /// direction stratified over passes (Owen-scrambled Sobol', or R2/R5 rotated per pixel),
+    /// rather than independent per sample (rng.glsl). Each sample stays uniform, so all are unbiased (for the
     /// learned samplers see docs/method.md §9); references use independent numbers so that
     /// their per-pixel variance estimate is the true error of their mean (a stratified film's
     /// estimate is an upper bound).
-    pub stratified: bool,
+    pub stratify: Stratify,
     /// Surface vertices of a path: 1 = direct light by light sampling alone; D ≥ 2 = path
     /// tracing with next-event estimation and MIS at every vertex (render.comp).
     pub max_depth: u32,
@@ -198,7 +232,7 @@ impl RenderSettings {
             sampler,
             regions: Default::default(),
             learn: Default::default(),
-            stratified: true,
+            stratify: Stratify::Sobol,
             max_depth,
             light_point: Default::default(),
             resume: None,
@@ -610,7 +644,7 @@ pub fn report_json(
         },
         "max_depth": settings.max_depth,
         "light_point": settings.light_point,
-        "stratify": if settings.stratified { "on" } else { "off" },
+        "stratify": settings.stratify.name(),
         "camera": camera_json(&scene.camera),
     })
 }

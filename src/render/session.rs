@@ -200,7 +200,7 @@ impl<'a> Session<'a> {
         p.seed = self.settings.seed;
         p.light_count = self.gpu.light_count;
         p.ray_eps = self.gpu.ray_eps;
-        p.stratified = self.settings.stratified as u32;
+        p.stratified = self.settings.stratify.code();
         p.max_depth = self.settings.max_depth;
         p.sample_index = self.learned.passes;
         p
