@@ -225,7 +225,9 @@ fn first_vertex_numbers_are_stratified_over_passes() {
 /// is exactly 1/4 and the pixels its edges cut in half are exactly 1/2 after 256 passes,
 /// whatever the seed. R2's rotated lattice misses by 1–2/256 (seeds 1–3), independent jitter
 /// by about 1/20. Fails if the scramble is not nested (checked: a Cranley–Patterson rotation,
-/// `x + seed`, in place of owen_scramble misses by 2/256).
+/// `x + seed`, in place of owen_scramble misses by 2/256). Coarse boxes cannot see the
+/// kernel's bits 16 and up (a pixel's 65537th sample on; checked: a wrong recurrence there
+/// still gives exactly 1/4 after 2^17 passes), so src/rng.rs checks those constants.
 #[test]
 fn sobol_jitter_is_a_net_in_the_kernel() {
     let mut g = GltfBuilder::new();
