@@ -24,8 +24,8 @@ pub fn sample_rand(seed: u32, pixel: u32, sample: u32, dim: u32) -> f32 {
 /// The point in the pixel of sample `s` when jitter is stratified (mirror of
 /// `pixel_jitter_r2` in rng.glsl): the R2 sequence in 32-bit fixed point, rotated per pixel.
 pub fn pixel_jitter_r2(seed: u32, pixel: u32, s: u32) -> [f32; 2] {
-    let ox = hash32(seed ^ hash32(pixel ^ 0x68bc_21eb));
-    let oy = hash32(ox ^ 0x02e5_be93);
+    let ox = hash32(seed ^ hash32(pixel ^ JITTER_KEY_X));
+    let oy = hash32(ox ^ JITTER_KEY_Y);
     let x = s.wrapping_mul(3_242_174_889).wrapping_add(ox);
     let y = s.wrapping_mul(2_447_445_414).wrapping_add(oy);
     [
@@ -48,13 +48,23 @@ pub const R5_STEP: [u32; 5] = [
 /// the first vertex of sample `s` when stratified (mirror of `first_vertex_r5` in rng.glsl):
 /// the R5 sequence, rotated per pixel and dimension.
 pub fn first_vertex_r5(seed: u32, pixel: u32, s: u32, k: u32) -> f32 {
-    let o = hash32(seed ^ hash32(pixel ^ hash32(k ^ 0xa511_e9b3)));
+    let o = hash32(seed ^ hash32(pixel ^ hash32(k ^ VERTEX_KEY)));
     let x = s.wrapping_mul(R5_STEP[k as usize]).wrapping_add(o);
     (x >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
+/// The keys of a pixel's jitter (x, then y from x's) and of its first-vertex numbers (with k),
+/// shared by the R2/R5 rotations and the Sobol' scrambles (rng.glsl has the same literals).
+pub const JITTER_KEY_X: u32 = 0x68bc_21eb;
+pub const JITTER_KEY_Y: u32 = 0x02e5_be93;
+pub const VERTEX_KEY: u32 = 0xa511_e9b3;
+
+/// The multipliers of the Laine–Karras permutation in [`owen_scramble`] (and rng.glsl's).
+pub const OWEN_MUL: [u32; 4] = [0x6c50_b47c, 0xb82f_1e52, 0xc7af_e638, 0x8d22_f6e6];
+
 /// Degree, coefficients and initial direction numbers m of Sobol' dimensions 1 … 6 (Joe & Kuo
-/// 2008, new-joe-kuo-6.21201), as rng.glsl `sobol_dim` has them.
+/// 2008, new-joe-kuo-6.21201), from which rng.glsl `sobol_point`'s constants and recurrence are
+/// made.
 pub const SOBOL_PARAMS: [(u32, u32, [u32; 4]); 6] = [
     (1, 0, [1, 0, 0, 0]),
     (2, 1, [1, 3, 0, 0]),
@@ -65,7 +75,8 @@ pub const SOBOL_PARAMS: [(u32, u32, [u32; 4]); 6] = [
 ];
 
 /// Dimension `d` (0 … 6) of the unscrambled Sobol' point `i` in 32-bit fixed point (mirror of
-/// `sobol_dim` in rng.glsl): the direction numbers by their recurrence.
+/// `sobol_point` in rng.glsl, which has bits 0–15 as constants): the direction numbers by
+/// their recurrence.
 pub fn sobol_dim(i: u32, d: u32) -> u32 {
     if d == 0 {
         return i.reverse_bits();
@@ -100,10 +111,9 @@ pub fn sobol_dim(i: u32, d: u32) -> u32 {
 /// `owen_scramble` in rng.glsl; Burley 2020).
 pub fn owen_scramble(x: u32, seed: u32) -> u32 {
     let mut x = x.reverse_bits().wrapping_add(seed);
-    x ^= x.wrapping_mul(0x6c50_b47c);
-    x ^= x.wrapping_mul(0xb82f_1e52);
-    x ^= x.wrapping_mul(0xc7af_e638);
-    x ^= x.wrapping_mul(0x8d22_f6e6);
+    for m in OWEN_MUL {
+        x ^= x.wrapping_mul(m);
+    }
     x.reverse_bits()
 }
 
@@ -114,8 +124,8 @@ fn owen_sobol(i: u32, d: u32, seed: u32) -> f32 {
 /// The point in the pixel of sample `s` under `--stratify sobol` (mirror of
 /// `pixel_jitter_sobol` in rng.glsl): Sobol' dimensions 0 and 1, Owen-scrambled per pixel.
 pub fn pixel_jitter_sobol(seed: u32, pixel: u32, s: u32) -> [f32; 2] {
-    let kx = hash32(seed ^ hash32(pixel ^ 0x68bc_21eb));
-    let ky = hash32(kx ^ 0x02e5_be93);
+    let kx = hash32(seed ^ hash32(pixel ^ JITTER_KEY_X));
+    let ky = hash32(kx ^ JITTER_KEY_Y);
     [owen_sobol(s, 0, kx), owen_sobol(s, 1, ky)]
 }
 
@@ -125,7 +135,7 @@ pub fn first_vertex_sobol(seed: u32, pixel: u32, s: u32, k: u32) -> f32 {
     owen_sobol(
         s,
         2 + k,
-        hash32(seed ^ hash32(pixel ^ hash32(k ^ 0xa511_e9b3))),
+        hash32(seed ^ hash32(pixel ^ hash32(k ^ VERTEX_KEY))),
     )
 }
 
@@ -213,16 +223,16 @@ mod tests {
         v
     }
 
-    /// A pixel's first 2^m samples (m ≤ 8) put one number of each dimension in every interval
+    /// A pixel's first 2^m samples (m ≤ 12) put one number of each dimension in every interval
     /// [i, i + 1) / 2^m; the jitter (dimensions 0, 1) is a (0, m, 2)-net (one point in every
     /// 2^j × 2^(m−j) box) and the point on the light (3, 4) and the BSDF direction (5, 6) are
-    /// (2, m, 2)-nets (4 points in every box of 4 / 2^m): the t-values of these Sobol'
-    /// pairs, which a nested scramble keeps. An even initial direction number breaks it
+    /// (3, m, 2)-nets (8 points in every box of 8 / 2^m; t ≤ 2 up to m = 8, 3 at m = 9–16):
+    /// the t-values of these Sobol' pairs, which a nested scramble keeps. An even initial direction number breaks it
     /// (checked: m = (1, 2, 3, 3) for dimension 5).
     #[test]
     fn sobol_numbers_are_nets() {
         for pixel in [0, 7, 12345] {
-            for m in 0..=8u32 {
+            for m in 0..=12u32 {
                 let n = 1usize << m;
                 let pts: Vec<[f32; 7]> = (0..n as u32).map(|s| sobol_sample(pixel, s)).collect();
                 for d in 0..7 {
@@ -235,7 +245,7 @@ mod tests {
                         "pixel {pixel}, 2^{m}, dimension {d}"
                     );
                 }
-                for (a, b, t) in [(0, 1, 0), (3, 4, 2), (5, 6, 2)] {
+                for (a, b, t) in [(0, 1, 0), (3, 4, 3), (5, 6, 3)] {
                     let t = t.min(m);
                     for j in 0..=m - t {
                         let (nx, ny) = (1usize << j, 1usize << (m - t - j));
@@ -281,15 +291,19 @@ mod tests {
         }
     }
 
-    /// The kernel's Sobol' constants (rng.glsl `sobol_point`: the direction numbers of bits
-    /// 0–15, the windows of bits 12–15 that the recurrence starts from, each dimension's
-    /// degree and coefficients) are the host's.
+    /// The kernel's Sobol' code is the host's (rng.glsl `sobol_point`, `sobol_next`,
+    /// `owen_scramble` and the keys): the direction numbers of bits 0–15, the windows of bits
+    /// 12–15 that the recurrence starts from, the recurrence's loop over bits 16 and up with
+    /// each dimension's degree and coefficients in its place, the recurrence itself, the
+    /// scramble's multipliers and the keys. The kernel's own net test cannot see bits 16 and up
+    /// (tests/closed_form.rs), so this pins them. Changing any constant or line fails it.
     #[test]
     fn sobol_constants_match_the_kernel() {
-        let glsl = include_str!("../shaders/shared/rng.glsl");
+        let glsl = include_str!("../shaders/shared/rng.glsl").replace("\r\n", "\n");
+        let has = |text: &str| assert!(glsl.contains(text), "rng.glsl lacks:\n{text}");
         let v = |b: u32, d: u32| format!("{:#010x}u", sobol_dim(1 << b, d));
         for b in 0..16 {
-            let bit = format!(
+            has(&format!(
                 "    bit = (i >> {b}u) & 1u;\n    lo.yzw ^= bit * uvec3({}, {}, {});\n    \
                  hi.xyz ^= bit * uvec3({}, {}, {});",
                 v(b, 1),
@@ -298,23 +312,60 @@ mod tests {
                 v(b, 4),
                 v(b, 5),
                 v(b, 6)
-            );
-            assert!(
-                glsl.contains(&bit),
-                "rng.glsl's bit {b} differs from:\n{bit}"
-            );
+            ));
         }
-        for (d, (deg, a, _)) in (1..=6).zip(SOBOL_PARAMS) {
-            let window = format!(
-                "uvec4 r{d} = uvec4({}, {}, {}, {});",
+        let mut tail = String::from("    if (i >= 65536u) {\n");
+        for d in 1..=6 {
+            tail += &format!(
+                "        uvec4 r{d} = uvec4({}, {}, {}, {});\n",
                 v(15, d),
                 v(14, d),
                 v(13, d),
                 v(12, d)
             );
-            assert!(glsl.contains(&window), "rng.glsl lacks {window}");
-            let next = format!("sobol_next(r{d}, {deg}u, {a}u)");
-            assert!(glsl.contains(&next), "rng.glsl lacks {next}");
         }
+        let next = |d: usize| {
+            let (deg, a, _) = SOBOL_PARAMS[d - 1];
+            format!("sobol_next(r{d}, {deg}u, {a}u)")
+        };
+        tail += &format!(
+            "        uint b = 16u;\n        do {{\n            \
+             uvec3 v = uvec3({}, {}, {});\n            uvec3 w = uvec3({}, {}, {});\n            \
+             bit = (i >> b) & 1u;\n            lo.yzw ^= bit * v;\n            \
+             hi.xyz ^= bit * w;\n            ++b;\n        }} while (b < 32u && (i >> b) != 0u);",
+            next(1),
+            next(2),
+            next(3),
+            next(4),
+            next(5),
+            next(6)
+        );
+        has(&tail);
+        has(
+            "    uint vs = r[deg - 1u];\n    uint v = vs ^ (vs >> deg);\n    \
+             for (uint k = 1u; k < deg; ++k) {\n        \
+             if (((a >> (deg - 1u - k)) & 1u) != 0u) v ^= r[k - 1u];\n    }\n    \
+             r = uvec4(v, r.xyz);\n    return v;",
+        );
+        has("    lo = uvec4(bitfieldReverse(i), 0u, 0u, 0u);");
+        let muls: Vec<String> = OWEN_MUL
+            .iter()
+            .map(|m| format!("    x ^= x * {m:#010x}u;"))
+            .collect();
+        has(&format!(
+            "    x = bitfieldReverse(x);\n    x += seed;\n{}\n    return bitfieldReverse(x);",
+            muls.join("\n")
+        ));
+        has(&format!(
+            "hash32(seed ^ hash32(pixel ^ {JITTER_KEY_X:#010x}u))"
+        ));
+        has(&format!("hash32(kx ^ {JITTER_KEY_Y:#010x}u)"));
+        has(&format!(
+            "hash32(seed ^ hash32(pixel ^ hash32(k ^ {VERTEX_KEY:#010x}u)))"
+        ));
+        has(
+            "    uint x = k == 0u ? sobol_lo.z : (k == 1u ? sobol_lo.w : (k == 2u ? sobol_hi.x : \
+             (k == 3u ? sobol_hi.y : sobol_hi.z)));",
+        );
     }
 }

@@ -138,6 +138,33 @@ fn light_point_reaches_the_kernel() {
 fn stratify_reaches_the_kernel() {
     flag_reaches_the_kernel("--stratify", "stratify", ["sobol", "off"], "bayes");
     flag_reaches_the_kernel("--stratify", "stratify", ["r2", "sobol"], "wang");
+    // `on` (the name before r2 and sobol existed) is sobol: the same bytes, the same report.
+    let dir = tempfile::tempdir().unwrap();
+    for v in ["on", "sobol"] {
+        let out = format!("{v}.exr");
+        let args = [
+            "render",
+            "--out",
+            &out,
+            "--stratify",
+            v,
+            "--width",
+            "16",
+            "--height",
+            "12",
+        ];
+        let o = run(
+            &[&args[..], &["--spp", "8", "--max-depth", "1", "-q"]].concat(),
+            dir.path(),
+        );
+        assert!(o.status.success(), "render failed: {}", stderr(&o));
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join(format!("{v}.json"))).unwrap())
+                .unwrap();
+        assert_eq!(report["stratify"], "sobol");
+    }
+    let exr = |v: &str| std::fs::read(dir.path().join(format!("{v}.exr"))).unwrap();
+    assert!(exr("on") == exr("sobol"), "--stratify on is not sobol");
 }
 
 #[test]

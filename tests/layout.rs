@@ -463,6 +463,10 @@ fn glsl_defines_match_the_rust_constants() {
         ("LEARN_BRDF_SELECT".into(), LEARN_BRDF_SELECT),
         ("MATERIAL_TWO_SIDED".into(), MATERIAL_TWO_SIDED),
     ];
+    use lightlearn::render::Stratify;
+    for s in [Stratify::Off, Stratify::R2, Stratify::Sobol] {
+        want.push((format!("STRATIFY_{}", s.name().to_uppercase()), s.code()));
+    }
     for s in lightlearn::render::LightSampler::ALL {
         want.push((
             format!("SAMPLER_{}", s.name().to_uppercase()),

@@ -51,10 +51,11 @@ float first_vertex_r5(uint seed, uint pixel, uint s, uint k) {
 // dimensions 0–1 and 2–6 of the Sobol' sequence (Joe & Kuo 2008 direction numbers), each
 // Owen-scrambled per pixel and dimension by Burley's hash (2020, "Practical hash-based Owen
 // scrambling"; pbrt-v4 and Cycles sample this way). Every number stays uniform (unbiased), and
-// the first 2^m samples of a pixel are a (0, m, 2)-net in the jitter and (2, m, 2)-nets in the
-// point on the light and in the BSDF direction (src/rng.rs tests): edge pixels of visible emitters converge faster than with R2
-// (rooms16, direct light, 256 spp: `wang` 1.8×, `bayes` 1.6× less variance in 1.04× the time;
-// docs/results.md, eighth session). Mirror of src/rng.rs.
+// the first 2^m samples of a pixel are a (0, m, 2)-net in the jitter and (3, m, 2)-nets in the
+// point on the light and in the BSDF direction (t ≤ 2 up to 256 samples; src/rng.rs tests):
+// edge pixels of visible emitters converge faster than with R2
+// (rooms16, direct light, 256 spp: `wang` 1.8×, `bayes` 1.6× less variance in the same time
+// within the noise; docs/results.md, eighth session). Mirror of src/rng.rs.
 
 // The next direction number of a Sobol' dimension of degree deg and coefficients a from the
 // window r of its last four (v[b-1], v[b-2], v[b-3], v[b-4]), which it shifts (Joe & Kuo
@@ -178,8 +179,8 @@ vec2 pixel_jitter_sobol(uint seed, uint pixel) {
 }
 
 // Number k (0 … 4, as first_vertex_r5) of the first vertex of the current sample: dimension
-// 2 + k (the point on the light 3, 4 and the BSDF direction 5, 6: no pair of dimensions 2–6
-// has t < 2).
+// 2 + k (the point on the light 3, 4 and the BSDF direction 5, 6: up to 256 samples no pair of
+// dimensions 2–6 has t < 2).
 float first_vertex_sobol(uint seed, uint pixel, uint k) {
     uint x = k == 0u ? sobol_lo.z : (k == 1u ? sobol_lo.w : (k == 2u ? sobol_hi.x : (k == 3u ? sobol_hi.y : sobol_hi.z)));
     return owen_float(x, hash32(seed ^ hash32(pixel ^ hash32(k ^ 0xa511e9b3u))));
