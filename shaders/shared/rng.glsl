@@ -50,12 +50,12 @@ float first_vertex_r5(uint seed, uint pixel, uint s, uint k) {
 // --stratify sobol (the default): the pixel jitter and the first vertex's five numbers as
 // dimensions 0–1 and 2–6 of the Sobol' sequence (Joe & Kuo 2008 direction numbers), each
 // Owen-scrambled per pixel and dimension by Burley's hash (2020, "Practical hash-based Owen
-// scrambling"; pbrt-v4 and Cycles sample this way). Every number stays uniform (unbiased), and
-// the first 2^m samples of a pixel are a (0, m, 2)-net in the jitter and (3, m, 2)-nets in the
-// point on the light and in the BSDF direction (t ≤ 2 up to 256 samples; src/rng.rs tests):
-// edge pixels of visible emitters converge faster than with R2
-// (rooms16, direct light, 256 spp: `wang` 1.8×, `bayes` 1.6× less variance in the same time
-// within the noise; docs/results.md, eighth session). Mirror of src/rng.rs.
+// scrambling"; the kind of sampler pbrt-v4 and Cycles default to). Every number stays uniform
+// (unbiased), and the first 2^m samples of a pixel are a (0, m, 2)-net in the jitter and
+// (3, m, 2)-nets in the point on the light and in the BSDF direction (t ≤ 2 up to 256 samples;
+// src/rng.rs tests): edge pixels of visible emitters converge faster than with R2 (rooms16,
+// direct light, 256 spp: `wang` 1.8×, `bayes` 1.6× less variance in the same time within the
+// noise; docs/results.md, eighth session). Mirror of src/rng.rs.
 
 // The next direction number of a Sobol' dimension of degree deg and coefficients a from the
 // window r of its last four (v[b-1], v[b-2], v[b-3], v[b-4]), which it shifts (Joe & Kuo
