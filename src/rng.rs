@@ -21,11 +21,27 @@ pub fn sample_rand(seed: u32, pixel: u32, sample: u32, dim: u32) -> f32 {
     (h >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
+/// What [`jitter_keys`] and [`vertex_key`] hash in (rng.glsl has the same literals).
+pub const JITTER_KEY_X: u32 = 0x68bc_21eb;
+pub const JITTER_KEY_Y: u32 = 0x02e5_be93;
+pub const VERTEX_KEY: u32 = 0xa511_e9b3;
+
+/// A pixel's keys for its jitter (x, then y from x's) and for number `k` of its first vertex:
+/// the rotations of R2 and R5 and the scrambles of Sobol' (mirror of `jitter_keys` and
+/// `vertex_key` in rng.glsl).
+fn jitter_keys(seed: u32, pixel: u32) -> [u32; 2] {
+    let kx = hash32(seed ^ hash32(pixel ^ JITTER_KEY_X));
+    [kx, hash32(kx ^ JITTER_KEY_Y)]
+}
+
+fn vertex_key(seed: u32, pixel: u32, k: u32) -> u32 {
+    hash32(seed ^ hash32(pixel ^ hash32(k ^ VERTEX_KEY)))
+}
+
 /// The point in the pixel of sample `s` when jitter is stratified (mirror of
 /// `pixel_jitter_r2` in rng.glsl): the R2 sequence in 32-bit fixed point, rotated per pixel.
 pub fn pixel_jitter_r2(seed: u32, pixel: u32, s: u32) -> [f32; 2] {
-    let ox = hash32(seed ^ hash32(pixel ^ JITTER_KEY_X));
-    let oy = hash32(ox ^ JITTER_KEY_Y);
+    let [ox, oy] = jitter_keys(seed, pixel);
     let x = s.wrapping_mul(3_242_174_889).wrapping_add(ox);
     let y = s.wrapping_mul(2_447_445_414).wrapping_add(oy);
     [
@@ -48,16 +64,10 @@ pub const R5_STEP: [u32; 5] = [
 /// the first vertex of sample `s` when stratified (mirror of `first_vertex_r5` in rng.glsl):
 /// the R5 sequence, rotated per pixel and dimension.
 pub fn first_vertex_r5(seed: u32, pixel: u32, s: u32, k: u32) -> f32 {
-    let o = hash32(seed ^ hash32(pixel ^ hash32(k ^ VERTEX_KEY)));
+    let o = vertex_key(seed, pixel, k);
     let x = s.wrapping_mul(R5_STEP[k as usize]).wrapping_add(o);
     (x >> 8) as f32 * (1.0 / 16_777_216.0)
 }
-
-/// The keys of a pixel's jitter (x, then y from x's) and of its first-vertex numbers (with k),
-/// shared by the R2/R5 rotations and the Sobol' scrambles (rng.glsl has the same literals).
-pub const JITTER_KEY_X: u32 = 0x68bc_21eb;
-pub const JITTER_KEY_Y: u32 = 0x02e5_be93;
-pub const VERTEX_KEY: u32 = 0xa511_e9b3;
 
 /// The multipliers of the Laine–Karras permutation in [`owen_scramble`] (and rng.glsl's).
 pub const OWEN_MUL: [u32; 4] = [0x6c50_b47c, 0xb82f_1e52, 0xc7af_e638, 0x8d22_f6e6];
@@ -124,19 +134,14 @@ fn owen_sobol(i: u32, d: u32, seed: u32) -> f32 {
 /// The point in the pixel of sample `s` under `--stratify sobol` (mirror of
 /// `pixel_jitter_sobol` in rng.glsl): Sobol' dimensions 0 and 1, Owen-scrambled per pixel.
 pub fn pixel_jitter_sobol(seed: u32, pixel: u32, s: u32) -> [f32; 2] {
-    let kx = hash32(seed ^ hash32(pixel ^ JITTER_KEY_X));
-    let ky = hash32(kx ^ JITTER_KEY_Y);
+    let [kx, ky] = jitter_keys(seed, pixel);
     [owen_sobol(s, 0, kx), owen_sobol(s, 1, ky)]
 }
 
 /// Number `k` (0 … 4, as [`first_vertex_r5`]) of the first vertex of sample `s` under
 /// `--stratify sobol` (mirror of `first_vertex_sobol` in rng.glsl): Sobol' dimension 2 + k.
 pub fn first_vertex_sobol(seed: u32, pixel: u32, s: u32, k: u32) -> f32 {
-    owen_sobol(
-        s,
-        2 + k,
-        hash32(seed ^ hash32(pixel ^ hash32(k ^ VERTEX_KEY))),
-    )
+    owen_sobol(s, 2 + k, vertex_key(seed, pixel, k))
 }
 
 /// A small sequential generator (SplitMix64) for host-side work: scene generation, test data.

@@ -16,6 +16,17 @@ float sample_rand(uint seed, uint pixel, uint sample_index, uint dim) {
     return float(h >> 8) * (1.0 / 16777216.0);
 }
 
+// A pixel's keys for its jitter (x, then y from x's) and for number k of its first vertex:
+// the rotations of R2 and R5 and the scrambles of Sobol' (src/rng.rs has the same).
+uvec2 jitter_keys(uint seed, uint pixel) {
+    uint kx = hash32(seed ^ hash32(pixel ^ 0x68bc21ebu));
+    return uvec2(kx, hash32(kx ^ 0x02e5be93u));
+}
+
+uint vertex_key(uint seed, uint pixel, uint k) {
+    return hash32(seed ^ hash32(pixel ^ hash32(k ^ 0xa511e9b3u)));
+}
+
 // The point in the pixel of sample s, stratified over the passes: the R2 sequence (Roberts
 // 2018, the plastic-number Kronecker lattice) in 32-bit fixed point, so it stays exact for
 // any sample count, shifted per pixel by a random offset (Cranley–Patterson rotation: each
@@ -23,10 +34,9 @@ float sample_rand(uint seed, uint pixel, uint sample_index, uint dim) {
 // visible emitters converge far faster than with independent jitter; measured on rooms16,
 // 128×96, 256 spp: pixels with ref > 1 held 50–70 % of every sampler's squared error.
 vec2 pixel_jitter_r2(uint seed, uint pixel, uint s) {
-    uint ox = hash32(seed ^ hash32(pixel ^ 0x68bc21ebu));
-    uint oy = hash32(ox ^ 0x02e5be93u);
-    uint x = s * 3242174889u + ox;  // round(0.7548776662 · 2^32)
-    uint y = s * 2447445414u + oy;  // round(0.5698402910 · 2^32)
+    uvec2 o = jitter_keys(seed, pixel);
+    uint x = s * 3242174889u + o.x;  // round(0.7548776662 · 2^32)
+    uint y = s * 2447445414u + o.y;  // round(0.5698402910 · 2^32)
     return vec2(float(x >> 8), float(y >> 8)) * (1.0 / 16777216.0);
 }
 
@@ -43,7 +53,7 @@ vec2 pixel_jitter_r2(uint seed, uint pixel, uint s) {
 const uint R5_STEP[5] = uint[5](3785032107u, 3335640777u, 2939605023u, 2590590015u, 2283013049u);
 
 float first_vertex_r5(uint seed, uint pixel, uint s, uint k) {
-    uint o = hash32(seed ^ hash32(pixel ^ hash32(k ^ 0xa511e9b3u)));
+    uint o = vertex_key(seed, pixel, k);
     return float((s * R5_STEP[k] + o) >> 8) * (1.0 / 16777216.0);
 }
 
@@ -170,12 +180,10 @@ float owen_float(uint x, uint seed) {
 uvec4 sobol_lo;
 uvec4 sobol_hi;
 
-// The point in the pixel of the current sample (dimensions 0 and 1), keyed like
-// pixel_jitter_r2.
+// The point in the pixel of the current sample (dimensions 0 and 1).
 vec2 pixel_jitter_sobol(uint seed, uint pixel) {
-    uint kx = hash32(seed ^ hash32(pixel ^ 0x68bc21ebu));
-    uint ky = hash32(kx ^ 0x02e5be93u);
-    return vec2(owen_float(sobol_lo.x, kx), owen_float(sobol_lo.y, ky));
+    uvec2 k = jitter_keys(seed, pixel);
+    return vec2(owen_float(sobol_lo.x, k.x), owen_float(sobol_lo.y, k.y));
 }
 
 // Number k (0 … 4, as first_vertex_r5) of the first vertex of the current sample: dimension
@@ -183,7 +191,7 @@ vec2 pixel_jitter_sobol(uint seed, uint pixel) {
 // dimensions 2–6 has t < 2).
 float first_vertex_sobol(uint seed, uint pixel, uint k) {
     uint x = k == 0u ? sobol_lo.z : (k == 1u ? sobol_lo.w : (k == 2u ? sobol_hi.x : (k == 3u ? sobol_hi.y : sobol_hi.z)));
-    return owen_float(x, hash32(seed ^ hash32(pixel ^ hash32(k ^ 0xa511e9b3u))));
+    return owen_float(x, vertex_key(seed, pixel, k));
 }
 
 #endif

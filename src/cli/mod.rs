@@ -387,8 +387,8 @@ pub struct RenderArgs {
     /// independent numbers, which keeps the learned samplers exactly unbiased
     /// (docs/method.md §9) at a price where emitters are in view (rooms16: 15.7× r2's
     /// variance, mostly the jitter at their edges).
-    #[arg(long, default_value = "sobol", value_parser = ["sobol", "on", "r2", "off"])]
-    pub stratify: String,
+    #[arg(long, value_enum, default_value_t = lightlearn::render::Stratify::Sobol)]
+    pub stratify: lightlearn::render::Stratify,
     /// No progress bar or summary (errors and warnings are still printed).
     #[arg(long, short)]
     pub quiet: bool,
@@ -583,11 +583,7 @@ impl RenderArgs {
             out: self.out.clone(),
             max_depth: self.max_depth,
             light_point: self.light_point,
-            stratify: match self.stratify.as_str() {
-                "off" => lightlearn::render::Stratify::Off,
-                "r2" => lightlearn::render::Stratify::R2,
-                _ => lightlearn::render::Stratify::Sobol,
-            },
+            stratify: self.stratify,
             regions: self.regions.settings()?,
             learn: self.learn.settings()?,
             save_stats: self.save_stats.clone(),

@@ -149,15 +149,17 @@ pub enum Budget {
 
 /// Which numbers the pixel jitter and the first vertex's light choice, point on the light and
 /// BSDF direction take over the passes (`--stratify`; rng.glsl, RenderParams.stratified).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum Stratify {
     /// Independent numbers per sample.
     Off,
     /// The R2 jitter and the R5 first vertex, rotated per pixel (the default until
     /// 2026-12-05; docs/results.md, eighth session).
     R2,
-    /// Dimensions 0–6 of the Sobol' sequence, Owen-scrambled per pixel and dimension.
+    /// Dimensions 0–6 of the Sobol' sequence, Owen-scrambled per pixel and dimension (`on`,
+    /// the name from before r2 and sobol, is this).
     #[default]
+    #[value(alias = "on")]
     Sobol,
 }
 
