@@ -310,8 +310,6 @@ pub struct Cuts {
     blocks: HashMap<u64, u32>,
     /// Whether blocks without lights share one cut ([`RegionSettings::coarse_blocks`]).
     coarse_blocks: bool,
-    /// Regions with a cut (several regions may share one).
-    assigned: usize,
 }
 
 impl Cuts {
@@ -340,7 +338,6 @@ impl Cuts {
             in_cluster_importance: s.in_cluster_importance,
             blocks: HashMap::new(),
             coarse_blocks: s.coarse_blocks,
-            assigned: 0,
         };
         // In the order given (the same cuts at the same offsets on every run); a region
         // listed twice keeps its first cut.
@@ -397,7 +394,6 @@ impl Cuts {
                 }
             };
             self.index[r as usize] = offset;
-            self.assigned += 1;
             added.push((r, offset));
         }
         added
@@ -416,12 +412,8 @@ impl Cuts {
     /// one (cut refinement replaced those cuts by cuts appended at the new offsets): one pass
     /// over the index, whatever the number of cuts replaced.
     pub fn replace(&mut self, moved: &HashMap<u32, u32>) {
-        for o in self.index.iter_mut().chain(self.blocks.values_mut()) {
-            if let Some(&new) = moved.get(o) {
-                *o = new;
-            }
-        }
-        for o in &mut self.offsets {
+        let all = self.index.iter_mut().chain(self.blocks.values_mut());
+        for o in all.chain(self.offsets.iter_mut()) {
             if let Some(&new) = moved.get(o) {
                 *o = new;
             }
@@ -455,7 +447,6 @@ impl Cuts {
             }
         }
         Cuts {
-            assigned: index.iter().filter(|&&o| o != 0).count(),
             grid,
             index,
             cuts,
@@ -468,7 +459,7 @@ impl Cuts {
 
     /// Regions with a cut of their own or a shared one.
     pub fn built(&self) -> usize {
-        self.assigned
+        self.index.iter().filter(|&&o| o != 0).count()
     }
 
     /// Distinct cuts built (a block's shared cut counts once).

@@ -480,7 +480,7 @@ impl<'a> Session<'a> {
             .collect())
     }
 
-    /// Regions that have a cut of their own so far.
+    /// Regions that have a cut (their own or their block's) so far.
     pub fn regions_with_cuts(&self) -> usize {
         self.learned.cuts.built()
     }
