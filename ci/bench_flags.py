@@ -14,8 +14,10 @@ the switch helps.
   python3 ci/bench_flags.py "--k-max 64" 1 256 4 bench-flags
 
 SAMPLER=bayes by default; ONLY=REGEX keeps the scenes whose name matches; renders already in
-OUT are reused (delete OUT after a rebuild). Reads the EXRs with Mitsuba 3's Bitmap
-(ci/setup.sh installs mitsuba); needs a release build (cargo build --release).
+OUT are reused (delete OUT after a rebuild); LIGHTLEARN_BIN=path renders with another binary
+(e.g. a throw-away build; the defaults' renders of the same images can be copied over).
+Reads the EXRs with Mitsuba 3's Bitmap (ci/setup.sh installs mitsuba); needs a release build
+(cargo build --release).
 """
 import hashlib
 import importlib.util
@@ -30,7 +32,7 @@ import numpy as np
 
 mi.set_variant("scalar_rgb")
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-EXE = os.path.join(ROOT, "target", "release", "lightlearn")
+EXE = os.environ.get("LIGHTLEARN_BIN", os.path.join(ROOT, "target", "release", "lightlearn"))
 COMMITTED = ["rooms16", "city", "hall", "strings"]
 
 

@@ -33,6 +33,8 @@ layout(constant_id = 2) const uint KNOCK_OUT = 0u;
 #define KNOCK_SHADOW 2u   // shadow rays not traced (every light sample taken as visible)
 #define KNOCK_MIS_PMF 4u  // light_pmf of an emitter a BSDF ray hits not evaluated
 #define KNOCK_OBSERVE 8u  // observations not recorded (no statistics atomics)
+#define KNOCK_SHADING 16u // the path ends at its first hit, whose distance is its sample: the
+                          // camera rays alone (everything after them left out)
 // The learned samplers' switches (LearnParams.flags), fixed for the pipeline (learning.glsl).
 layout(constant_id = 3) const uint LEARN_FLAGS = 0u;
 // What the scene's materials need (src/render/mod.rs kernel_flags): 1 a glossy material, 2 a
@@ -280,6 +282,11 @@ bool path_vertex(inout Path st, uint depth) {
     float t;
     uint hit = trace_ray(st.origin, st.dir, 0.0, 3.0e38, false, t);
     if (hit == NO_HIT) return false;
+    if ((KNOCK_OUT & KNOCK_SHADING) != 0u) {
+        // The hit is used, so the compiler keeps the traversal.
+        st.L += vec3(t);
+        return false;
+    }
     BvhTri tri = bvh_tri(hit);
     vec3 ng = normalize(cross(tri.e1, tri.e2));
     bool front = dot(ng, st.dir) < 0.0;

@@ -431,6 +431,7 @@ fn profile_times_every_stage_of_a_learning_path_tracer() {
         "statistics atomics",
         "folds and region growth between passes",
         "all of the above",
+        "everything but the camera rays",
     ] {
         let line = text
             .lines()
