@@ -10,8 +10,16 @@ materials). Render time only, the fastest of --repeats runs each; Mitsuba's firs
 (its JIT compile) is not counted. Both images' means are printed as a check that the two
 rendered the same thing.
 
-Usage: python3 ci/bench_mitsuba.py [SCENE.glb ...] [--width 96 --height 72 --spp 256]
+Usage: python3 ci/bench_mitsuba.py [SCENE.glb ...] [--width 96 --height 72 --spp 256] [--rays]
        (LIGHTLEARN_BIN=path: another lightlearn binary, e.g. an older build, to compare)
+
+--rays also splits both into their rays: Mitsuba's llvm variant traces with Embree 3 (the
+wheel ships libembree3.so), timed on the same camera rays (`ray_intersect_preliminary`) and
+shadow rays to uniformly chosen emitters (`ray_test`) as its render traces; ours from
+`lightlearn profile --sampler uniform --max-depth 1` (camera rays: the pass with everything
+after them left out; shadow rays: what leaving them out saves, counted per light sample,
+although a sample that faces away from its light traces none, so ours reads high where many
+do).
 
 Needs: a release build (cargo build --release), `pip install mitsuba numpy`, and for
 llvm_ad_rgb Debian's libllvm19 (`apt-get install libllvm19`; LLVM 15 crashes Dr.Jit's JIT),
@@ -48,6 +56,37 @@ a = np.array(img)
 print(json.dumps({"seconds": min(times[1:]), "first": times[0], "mean": float(a[..., :3].mean())}))
 """
 
+# Embree's rays alone, the fastest of 4 after a first (compiling) run each.
+MITSUBA_RAYS = r"""
+import sys, time, json
+import mitsuba as mi
+mi.set_variant("llvm_ad_rgb")
+import drjit as dr
+scene = mi.load_file(sys.argv[1])
+spp = int(sys.argv[2])
+sensor = scene.sensors()[0]
+W, H = sensor.film().size()
+N = int(W * H * spp)
+rng = mi.PCG32(size=N)
+def best(f):
+    ts = []
+    for k in range(5):
+        t0 = time.perf_counter(); r = f(); dr.eval(r); dr.sync_thread(); ts.append(time.perf_counter() - t0)
+    return min(ts[1:])
+idx = dr.arange(mi.UInt32, N)
+pos = (mi.Vector2f(mi.Float(idx % W), mi.Float((idx // W) % H))
+       + mi.Vector2f(rng.next_float32(), rng.next_float32())) / mi.Vector2f(W, H)
+ray, _ = sensor.sample_ray(0.0, 0.5, pos, mi.Point2f(0.5))
+dr.eval(ray)
+camera = best(lambda: scene.ray_intersect_preliminary(ray).t)
+si = scene.ray_intersect(ray)
+ds, _ = scene.sample_emitter_direction(si, mi.Point2f(rng.next_float32(), rng.next_float32()), False)
+shadow_rays = si.spawn_ray_to(ds.p)
+dr.eval(shadow_rays)
+shadow = best(lambda: scene.ray_test(shadow_rays))
+print(json.dumps({"rays": N, "camera": camera, "shadow": shadow}))
+"""
+
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -56,6 +95,8 @@ def main():
     ap.add_argument("--height", type=int, default=72)
     ap.add_argument("--spp", type=int, default=256)
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--rays", action="store_true",
+                    help="also time each one's camera and shadow rays alone (Mitsuba's: Embree 3)")
     a = ap.parse_args()
     if not LIGHTLEARN.exists():
         sys.exit(f"bench_mitsuba.py: {LIGHTLEARN} is missing: run `cargo build --release` first")
@@ -74,6 +115,7 @@ def main():
           f"render seconds, fastest of {a.repeats}")
     print("| scene | lightlearn M samples/s | Mitsuba 3 llvm M samples/s | ratio | image means (ours / Mitsuba) |")
     print("|---|---|---|---|---|")
+    rays = []
     for scene in a.scenes:
         with tempfile.TemporaryDirectory(prefix="bench_mitsuba_") as tmp:
             subprocess.run([sys.executable, str(ROOT / "scripts" / "mitsuba_scene.py"), scene,
@@ -103,6 +145,37 @@ def main():
             ll, ms = samples / best / 1e6, samples / mi["seconds"] / 1e6
             print(f"| {pathlib.Path(scene).stem} | {ll:.2f} | {ms:.2f} | {ll / ms:.2f} | "
                   f"{mean:.4g} / {mi['mean']:.4g} |")
+            if a.rays:
+                rays.append((pathlib.Path(scene).stem, ray_rates(scene, xml, a, env)))
+    if a.rays:
+        print()
+        print("M rays/s (ours on lavapipe: `profile --sampler uniform`; Mitsuba's: Embree 3)")
+        print()
+        print("| scene | camera rays, ours / Embree | ratio | shadow rays (ours: a light sample's), ours / Embree | ratio |")
+        print("|---|---|---|---|---|")
+        for name, (oc, osh, mc, msh) in rays:
+            print(f"| {name} | {oc:.1f} / {mc:.1f} | {oc / mc:.2f} | {osh:.1f} / {msh:.1f} | {osh / msh:.2f} |")
+
+
+def ray_rates(scene, xml, a, env):
+    """Camera and shadow rays per second (millions): ours from the stage profile, Mitsuba's
+    (Embree 3) on the same numbers of rays."""
+    rays = a.width * a.height * a.spp
+    m = subprocess.run([sys.executable, "-c", MITSUBA_RAYS, str(xml), str(a.spp)],
+                       check=True, capture_output=True, text=True, env=env)
+    mr = json.loads(m.stdout.strip().splitlines()[-1])
+    p = subprocess.run([str(LIGHTLEARN), "profile", scene, "--sampler", "uniform", "--max-depth", "1",
+                        "--width", str(a.width), "--height", str(a.height), "--spp", str(a.spp),
+                        "--repeats", str(a.repeats)], check=True, capture_output=True, text=True)
+    rows = {}
+    for line in p.stdout.splitlines():
+        cells = [c.strip() for c in line.split("|")]
+        if len(cells) > 3 and cells[2].replace(".", "", 1).isdigit():
+            rows[cells[1]] = (float(cells[2]), float(cells[3]))
+    camera = rows["everything but the camera rays"][0]
+    shadow = rows["shadow rays (all visible)"][1]
+    return (rays / camera / 1e6, rays / shadow / 1e6, mr["rays"] / mr["camera"] / 1e6,
+            mr["rays"] / mr["shadow"] / 1e6)
 
 
 def mean_of_exr(path):
