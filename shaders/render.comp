@@ -54,6 +54,11 @@ const bool WAVEFRONT = !DIRECT_ONLY;
 // --light-point solid-angle (RenderSettings::light_point): triangle lights sampled by solid
 // angle where that is well conditioned (lights.glsl); false: uniformly by area.
 layout(constant_id = 6) const bool LIGHT_POINT_SOLID_ANGLE = false;
+// --indirect-light-samples N (RenderSettings::indirect_light_samples, 1 to 16): next-event
+// samples at every vertex after the first, averaged, each with the power heuristic against
+// the BSDF ray at N times its pdf (the multi-sample MIS of N light samples and one BSDF
+// sample). 1 (the default) compiles to the one sample the loop always took.
+layout(constant_id = 7) const uint INDIRECT_LIGHT_SAMPLES = 1u;
 
 // The BVH as texels (bvh.glsl).
 layout(set = 0, binding = 0) uniform usamplerBuffer bvh_node_texels;
@@ -137,6 +142,11 @@ void mark_touched(uint slot) {
 #define DIM_BSDF_V 6u
 #define DIM_RR 7u
 #define DIMS_PER_VERTEX 6u
+// The extra next-event samples of --indirect-light-samples draw their three numbers from
+// dimensions DIM_EXTRA_LIGHT + 64 · depth + 3 · (sample − 1) + 0…2 (at most 15 extra: 45 a
+// vertex), apart from the others (100 vertices, the most --max-depth allows, use dimensions
+// up to 100 · DIMS_PER_VERTEX + DIM_RR < 1024).
+#define DIM_EXTRA_LIGHT 1024u
 
 // Random number `dim` (DIM_LIGHT … DIM_BSDF_V) of vertex `depth`: stratified over the passes
 // at the first vertex (rng.glsl first_vertex_sobol or first_vertex_r5) when the jitter is,
@@ -267,6 +277,94 @@ Path camera_path(uvec2 px) {
     return st;
 }
 
+// Next-event sample `rep` of `n_light` at vertex `depth` (x, its normal n, the direction
+// wo back along the path, its BSDF): a light chosen by SAMPLER, a point on it, the shadow
+// ray, the contribution weighted against the BSDF ray (MIS) and divided by n_light, and
+// the learned samplers' observation. Sample 0 takes the vertex's own (stratified) numbers.
+void next_event(inout Path st, vec3 x, vec3 n, vec3 wo, Bsdf bsdf, float brdf, uint depth, uint rep, uint n_light) {
+    uint pixel = st.pixel;
+    uint s = sample_s;
+    uint seed = params.seed;
+    const bool learned = SAMPLER == SAMPLER_BAYES || SAMPLER == SAMPLER_DONIKIAN;
+    const bool mis = params.max_depth > (DIRECT_ONLY ? 0xffffffffu : 1u);
+    const bool brdf_aware = (BAYES_FLAGS & LEARN_BRDF) != 0u;
+    uint dim_extra = DIM_EXTRA_LIGHT + 64u * depth + 3u * (rep - 1u);
+    float pmf;
+    float u_light = rep == 0u ? vertex_rand(seed, pixel, s, depth, DIM_LIGHT) : sample_rand(seed, pixel, s, dim_extra);
+    uint li;
+    uint slot = NO_SLOT;
+    float p_slot = 1.0;
+    float d2_slot = 1.0;
+    float cv_total = 0.0;
+    float cv_chosen = 0.0;
+    if ((KNOCK_OUT & KNOCK_SELECT) != 0u) li = pick_light(u_light, params.light_count, pmf);
+    else if (SAMPLER == SAMPLER_LIGHTBVH) li = sample_light_tree(x, n, u_light, pmf);
+    else if (SAMPLER == SAMPLER_WANG) li = sample_wang(x, n, u_light, pmf);
+    else if (learned) li = sample_learned(x, n, u_light, brdf, pmf, slot, p_slot, d2_slot, cv_total, cv_chosen);
+    else li = pick_light(u_light, params.light_count, pmf);
+    if (learned && li != NO_LIGHT && slot == NO_SLOT && (KNOCK_OUT & KNOCK_SELECT) == 0u) atomicAdd(counters[1], 1u);
+    // The observation of the chosen cluster: Î_C = L_e G V / (P(l|C) p(y|l)) as
+    // luminance (not divided by P(C|x)); zero when occluded or facing away. Learning
+    // models the light-sampling estimator, so it takes no MIS weight (docs/method.md §5).
+    float observed = 0.0;
+    vec3 Ic = vec3(0.0);  // Î_C in RGB, for the control variate
+    vec3 wi;
+    float dist;
+    vec2 u = rep == 0u
+        ? vec2(vertex_rand(seed, pixel, s, depth, DIM_LIGHT_U), vertex_rand(seed, pixel, s, depth, DIM_LIGHT_V))
+        : vec2(sample_rand(seed, pixel, s, dim_extra + 1u), sample_rand(seed, pixel, s, dim_extra + 2u));
+    // NO_LIGHT: no light can reach the front of n here (zero contribution, exactly).
+    GpuLight light = light_at(li == NO_LIGHT ? 0u : li);
+    float sa_pdf = 0.0;
+    vec3 Li = li == NO_LIGHT ? vec3(0.0) : sample_light_point(light, x, u, wi, dist, sa_pdf);
+    float cos_x = dot(n, wi);
+    if (li != NO_LIGHT && cos_x > 0.0 && any(greaterThan(Li, vec3(0.0)))) {
+        // The shadow ray starts just off the surface and aims at the light point itself:
+        // keeping wi and dist from x made a surface parallel to an area light (a floor under
+        // a ceiling panel) meet the light's own plane before tmax, i.e. shadow itself
+        // (found by the Mitsuba cross-check, tests/mitsuba.rs: floor 48 % too dark).
+        float eps = params.ray_eps;
+        vec3 so = x + n * eps;
+        vec3 to_light = wi * dist - n * eps;
+        float sdist = length(to_light);
+        bool area = (light.kind & 0xffu) == LIGHT_TRIANGLE;
+        // Stop short of an area light's own surface; a point light has none.
+        float tmax = area ? sdist - eps : sdist;
+        float ts;
+        if ((KNOCK_OUT & KNOCK_SHADOW) != 0u || trace_ray(so, to_light / sdist, 0.0, tmax, true, ts) == NO_HIT) {
+            // Evaluated only for visible samples (GGX costs tens of operations).
+            vec3 f = bsdf_eval(bsdf, n, wo, wi);
+            float w = 1.0;
+            if (mis && area) {
+                // The light sample's pdf in solid angle: pmf · d² / (cos_y A) by area, pmf / Ω
+                // by solid angle.
+                float cos_y = abs(dot(normalize(cross(light.p1 - light.p0, light.p2 - light.p0)), wi));
+                float p_light = sa_pdf > 0.0 ? pmf * sa_pdf : pmf * dist * dist / (cos_y * light.area);
+                w = power_heuristic(float(n_light) * p_light, bsdf_pdf(bsdf, n, wo, wi));
+            }
+            st.L += st.beta * f * Li * (cos_x / pmf * w / float(n_light));
+            Ic = Li * (cos_x * p_slot / pmf);
+            observed = luminance(Li) * cos_x * (p_slot / pmf) * (brdf_aware ? luminance(f) : 1.0);
+        }
+    }
+    if (learned && slot != NO_SLOT && (KNOCK_OUT & KNOCK_OBSERVE) == 0u) record_observation(slot, observed * d2_slot);
+    st.light_samples += 1.0;
+    st.zero_samples += any(greaterThan(Ic, vec3(0.0))) ? 0.0 : 1.0;
+    // --control-variates (docs/method.md §6): Σ_C g_C + (Î_C − g_C) / P(C) instead of
+    // Î_C / P(C), with g_C the model's predicted mean of Î_C (gray: the model learns
+    // luminance). Unbiased for any g fixed within the pass (with MIS too: g need not
+    // predict the weighted term); also where the sample was occluded or a dead end
+    // (Î_C = 0), which is why it is added here, outside the shadow-ray branch.
+    // p_slot = 0 only where no cluster can light x (g's all 0). The factor that turns g
+    // into radiance must not depend on the light drawn: the diffuse lobe at normal
+    // incidence (the BRDF itself for a Lambertian material; 0 for a metal, where the
+    // control variate is then off).
+    if (cv_total > 0.0 && p_slot > 0.0) {
+        vec3 f_cv = (1.0 - bsdf.metallic) * (1.0 - bsdf.specular * max3(bsdf.f0_d)) * bsdf.base / PI;
+        st.L += st.beta * f_cv * (vec3(cv_total) - vec3(cv_chosen) / p_slot) / float(n_light);
+    }
+}
+
 // Vertex `depth` of a path: the surface its ray hits (the emitter there, with its MIS
 // weight), then for depth < max_depth one next-event sample and the BSDF ray on. False when
 // the path ends here. Vertices 0 … max_depth − 1 sample a light and the BSDF; the ray after
@@ -309,7 +407,9 @@ bool path_vertex(inout Path st, uint depth) {
             float sa_pdf = solid_angle_pdf(hit_light, st.prev_x);
             float p_light = sa_pdf > 0.0 ? p_sel * sa_pdf
                 : cos_l > 0.0 ? p_sel * dot(to, to) / (hit_light.area * cos_l) : 0.0;
-            w = power_heuristic(st.prev_bsdf_pdf, p_light);
+            // The vertex before took INDIRECT_LIGHT_SAMPLES light samples unless it was the first.
+            float n_light = depth >= 2u ? float(INDIRECT_LIGHT_SAMPLES) : 1.0;
+            w = power_heuristic(st.prev_bsdf_pdf, n_light * p_light);
         }
         st.L += st.beta * m.emission * w;
     }
@@ -326,81 +426,20 @@ bool path_vertex(inout Path st, uint depth) {
     vec3 wo = -st.dir;
     Bsdf bsdf = make_bsdf(m, m.base_color, n, wo);
     select_brdf(bsdf, wo, n, brdf_select);
-    float pmf;
-    float u_light = vertex_rand(seed, pixel, s, depth, DIM_LIGHT);
-    uint li;
-    uint slot = NO_SLOT;
-    float p_slot = 1.0;
-    float d2_slot = 1.0;
-    float cv_total = 0.0;
-    float cv_chosen = 0.0;
     // --brdf-aware: the observation includes the BRDF towards the light as luminance; its
     // prior (and light_pmf) take the BRDF's albedo / π, the Lambertian f of equal albedo.
     const bool brdf_aware = (BAYES_FLAGS & LEARN_BRDF) != 0u;
     float brdf = brdf_aware ? bsdf.albedo / PI : 1.0;
-    if ((KNOCK_OUT & KNOCK_SELECT) != 0u) li = pick_light(u_light, params.light_count, pmf);
-    else if (SAMPLER == SAMPLER_LIGHTBVH) li = sample_light_tree(x, n, u_light, pmf);
-    else if (SAMPLER == SAMPLER_WANG) li = sample_wang(x, n, u_light, pmf);
-    else if (learned) li = sample_learned(x, n, u_light, brdf, pmf, slot, p_slot, d2_slot, cv_total, cv_chosen);
-    else li = pick_light(u_light, params.light_count, pmf);
-    if (learned && li != NO_LIGHT && slot == NO_SLOT && (KNOCK_OUT & KNOCK_SELECT) == 0u) atomicAdd(counters[1], 1u);
-    // The observation of the chosen cluster: Î_C = L_e G V / (P(l|C) p(y|l)) as
-    // luminance (not divided by P(C|x)); zero when occluded or facing away. Learning
-    // models the light-sampling estimator, so it takes no MIS weight (docs/method.md §5).
-    float observed = 0.0;
-    vec3 Ic = vec3(0.0);  // Î_C in RGB, for the control variate
-    vec3 wi;
-    float dist;
-    vec2 u = vec2(vertex_rand(seed, pixel, s, depth, DIM_LIGHT_U), vertex_rand(seed, pixel, s, depth, DIM_LIGHT_V));
-    // NO_LIGHT: no light can reach the front of n here (zero contribution, exactly).
-    GpuLight light = light_at(li == NO_LIGHT ? 0u : li);
-    float sa_pdf = 0.0;
-    vec3 Li = li == NO_LIGHT ? vec3(0.0) : sample_light_point(light, x, u, wi, dist, sa_pdf);
-    float cos_x = dot(n, wi);
-    if (li != NO_LIGHT && cos_x > 0.0 && any(greaterThan(Li, vec3(0.0)))) {
-        // The shadow ray starts just off the surface and aims at the light point itself:
-        // keeping wi and dist from x made a surface parallel to an area light (a floor under
-        // a ceiling panel) meet the light's own plane before tmax, i.e. shadow itself
-        // (found by the Mitsuba cross-check, tests/mitsuba.rs: floor 48 % too dark).
-        float eps = params.ray_eps;
-        vec3 so = x + n * eps;
-        vec3 to_light = wi * dist - n * eps;
-        float sdist = length(to_light);
-        bool area = (light.kind & 0xffu) == LIGHT_TRIANGLE;
-        // Stop short of an area light's own surface; a point light has none.
-        float tmax = area ? sdist - eps : sdist;
-        float ts;
-        if ((KNOCK_OUT & KNOCK_SHADOW) != 0u || trace_ray(so, to_light / sdist, 0.0, tmax, true, ts) == NO_HIT) {
-            // Evaluated only for visible samples (GGX costs tens of operations).
-            vec3 f = bsdf_eval(bsdf, n, wo, wi);
-            float w = 1.0;
-            if (mis && area) {
-                // The light sample's pdf in solid angle: pmf · d² / (cos_y A) by area, pmf / Ω
-                // by solid angle.
-                float cos_y = abs(dot(normalize(cross(light.p1 - light.p0, light.p2 - light.p0)), wi));
-                float p_light = sa_pdf > 0.0 ? pmf * sa_pdf : pmf * dist * dist / (cos_y * light.area);
-                w = power_heuristic(p_light, bsdf_pdf(bsdf, n, wo, wi));
-            }
-            st.L += st.beta * f * Li * (cos_x / pmf * w);
-            Ic = Li * (cos_x * p_slot / pmf);
-            observed = luminance(Li) * cos_x * (p_slot / pmf) * (brdf_aware ? luminance(f) : 1.0);
-        }
-    }
-    if (learned && slot != NO_SLOT && (KNOCK_OUT & KNOCK_OBSERVE) == 0u) record_observation(slot, observed * d2_slot);
-    st.light_samples += 1.0;
-    st.zero_samples += any(greaterThan(Ic, vec3(0.0))) ? 0.0 : 1.0;
-    // --control-variates (docs/method.md §6): Σ_C g_C + (Î_C − g_C) / P(C) instead of
-    // Î_C / P(C), with g_C the model's predicted mean of Î_C (gray: the model learns
-    // luminance). Unbiased for any g fixed within the pass (with MIS too: g need not
-    // predict the weighted term); also where the sample was occluded or a dead end
-    // (Î_C = 0), which is why it is added here, outside the shadow-ray branch.
-    // p_slot = 0 only where no cluster can light x (g's all 0). The factor that turns g
-    // into radiance must not depend on the light drawn: the diffuse lobe at normal
-    // incidence (the BRDF itself for a Lambertian material; 0 for a metal, where the
-    // control variate is then off).
-    if (cv_total > 0.0 && p_slot > 0.0) {
-        vec3 f_cv = (1.0 - bsdf.metallic) * (1.0 - bsdf.specular * max3(bsdf.f0_d)) * bsdf.base / PI;
-        st.L += st.beta * f_cv * (vec3(cv_total) - vec3(cv_chosen) / p_slot);
+    // Next-event samples at this vertex (the first vertex always takes one).
+    uint n_light = depth >= 1u ? INDIRECT_LIGHT_SAMPLES : 1u;
+    next_event(st, x, n, wo, bsdf, brdf, depth, 0u, n_light);
+    // Compiled out at 1 (the default): a loop around the one sample cost paths 5-10 %.
+    if (INDIRECT_LIGHT_SAMPLES > 1u && depth >= 1u) {
+        uint rep = 1u;
+        do {
+            next_event(st, x, n, wo, bsdf, brdf, depth, rep, n_light);
+            ++rep;
+        } while (rep < n_light);
     }
 
     if (!mis) return false;
@@ -457,9 +496,10 @@ Path load_path(uint q, uint i) {
     st.dir = uintBitsToFloat(b.xyz);
     st.zero_samples = uintBitsToFloat(b.w);
     st.beta = uintBitsToFloat(c.xyz);
-    // Every vertex before this bounce took one light sample (path_vertex), so the count is
-    // the bounce, and its place in the queue carries the previous choice's λ instead.
-    st.light_samples = float(params.bounce);
+    // The vertices before this bounce took one light sample at the first and
+    // INDIRECT_LIGHT_SAMPLES at each later one (path_vertex), so the count follows from the
+    // bounce, and its place in the queue carries the previous choice's λ instead.
+    st.light_samples = params.bounce == 0u ? 0.0 : 1.0 + float((params.bounce - 1u) * INDIRECT_LIGHT_SAMPLES);
     st.prev_cut_lambda = uintBitsToFloat(c.w);
     st.L = uintBitsToFloat(d.xyz);
     st.prev_cut = d.w;

@@ -282,6 +282,7 @@ fn reference(scene: &Path, t: f32) -> (f64, f64) {
         stratify: lightlearn::render::Stratify::Off,
         max_depth: 1,
         light_point: Default::default(),
+        indirect_light_samples: 1,
     };
     let r = render::render(&ctx, &s, &gpu, &settings, &mut |_, _| {}).unwrap();
     let px = r.mean();

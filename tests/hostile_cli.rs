@@ -74,6 +74,42 @@ fn run_render(extra: &[&str], dir: &Path) -> Output {
     run(&args, dir, &[])
 }
 
+/// `--indirect-light-samples` out of 1..=16, or above 1 where a path has one vertex, is
+/// refused by name before anything is written; in range it reaches the report.
+#[test]
+fn indirect_light_samples_out_of_range_are_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for n in ["0", "17"] {
+        let o = run_render(&["--indirect-light-samples", n, "--out", "i.exr"], d);
+        refused(&o, &["--indirect-light-samples", "1 to 16", n]);
+    }
+    let o = run_render(&["--indirect-light-samples", "4", "--out", "i.exr"], d);
+    refused(&o, &["--indirect-light-samples 4", "--max-depth 2"]);
+    assert!(files(d).is_empty(), "refused renders wrote {:?}", files(d));
+    let args = [
+        "render",
+        "--indirect-light-samples",
+        "3",
+        "--max-depth",
+        "3",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--spp",
+        "2",
+        "--out",
+        "i.exr",
+        "-q",
+    ];
+    let o = run(&args, d, &[]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("i.json")).unwrap()).unwrap();
+    assert_eq!(report["indirect_light_samples"], 3);
+}
+
 #[test]
 fn save_stats_never_replaces_the_scene_an_output_or_a_foreign_file() {
     let dir = tempfile::tempdir().unwrap();

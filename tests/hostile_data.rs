@@ -36,6 +36,7 @@ fn settings(sampler: LightSampler, spp: u32, max_depth: u32) -> RenderSettings {
         stratify: lightlearn::render::Stratify::Sobol,
         max_depth,
         light_point: Default::default(),
+        indirect_light_samples: 1,
     }
 }
 

@@ -1223,6 +1223,7 @@ fn refined_cuts_tile_the_lights_in_order() {
         stratify: lightlearn::render::Stratify::Sobol,
         max_depth: 1,
         light_point: Default::default(),
+        indirect_light_samples: 1,
     };
     let mut session = render::Session::new(&ctx, &s, &gpu, &settings).unwrap();
     session.run_passes(256).unwrap();

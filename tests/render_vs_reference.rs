@@ -137,6 +137,7 @@ fn gpu_render(scene: &Scene, sampler: LightSampler, light_point: LightPoint) -> 
         stratify: lightlearn::render::Stratify::Off,
         max_depth: 1,
         light_point,
+        indirect_light_samples: 1,
     };
     render::render(&ctx, scene, &gpu, &settings, &mut |_, _| {}).unwrap()
 }

@@ -36,6 +36,7 @@ fn settings(sampler: LightSampler, seed: u32) -> RenderSettings {
         stratify: lightlearn::render::Stratify::Sobol,
         max_depth: 1,
         light_point: Default::default(),
+        indirect_light_samples: 1,
     }
 }
 

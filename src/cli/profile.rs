@@ -59,6 +59,7 @@ impl ProfileArgs {
             max_depth: self.max_depth,
             resume: None,
             light_point: Default::default(),
+            indirect_light_samples: 1,
         };
         let (times, learned) = lightlearn::bench::stages::profile(
             &ctx,

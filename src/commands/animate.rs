@@ -264,6 +264,7 @@ pub fn run(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
             stratify: crate::render::Stratify::Sobol,
             max_depth: req.max_depth,
             light_point: Default::default(),
+            indirect_light_samples: 1,
         };
         let mut learning = "fresh".to_string();
         let mut start_forget = None;

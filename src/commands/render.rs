@@ -30,6 +30,8 @@ pub struct RenderRequest {
     pub out: PathBuf,
     pub max_depth: u32,
     pub light_point: LightPoint,
+    /// `--indirect-light-samples`: RenderSettings::indirect_light_samples.
+    pub indirect_light_samples: u32,
     /// `--stratify`: RenderSettings::stratify.
     pub stratify: crate::render::Stratify,
     pub regions: RegionSettings,
@@ -75,6 +77,7 @@ pub fn run(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
     };
     super::check_size(req.width, req.height)?;
     check_depth(req.max_depth)?;
+    render::check_indirect_light_samples(req.indirect_light_samples, req.max_depth)?;
     let skip = chunk_offset(req.chunk, req.spp)?;
     req.regions.check()?;
     req.learn.check()?;
@@ -124,6 +127,7 @@ pub fn run(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         stratify: req.stratify,
         max_depth: req.max_depth,
         light_point: req.light_point,
+        indirect_light_samples: req.indirect_light_samples,
     };
     if let (Some(saved), Some(p)) = (loaded, &req.load_stats) {
         render::check_resume(&scene, &gpu, &settings, &saved, p)?;

@@ -198,6 +198,7 @@ fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> 
         max_depth: depth,
         resume: None,
         light_point: Default::default(),
+        indirect_light_samples: 1,
     };
     let mut rows = Vec::new();
     for &sampler in &a.samplers {

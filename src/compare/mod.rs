@@ -156,6 +156,7 @@ pub fn compare(
             stratify: crate::render::Stratify::Sobol,
             max_depth,
             light_point,
+            indirect_light_samples: 1,
         };
         let mut convergence = Vec::new();
         let result = render::render_with_checkpoints(

@@ -147,6 +147,7 @@ pub fn settings(
         stratify: crate::render::Stratify::Off,
         max_depth,
         light_point: Default::default(),
+        indirect_light_samples: 1,
     })
 }
 

@@ -225,6 +225,7 @@ impl<'a> App<'a, '_> {
             stratify: crate::render::Stratify::Sobol,
             max_depth: self.depth,
             light_point: Default::default(),
+            indirect_light_samples: 1,
         }
     }
 

@@ -206,6 +206,11 @@ pub struct RenderSettings {
     pub max_depth: u32,
     /// How a point on a triangle light is drawn (render.comp LIGHT_POINT_SOLID_ANGLE).
     pub light_point: LightPoint,
+    /// Next-event samples at every path vertex after the first, averaged (render.comp
+    /// INDIRECT_LIGHT_SAMPLES; 1 to [`MAX_INDIRECT_LIGHT_SAMPLES`], 1 by default): a
+    /// diagnostic of where a path's variance sits, the light choice after the first vertex
+    /// or the rest (docs/results.md, ninth session).
+    pub indirect_light_samples: u32,
     /// Statistics to start from (`--load-stats`): their cuts replace the built ones and the
     /// sample indices continue after theirs.
     pub resume: Option<Arc<SavedStats>>,
@@ -237,6 +242,7 @@ impl RenderSettings {
             stratify: Stratify::Sobol,
             max_depth,
             light_point: Default::default(),
+            indirect_light_samples: 1,
             resume: None,
         }
     }
@@ -245,6 +251,24 @@ impl RenderSettings {
 /// Passes are submitted in batches of about this many seconds: long enough that submission
 /// overhead vanishes, short enough for a live progress bar and a tight `--time`.
 pub const PASS_BATCH_SECONDS: f64 = 0.25;
+
+/// The most `--indirect-light-samples` (render.comp numbers their random dimensions apart up
+/// to this many).
+pub const MAX_INDIRECT_LIGHT_SAMPLES: u32 = 16;
+
+/// `--indirect-light-samples N`: 1 to [`MAX_INDIRECT_LIGHT_SAMPLES`], and more than 1 only
+/// where a path has vertices after the first.
+pub fn check_indirect_light_samples(n: u32, max_depth: u32) -> Result<()> {
+    if !(1..=MAX_INDIRECT_LIGHT_SAMPLES).contains(&n) {
+        bail!("--indirect-light-samples must be 1 to {MAX_INDIRECT_LIGHT_SAMPLES} (got {n})");
+    }
+    if n > 1 && max_depth < 2 {
+        bail!(
+            "--indirect-light-samples {n} needs paths with more than one vertex: add --max-depth 2 or more (--max-depth {max_depth} is direct light alone)"
+        );
+    }
+    Ok(())
+}
 const MAX_PASSES_PER_BATCH: u32 = 256;
 
 /// The scene in GPU buffers, shared by every pass.
@@ -646,6 +670,7 @@ pub fn report_json(
         },
         "max_depth": settings.max_depth,
         "light_point": settings.light_point,
+        "indirect_light_samples": settings.indirect_light_samples,
         "stratify": settings.stratify.name(),
         "camera": camera_json(&scene.camera),
     })

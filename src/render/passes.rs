@@ -442,6 +442,8 @@ fn render_pipeline(
             !wavefront(settings) as u32,
             // LIGHT_POINT_SOLID_ANGLE.
             (settings.light_point == LightPoint::SolidAngle) as u32,
+            // INDIRECT_LIGHT_SAMPLES.
+            settings.indirect_light_samples,
         ],
     )
 }
