@@ -15,23 +15,18 @@ keeps the scenes whose name matches); renders already in OUT are reused (delete 
 rebuild); LIGHTLEARN_BIN=path renders with another binary. Needs what ci/bench_flags.py
 needs (a release build, Mitsuba 3's Bitmap to read the EXRs).
 """
-import importlib.util
 import os
 import re
 import sys
 
 import numpy as np
 
+# ci/bench_flags.py renders a scene over seeds and takes the per-pixel variance: the same here.
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bench_flags as bf  # noqa: E402
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCENES = ["rooms16", "city", "hall", "default"]
-
-
-def bench_flags():
-    spec = importlib.util.spec_from_file_location(
-        "bench_flags", os.path.join(ROOT, "ci", "bench_flags.py"))
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def main():
@@ -43,7 +38,6 @@ def main():
         sys.exit("N and SEEDS must be at least 2 (N: the samples to compare with 1; SEEDS: "
                  "the variance is taken across seeds)")
     only = os.environ.get("ONLY")
-    bf = bench_flags()
     os.makedirs(out, exist_ok=True)
     flags = ["--indirect-light-samples", str(n)]
     print(f"depth 8, {spp} spp, {seeds} seeds, 1 and {n} light samples at the later vertices; "

@@ -87,22 +87,13 @@ fn indirect_light_samples_out_of_range_are_refused_by_name() {
     let o = run_render(&["--indirect-light-samples", "4", "--out", "i.exr"], d);
     refused(&o, &["--indirect-light-samples 4", "--max-depth 2"]);
     assert!(files(d).is_empty(), "refused renders wrote {:?}", files(d));
+    // TINY's size and samples, at depth 3.
     let args = [
-        "render",
-        "--indirect-light-samples",
-        "3",
-        "--max-depth",
-        "3",
-        "--width",
-        "16",
-        "--height",
-        "12",
-        "--spp",
-        "2",
-        "--out",
-        "i.exr",
-        "-q",
-    ];
+        &["render", "--indirect-light-samples", "3", "--out", "i.exr"][..],
+        &TINY[..6],
+        &["--max-depth", "3", "-q"],
+    ]
+    .concat();
     let o = run(&args, d, &[]);
     assert!(o.status.success(), "{}", stderr(&o));
     let report: serde_json::Value =
