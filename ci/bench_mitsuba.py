@@ -56,21 +56,21 @@ a = np.array(img)
 print(json.dumps({"seconds": min(times[1:]), "first": times[0], "mean": float(a[..., :3].mean())}))
 """
 
-# Embree's rays alone, the fastest of 4 after a first (compiling) run each.
+# Embree's rays alone, the fastest of --repeats after a first (compiling) run each.
 MITSUBA_RAYS = r"""
 import sys, time, json
 import mitsuba as mi
 mi.set_variant("llvm_ad_rgb")
 import drjit as dr
 scene = mi.load_file(sys.argv[1])
-spp = int(sys.argv[2])
+spp, repeats = int(sys.argv[2]), int(sys.argv[3])
 sensor = scene.sensors()[0]
 W, H = sensor.film().size()
 N = int(W * H * spp)
 rng = mi.PCG32(size=N)
 def best(f):
     ts = []
-    for k in range(5):
+    for k in range(repeats + 1):
         t0 = time.perf_counter(); r = f(); dr.eval(r); dr.sync_thread(); ts.append(time.perf_counter() - t0)
     return min(ts[1:])
 idx = dr.arange(mi.UInt32, N)
@@ -161,7 +161,7 @@ def ray_rates(scene, xml, a, env):
     """Camera and shadow rays per second (millions): ours from the stage profile, Mitsuba's
     (Embree 3) on the same numbers of rays."""
     rays = a.width * a.height * a.spp
-    m = subprocess.run([sys.executable, "-c", MITSUBA_RAYS, str(xml), str(a.spp)],
+    m = subprocess.run([sys.executable, "-c", MITSUBA_RAYS, str(xml), str(a.spp), str(a.repeats)],
                        check=True, capture_output=True, text=True, env=env)
     mr = json.loads(m.stdout.strip().splitlines()[-1])
     p = subprocess.run([str(LIGHTLEARN), "profile", scene, "--sampler", "uniform", "--max-depth", "1",

@@ -374,7 +374,6 @@ bool path_vertex(inout Path st, uint depth) {
     uint pixel = st.pixel;
     uint s = sample_s;
     uint seed = params.seed;
-    const bool learned = SAMPLER == SAMPLER_BAYES || SAMPLER == SAMPLER_DONIKIAN;
     const bool mis = params.max_depth > (DIRECT_ONLY ? 0xffffffffu : 1u);
     const bool brdf_select = BRDF_SELECT;
     float t;

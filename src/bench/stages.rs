@@ -47,7 +47,7 @@ fn variants(settings: &RenderSettings) -> Vec<(&'static str, u32, bool)> {
     let all = KNOCK_SELECT | KNOCK_SHADOW | KNOCK_MIS_PMF | KNOCK_OBSERVE;
     v.push(("all of the above", all, false));
     // What is left is the camera rays (their hits) and the film: on lavapipe with `uniform`
-    // direct light 54 % of a pass on rooms and 62 % on city (docs/results.md, ninth session).
+    // direct light 48 % of a pass on rooms and 57 % on city (docs/results.md, ninth session).
     v.push(("everything but the camera rays", all | KNOCK_SHADING, false));
     v
 }

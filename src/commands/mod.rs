@@ -74,6 +74,21 @@ pub fn check_depth(d: u32) -> Result<()> {
     Ok(())
 }
 
+/// `--indirect-light-samples N`: 1 to [`crate::render::MAX_INDIRECT_LIGHT_SAMPLES`], and more
+/// than 1 only where a path has vertices after the first.
+pub fn check_indirect_light_samples(n: u32, max_depth: u32) -> Result<()> {
+    let max = crate::render::MAX_INDIRECT_LIGHT_SAMPLES;
+    if !(1..=max).contains(&n) {
+        bail!("--indirect-light-samples must be 1 to {max} (got {n})");
+    }
+    if n > 1 && max_depth < 2 {
+        bail!(
+            "--indirect-light-samples {n} needs paths with more than one vertex: add --max-depth 2 or more (--max-depth {max_depth} is direct light alone)"
+        );
+    }
+    Ok(())
+}
+
 /// The scene at `path`, or the built-in default scene; warnings go to `ui`.
 pub fn load_scene(path: Option<&Path>, ui: &mut dyn Ui) -> Result<Scene> {
     let mut warn = |w: String| ui.message(&format!("warning: {w}"));

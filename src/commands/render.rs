@@ -77,7 +77,7 @@ pub fn run(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
     };
     super::check_size(req.width, req.height)?;
     check_depth(req.max_depth)?;
-    render::check_indirect_light_samples(req.indirect_light_samples, req.max_depth)?;
+    super::check_indirect_light_samples(req.indirect_light_samples, req.max_depth)?;
     let skip = chunk_offset(req.chunk, req.spp)?;
     req.regions.check()?;
     req.learn.check()?;

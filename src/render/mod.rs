@@ -251,25 +251,11 @@ impl RenderSettings {
 /// Passes are submitted in batches of about this many seconds: long enough that submission
 /// overhead vanishes, short enough for a live progress bar and a tight `--time`.
 pub const PASS_BATCH_SECONDS: f64 = 0.25;
+const MAX_PASSES_PER_BATCH: u32 = 256;
 
 /// The most `--indirect-light-samples` (render.comp numbers their random dimensions apart up
 /// to this many).
 pub const MAX_INDIRECT_LIGHT_SAMPLES: u32 = 16;
-
-/// `--indirect-light-samples N`: 1 to [`MAX_INDIRECT_LIGHT_SAMPLES`], and more than 1 only
-/// where a path has vertices after the first.
-pub fn check_indirect_light_samples(n: u32, max_depth: u32) -> Result<()> {
-    if !(1..=MAX_INDIRECT_LIGHT_SAMPLES).contains(&n) {
-        bail!("--indirect-light-samples must be 1 to {MAX_INDIRECT_LIGHT_SAMPLES} (got {n})");
-    }
-    if n > 1 && max_depth < 2 {
-        bail!(
-            "--indirect-light-samples {n} needs paths with more than one vertex: add --max-depth 2 or more (--max-depth {max_depth} is direct light alone)"
-        );
-    }
-    Ok(())
-}
-const MAX_PASSES_PER_BATCH: u32 = 256;
 
 /// The scene in GPU buffers, shared by every pass.
 pub struct GpuScene {
