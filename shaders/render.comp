@@ -122,6 +122,15 @@ void mark_touched(uint slot) {
 }
 #define TRACK_TOUCHED
 
+// --refine-cuts: each slot's observations by the child of its node that the light came
+// from (regions.glsl sel_side): [6 slot + side] counts them, [6 slot + 2 + 2 side] (low,
+// high word) sums their y² in the fixed point of the window sums (learning.glsl
+// record_observation). Summed over the whole render, never cleared: a slot that splits
+// gives way to new slots, whose sums start at 0. src/render/refine.rs splits a cluster
+// where its two children's second moments differ, which the slot's own totals cannot tell
+// from a spread that a split would not sort out.
+layout(std430, set = 1, binding = 8) buffer SideCounts { uint side_counts[]; };
+
 #include "bvh.glsl"
 #include "scene_texels.glsl"
 #include "lights.glsl"
@@ -277,6 +286,20 @@ Path camera_path(uvec2 px) {
     return st;
 }
 
+// --refine-cuts: one observation y of `slot` through child `side` (SideCounts above).
+void record_side(uint slot, uint side, float y) {
+    uint b = 6u * slot;
+    atomicAdd(side_counts[b + side], 1u);
+    if (!(y > 0.0)) return;
+    float q = min(y / slot_stats_at(slot).scale, FIX_CLAMP);
+    float v = floor(q * q * FIX_ONE + 0.5);
+    float hi = floor(v / TWO_POW_32);
+    uint lo = uint(v - hi * TWO_POW_32);
+    uint old = atomicAdd(side_counts[b + 2u + 2u * side], lo);
+    uint carry = old + lo < old ? 1u : 0u;
+    if (uint(hi) + carry > 0u) atomicAdd(side_counts[b + 3u + 2u * side], uint(hi) + carry);
+}
+
 // Next-event sample `rep` of `n_light` at vertex `depth` (x, its normal n, the direction
 // wo back along the path, its BSDF): a light chosen by SAMPLER, a point on it, the shadow
 // ray, the contribution weighted against the BSDF ray (MIS) and divided by n_light, and
@@ -348,6 +371,8 @@ void next_event(inout Path st, vec3 x, vec3 n, vec3 wo, Bsdf bsdf, float brdf, u
         }
     }
     if (learned && slot != NO_SLOT && (KNOCK_OUT & KNOCK_OBSERVE) == 0u) record_observation(slot, observed * d2_slot);
+    if (REFINE_ON && learned && slot != NO_SLOT && sel_side < 2u && (KNOCK_OUT & KNOCK_OBSERVE) == 0u)
+        record_side(slot, sel_side, observed * d2_slot);
     st.light_samples += 1.0;
     st.zero_samples += any(greaterThan(Ic, vec3(0.0))) ? 0.0 : 1.0;
     // --control-variates (docs/method.md §6): Σ_C g_C + (Î_C − g_C) / P(C) instead of

@@ -214,6 +214,9 @@ pub const LEARN_BRDF_SELECT: u32 = 32;
 /// With LEARN_REGRESSION: the regressor is Ĩ_C(x) instead of 1/d² (`--regression importance`).
 pub const LEARN_REGRESS_IMPORTANCE: u32 = 64;
 pub const LEARN_DEFENSIVE: u32 = 128;
+/// `--refine-cuts`: observations also counted by the side of the slot's node (render.comp
+/// `side_counts`).
+pub const LEARN_REFINE: u32 = 256;
 
 /// Hyperparameters and switches of the learned samplers.
 #[repr(C)]

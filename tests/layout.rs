@@ -461,6 +461,9 @@ fn glsl_defines_match_the_rust_constants() {
         ("LEARN_BRDF".into(), LEARN_BRDF),
         ("LEARN_CONTROL_VARIATES".into(), LEARN_CONTROL_VARIATES),
         ("LEARN_BRDF_SELECT".into(), LEARN_BRDF_SELECT),
+        ("LEARN_REGRESS_IMPORTANCE".into(), LEARN_REGRESS_IMPORTANCE),
+        ("LEARN_DEFENSIVE".into(), LEARN_DEFENSIVE),
+        ("LEARN_REFINE".into(), LEARN_REFINE),
         ("MATERIAL_TWO_SIDED".into(), MATERIAL_TWO_SIDED),
     ];
     use lightlearn::render::Stratify;

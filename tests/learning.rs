@@ -1268,3 +1268,68 @@ fn refined_cuts_tile_the_lights_in_order() {
         "no shared cut in this render: the check above tests nothing"
     );
 }
+
+/// `--refine-cuts` counts each observation by the side of the slot's node it came through
+/// (render.comp `side_counts`), which is what the split decision reads: before any cut is
+/// refined, every slot's two sides together count exactly the observations its totals and
+/// open window hold, and both sides see draws. Recording the side as always 0, or into
+/// another slot's counters (mutations tried by hand), fails here.
+#[test]
+fn side_counts_add_up_to_each_slots_observations() {
+    let s = scene("rooms16.glb");
+    let ctx = common::ctx();
+    let bvh = Bvh::build(&s.triangles);
+    let gpu = GpuScene::upload(&ctx, &s, &bvh).unwrap();
+    let settings = RenderSettings {
+        width: 48,
+        height: 36,
+        budget: Budget::Samples(8),
+        seed: 1,
+        sampler: LightSampler::Bayes,
+        regions: RegionSettings::default(),
+        learn: LearnSettings {
+            refine_cuts: 8,
+            ..LearnSettings::default()
+        },
+        resume: None,
+        stratify: lightlearn::render::Stratify::Sobol,
+        max_depth: 1,
+        light_point: Default::default(),
+        indirect_light_samples: 1,
+    };
+    let mut session = render::Session::new(&ctx, &s, &gpu, &settings).unwrap();
+    let mut checked = None;
+    for _ in 0..8 {
+        session.run_passes(1).unwrap();
+        if session.regions_refined() > 0 {
+            break;
+        }
+        checked = Some((
+            session.sampling_stats().unwrap(),
+            session.open_window().unwrap().0,
+            session.side_sums().unwrap(),
+        ));
+    }
+    let (stats, window, sides) = checked.expect("a cut was refined after the first pass");
+    let (mut both, mut left, mut slots) = (0.0, 0.0, 0);
+    for (i, side) in sides.iter().enumerate() {
+        let own = (stats[i].n_zero + stats[i].n_nonzero) as f64
+            + (window[i].n_zero + window[i].n_nonzero) as f64;
+        let counted = side.n[0] + side.n[1];
+        if counted > 0.0 {
+            slots += 1;
+            assert_eq!(counted, own, "slot {i}: sides {side:?}, observations {own}");
+        }
+        both += counted;
+        left += side.n[0];
+    }
+    println!(
+        "{slots} slots, {both} observations by side, {:.3} on the left",
+        left / both
+    );
+    assert!(both > 5000.0, "too few observations to check: {both}");
+    assert!(
+        (0.2..0.8).contains(&(left / both)),
+        "the sides are not both drawn: {left} of {both} on the left"
+    );
+}

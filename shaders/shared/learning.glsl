@@ -28,6 +28,9 @@ const bool CV_ON = (BAYES_FLAGS & LEARN_CONTROL_VARIATES) != 0u;
 // does (docs/method.md §3).
 const bool REGRESS_IMPORTANCE = (BAYES_FLAGS & LEARN_REGRESS_IMPORTANCE) != 0u;
 const bool DEFENSIVE_ON = (BAYES_FLAGS & LEARN_DEFENSIVE) != 0u;
+// --refine-cuts (bayes and donikian): observations are also counted by the side of the
+// chosen slot's node they came through (render.comp `side_counts`).
+const bool REFINE_ON = (LEARN_FLAGS & LEARN_REFINE) != 0u;
 
 // --brdf-select: a factor > 0 on slot weights for the BRDF at the shading point towards the
 // node's cluster; every including kernel defines it (render.comp: the BRDF; the test kernel

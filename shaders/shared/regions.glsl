@@ -42,6 +42,11 @@ float cut_w[MAX_CUT];
 // cut again (with learning.glsl's sel_lambda under --defensive).
 uint sel_cut = 0u;
 float sel_total = 0.0;
+// Which child of the chosen slot's node the last pick_in_cut descended into first: 0 the
+// left, 1 the right, 2 none (the slot is one light). --refine-cuts counts each slot's
+// observations by this side (render.comp `side_counts`), so a split is made where the two
+// children differ (src/render/refine.rs).
+uint sel_side = 2u;
 
 // Picks slot k of the cut at offset o ∝ cut_w (total > 0: their sum), then a light inside the
 // slot's node: by power (IN_CLUSTER 0, Wang & Åkerlund), or by descending the node's subtree
@@ -67,6 +72,7 @@ uint pick_in_cut(uint o, uint count, float total, float u, vec3 p, vec3 n, out f
     uint node = cut_word(o + 1u + k);
     p_slot = cut_w[k] / total;
     pmf = p_slot;
+    sel_side = 2u;
     if (light_node(node).count > 1u) do {
         uint l = node + 1u;
         uint r = light_node(node).right;
@@ -82,6 +88,7 @@ uint pick_in_cut(uint o, uint count, float total, float u, vec3 p, vec3 n, out f
         } else {
             pl = light_node(l).phi / (light_node(l).phi + light_node(r).phi);
         }
+        if (sel_side == 2u) sel_side = v < pl ? 0u : 1u;
         if (v < pl) {
             v = min(v / pl, ONE_MINUS_EPSILON);
             pmf *= pl;

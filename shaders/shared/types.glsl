@@ -107,6 +107,7 @@ struct SlotDelta {
 #define LEARN_BRDF_SELECT 32u
 #define LEARN_REGRESS_IMPORTANCE 64u
 #define LEARN_DEFENSIVE 128u
+#define LEARN_REFINE 256u
 
 // Hyperparameters and switches of the learned samplers (src/learning/mod.rs LearnSettings).
 struct LearnParams {

@@ -23,7 +23,8 @@ use anyhow::{bail, Result};
 
 use crate::abi::{
     LearnParams, SlotDelta, SlotStats, LEARN_BRDF, LEARN_BRDF_SELECT, LEARN_CONTROL_VARIATES,
-    LEARN_DEFENSIVE, LEARN_PRIORS, LEARN_REGRESSION, LEARN_REGRESS_IMPORTANCE, LEARN_TARGET_MEAN,
+    LEARN_DEFENSIVE, LEARN_PRIORS, LEARN_REFINE, LEARN_REGRESSION, LEARN_REGRESS_IMPORTANCE,
+    LEARN_TARGET_MEAN,
 };
 
 /// Settings of the learned samplers; defaults are docs/method.md's [ours] values.
@@ -203,7 +204,8 @@ impl LearnSettings {
                     self.regression == Regression::Importance,
                     LEARN_REGRESS_IMPORTANCE,
                 )
-                | flag(self.defensive > 0.0, LEARN_DEFENSIVE),
+                | flag(self.defensive > 0.0, LEARN_DEFENSIVE)
+                | flag(self.refine_cuts > 0, LEARN_REFINE),
             prior_scale: self.prior_scale,
             defensive: self.defensive,
         }

@@ -32,6 +32,10 @@ pub struct LearnedState {
     /// Each slot's borrowed pseudo-observations (`--pool-priors`, fold.comp `Prior`), as
     /// long as `stats`.
     pub prior: Buffer,
+    /// Each slot's observations by the side of its node they came through (`--refine-cuts`,
+    /// render.comp `side_counts`: counts and sums of y²), as long as `stats`;
+    /// summed over the render.
+    pub sides: Buffer,
     /// The host's copy of what `prior` holds for the slots in use.
     borrowed: Vec<SlotPrior>,
     pub params: Buffer,
@@ -111,6 +115,7 @@ impl LearnedState {
             )?,
             touched: Buffer::indirect(ctx, "touched slots", &touched_list(slots))?,
             prior: Buffer::zeroed(ctx, "borrowed observations", slots as u64 * PRIOR_BYTES)?,
+            sides: Buffer::zeroed(ctx, "observations by side", slots as u64 * SIDE_BYTES)?,
             borrowed: Vec::new(),
             params: Buffer::from_slice(ctx, "learning parameters", &[settings.learn.gpu_params()])?,
             slots,
@@ -257,7 +262,10 @@ impl LearnedState {
             let touched = Buffer::indirect(ctx, "touched slots", &touched_list(capacity as u32))?;
             let prior = Buffer::zeroed(ctx, "borrowed observations", capacity * PRIOR_BYTES)?;
             prior.copy_from(&self.prior)?;
+            let sides = Buffer::zeroed(ctx, "observations by side", capacity * SIDE_BYTES)?;
+            sides.copy_from(&self.sides)?;
             (self.stats, self.delta, self.touched, self.prior) = (stats, delta, touched, prior);
+            self.sides = sides;
             self.capacity = capacity as u32;
         }
         // The window sums of the slots past `slots` were never touched: zero, as fresh ones.
@@ -356,6 +364,7 @@ impl LearnedState {
         }
         let t0 = Instant::now();
         let stats: Vec<SlotStats> = self.read_stats()?;
+        let sides: Vec<[u32; 6]> = self.sides.read_first(self.slots as usize)?;
         // --k-max caps the cut as built; refinement may grow it to what the kernel holds.
         let k_max = crate::lights::regions::MAX_K as usize;
         let mut plans = Vec::new();
@@ -365,6 +374,7 @@ impl LearnedState {
                 tree,
                 &self.cuts,
                 &stats,
+                &sides,
                 o as usize,
                 splits,
                 k_max,
@@ -437,6 +447,8 @@ impl LearnedState {
 
 /// Bytes of one slot's borrowed observations (a vec4 of fold.comp's `Prior`).
 const PRIOR_BYTES: u64 = std::mem::size_of::<SlotPrior>() as u64;
+/// One slot's `side_counts` (render.comp): six words.
+const SIDE_BYTES: u64 = 24;
 
 /// The empty list of touched slots (render.comp `mark_touched`, fold.comp) for `slots`
 /// slots: the fold's indirect workgroup counts (0, 1, 1), the count 0, then room for every

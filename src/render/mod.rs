@@ -20,7 +20,7 @@ use crate::scene::{Camera, Scene};
 mod cuts;
 mod learned_state;
 mod passes;
-mod refine;
+pub mod refine;
 mod result;
 mod session;
 

@@ -44,6 +44,7 @@ pub const RENDER_BINDINGS: [&[&str]; 3] = [
         "Learn",
         "MissingRegions",
         "Touched",
+        "SideCounts",
     ],
     &[
         "Accum",
@@ -221,7 +222,7 @@ impl PassKernels {
 
     /// Binds the learned state's buffers (again when cuts were added).
     pub(super) fn bind_learned(&self, l: &LearnedState) -> Result<()> {
-        let learned: [(&str, &Buffer); 8] = [
+        let learned: [(&str, &Buffer); 9] = [
             ("grid_texels", &l.grid),
             ("region_index_texels", &l.index),
             ("cut_texels", &l.cuts_buf),
@@ -230,6 +231,7 @@ impl PassKernels {
             ("Learn", &l.params),
             ("MissingRegions", &l.missing),
             ("Touched", &l.touched),
+            ("SideCounts", &l.sides),
         ];
         let set = in_binding_order(&learned, RENDER_BINDINGS[LEARNED_SET]);
         self.render.bind_set(LEARNED_SET, &set)?;

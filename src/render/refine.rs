@@ -1,51 +1,108 @@
 //! Learned cut refinement (`--refine-cuts N`, issue #17): between passes a region's cut
-//! replaces the clusters whose observations vary the most by their two children.
+//! replaces a cluster by its two children where drawing the children apart would pay for
+//! the longer cut.
 //!
 //! `lightlearn variance` found most of converged `bayes`'s remaining variance inside the
 //! clusters on strings (66 %) and rooms16 (43 %), and a fixed larger cut (`--k-max 64 --tau
 //! 0.005`) cut that term 3.2× on strings but cost 1.3–1.5× per sample everywhere
-//! (docs/results.md, "Where the variance is"). A cluster whose lights are partly hidden
-//! gives observations that are often 0 and sometimes large: a large squared coefficient of
-//! variation cv² = E[y²]/E[y]² − 1 of y = Î_C d² (Î_C / Ĩ_C by importance, the default
-//! since 2026-12-04: then the score below ranks by the spread share of that ratio, not by
-//! the slot's weight, and dim clusters may split before bright ones; measured that way:
-//! docs/results.md, sixth session). Splitting only those grows the cut where the choice
-//! inside the cluster costs variance.
+//! (docs/results.md, "Where the variance is"). Inside a cluster the light is drawn by the
+//! children's unoccluded importance, so a split pays only where the children's observations
+//! differ (one hidden, one lit; one near, one far), not where each child's observations
+//! spread alike. The kernel counts each observation by the side it came through
+//! (render.comp `side_counts`), and [`split_gain`] prices the split from those sums.
+//!
+//! Until 2026-12-05 the choice was the slot's own cv² = E[y²]/E[y]² − 1 > 1, which cannot
+//! tell the two apart: `--refine-cuts 8` then cost rooms16 7 % at equal time (1.10× less
+//! variance for 1.19× the time a sample). With the side sums and a split only where its gain
+//! beats [`SLOT_COST`] (direct light, 128×96, 256 spp, eight seeds, variance × time against
+//! off; docs/results.md, tenth session): rooms16 1.01×, strings 1.92× (trimmed of each run's
+//! ten worst pixels 1.11× the variance), rooms36 1.05×; where little splits, the counting
+//! and the read-backs cost 1–8 % a sample (cornell40 1.04× the time, best of 5), so it is
+//! off by default.
 //!
 //! Unbiased: the cut changes only at a fold boundary, between passes, and the new cut tiles
-//! the same lights. Deterministic: the decision reads the totals, which are exact sums.
-//! The children inherit the parent's statistics as a prior split by power share f (counts
-//! halved, so the data soon outweigh it; mean × f, second moment × f²; f = 1 under
-//! `--regression importance`, where y is a share of Ĩ, which splits with the power): their
-//! weights start
-//! summing to about the parent's, where fresh priors would forget what the region learned
-//! about occlusion.
-//!
-//! Measured (`--refine-cuts 8`, direct light, 128×96, 256 spp; docs/results.md): by the
-//! `variance` command at fixed pixel-centre hits, variance × render time 2.63× lower on
-//! strings, equal on hall, 0.86× on rooms16 and 0.75× on city (longer cuts cost 20–27 % a
-//! sample there for little); in rendered films over eight seeds (2026-12-04) strings had
-//! 1.09× the variance of off. It is off by default.
+//! the same lights. Deterministic: the decision reads integer sums. The children inherit
+//! the parent's statistics as a prior split by power share f (counts halved, so the data
+//! soon outweigh it; mean × f, second moment × f²; f = 1 under `--regression importance`,
+//! where y is a share of Ĩ, which splits with the power): their weights start summing to
+//! about the parent's, where fresh priors would forget what the region learned about
+//! occlusion.
 
 use crate::abi::SlotStats;
 use crate::learning::Regression;
 use crate::lights::regions::Cuts;
 use crate::lights::tree::LightTree;
 
-/// Observations a cluster needs before its spread counts.
-pub const MIN_OBSERVATIONS: f32 = 64.0;
-/// Split only clusters whose cv² exceeds this.
-pub const MIN_CV2: f64 = 1.0;
+/// Observations a cluster needs (counted by side) before its children's rates count.
+pub const MIN_OBSERVATIONS: u32 = 64;
+/// What one more slot costs a sample, as a share of the sample's time when the cut holds
+/// one slot: a sample's time in the light choice is about linear in the cut's length and
+/// `lightlearn profile` put the choice at 41–60 % of a `bayes` pass (the default scene at
+/// depth 8 41 %, city at depth 8 48 %, cornell40 direct 60 %; docs/results.md), so one slot
+/// more in a cut of `count` costs about `SLOT_COST / count` of a sample.
+pub const SLOT_COST: f64 = 0.5;
+
+/// One slot's observations by side, from render.comp `side_counts`: for the left and the
+/// right child, how many and Σ (y / scale)².
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sides {
+    pub n: [f64; 2],
+    pub sq: [f64; 2],
+}
+
+impl Sides {
+    /// From the kernel's six words (`sq` in the 2^24 fixed point of the window sums).
+    pub fn from_words(w: [u32; 6]) -> Sides {
+        let sq = |lo: u32, hi: u32| (lo as f64 + hi as f64 * 4294967296.0) / 16777216.0;
+        Sides {
+            n: [w[0] as f64, w[1] as f64],
+            sq: [sq(w[2], w[3]), sq(w[4], w[5])],
+        }
+    }
+}
+
+/// How much a split of one cluster would cut the second moment of its region's estimate,
+/// as a share of it, from its observations by side and `share`, the slot's part of its
+/// cut's observations (how often the region draws it). Inside the cluster the light is
+/// drawn ∝ Ĩ, so the sides' shares πc of the draws are the children's parts of Ĩ (averaged
+/// over the region), and y = Î / Ĩ has the second moment mc on side c: the cluster's
+/// estimate has the second moment ∝ Σ πc mc now and (Σ πc √mc)² with its children drawn
+/// apart (each ∝ Ĩc √mc, as `bayes` draws clusters), a factor g = Σ πc mc / (Σ πc √mc)² ≥ 1,
+/// 1 where both children give alike: the slot's own totals (its cv²) cannot tell that from
+/// a spread inside each child, which a split leaves where it is. The region's √(second
+/// moment) is about the sum of its slots' weights, of which this one's share is how often
+/// it is drawn, so the split shrinks it by share · (1 − 1/√g).
+pub fn split_gain(s: &Sides, share: f64) -> Option<f64> {
+    let n = s.n[0] + s.n[1];
+    if n < MIN_OBSERVATIONS as f64 || s.sq[0] + s.sq[1] <= 0.0 {
+        return None;
+    }
+    // Each side's mean of y² drawn towards the two sides' together by PSEUDO observations,
+    // so a side with few draws is not taken as certainly dark or bright.
+    let pooled = (s.sq[0] + s.sq[1]) / n;
+    let m = |c: usize| (s.sq[c] + PSEUDO * pooled) / (s.n[c] + PSEUDO);
+    let (a0, a1) = (s.n[0] / n, s.n[1] / n);
+    let root = a0 * m(0).sqrt() + a1 * m(1).sqrt();
+    let g = (a0 * m(0) + a1 * m(1)) / (root * root);
+    let shrink = share.clamp(0.0, 1.0) * (1.0 - 1.0 / g.sqrt());
+    Some(1.0 - (1.0 - shrink) * (1.0 - shrink))
+}
+
+/// Pseudo-observations of the pooled second moment in each side's ([`split_gain`]).
+const PSEUDO: f64 = 2.0;
 
 /// The new cut of the region at offset `o` and each new slot's statistics, or None when no
-/// cluster qualifies or the cut is full. At most `splits` clusters split, the largest
-/// sqrt(E[y²]) · cv²/(1 + cv²) (the slot's weight times the share of its second moment
-/// that is spread) first. `regression`: the units of y (by importance a child inherits the
+/// cluster qualifies or the cut is full. A cluster splits when [`split_gain`] exceeds what
+/// one more slot costs ([`SLOT_COST`] / the cut's length); at most `splits` of them, the
+/// largest gain first. `sides`: every slot's observations by side (render.comp
+/// `side_counts`). `regression`: the units of y (by importance a child inherits the
 /// parent's y as it is).
+#[allow(clippy::too_many_arguments)]
 pub fn refined_cut(
     tree: &LightTree,
     cuts: &Cuts,
     stats: &[SlotStats],
+    sides: &[[u32; 6]],
     o: usize,
     splits: usize,
     k_max: usize,
@@ -57,28 +114,33 @@ pub fn refined_cut(
     if room == 0 {
         return None;
     }
+    let side = |k: usize| Sides::from_words(sides.get(o + 1 + k).copied().unwrap_or_default());
+    // Observations through a single light are not counted by side: the cut's draws are the
+    // totals (own observations; inherited ones are the parent's, drawn as often).
+    let drawn = |k: usize| {
+        let s = &stats[o + 1 + k];
+        (s.n_zero + s.n_nonzero) as f64
+    };
+    let all: f64 = (0..count).map(drawn).sum();
+    if all <= 0.0 {
+        return None;
+    }
+    let cost = SLOT_COST / count as f64;
     let mut scored: Vec<(f64, usize)> = cut
         .iter()
         .enumerate()
         .filter_map(|(k, &node)| {
-            let s = &stats[o + 1 + k];
-            let n = s.n_zero + s.n_nonzero;
-            if tree.nodes[node as usize].count < 2
-                || n < MIN_OBSERVATIONS
-                || s.sum <= 0.0
-                || s.sum.is_nan()
-            {
+            if tree.nodes[node as usize].count < 2 {
                 return None;
             }
-            let (n, sum, sq) = (n as f64, s.sum as f64, s.sum_sq as f64);
-            let cv2 = n * sq / (sum * sum) - 1.0;
-            (cv2 > MIN_CV2).then(|| ((sq / n).sqrt() * cv2 / (1.0 + cv2), k))
+            let gain = split_gain(&side(k), drawn(k) / all)?;
+            (gain > cost).then_some((gain, k))
         })
         .collect();
     if scored.is_empty() {
         return None;
     }
-    // Largest score first; ties by slot, so the choice is the same on every run.
+    // Largest gain first; ties by slot, so the choice is the same on every run.
     scored.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
     let split: Vec<usize> = scored.iter().take(room).map(|&(_, k)| k).collect();
     let mut new_cut = Vec::with_capacity(count + split.len());
@@ -103,6 +165,10 @@ pub fn refined_cut(
             } else {
                 0.5
             };
+            // Both children inherit the parent's statistics with half its counts, not the
+            // part that came their way by the side counts: a child that its side's few
+            // draws priced low was then drawn too rarely to learn otherwise, and strings
+            // met fireflies (5.5x the variance, trimmed even; docs/results.md, tenth session).
             new_cut.push(child);
             new_stats.push(SlotStats {
                 n_zero: 0.5 * s.n_zero,
@@ -115,4 +181,45 @@ pub fn refined_cut(
         }
     }
     Some((new_cut, new_stats))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sides(n: [f64; 2], mean_sq: [f64; 2]) -> Sides {
+        Sides {
+            n,
+            sq: [n[0] * mean_sq[0], n[1] * mean_sq[1]],
+        }
+    }
+
+    /// Children that give alike gain nothing from a split, however the spread inside each;
+    /// one dark child gains most where the slot is drawn often; too few draws count nothing.
+    #[test]
+    fn split_gain_is_the_second_moment_a_split_saves() {
+        let even = split_gain(&sides([500.0, 500.0], [3.0, 3.0]), 1.0).unwrap();
+        assert!(even.abs() < 1e-12, "alike children gain {even}");
+        // Half the draws into a child that gives nothing: g = 2, so the whole region's
+        // √(second moment) shrinks by 1 − 1/√2 and its second moment to one half.
+        let dark = split_gain(&sides([5000.0, 5000.0], [0.0, 1.0]), 1.0).unwrap();
+        // (0.486: the pseudo-observations lend the dark side a little light)
+        assert!((dark - 0.5).abs() < 0.02, "one dark child: {dark}");
+        let rare = split_gain(&sides([5000.0, 5000.0], [0.0, 1.0]), 0.1).unwrap();
+        assert!(
+            rare > 0.0 && rare < 0.2 * dark,
+            "a slot drawn a tenth as often: {rare}"
+        );
+        let skewed = split_gain(&sides([5000.0, 5000.0], [0.2, 1.0]), 1.0).unwrap();
+        assert!(skewed > 0.0 && skewed < dark, "a dim child: {skewed}");
+        assert_eq!(split_gain(&sides([30.0, 30.0], [0.0, 1.0]), 1.0), None);
+    }
+
+    /// The kernel's words: counts, then each side's Σ q² in 2^24 fixed point (low, high).
+    #[test]
+    fn sides_read_the_kernels_fixed_point() {
+        let s = Sides::from_words([3, 4, 1 << 24, 0, 0, 2]);
+        assert_eq!(s.n, [3.0, 4.0]);
+        assert_eq!(s.sq, [1.0, 512.0]);
+    }
 }

@@ -445,6 +445,20 @@ impl<'a> Session<'a> {
         self.learned.prior.read_first(self.learned.slots as usize)
     }
 
+    /// Each slot's observations by the side of its node they came through (`--refine-cuts`,
+    /// render.comp `side_counts`; all 0 without it). For tests and diagnostics; empty for
+    /// the samplers that do not learn.
+    pub fn side_sums(&self) -> Result<Vec<super::refine::Sides>> {
+        if !self.is_learning() {
+            return Ok(Vec::new());
+        }
+        let words: Vec<[u32; 6]> = self.learned.sides.read_first(self.learned.slots as usize)?;
+        Ok(words
+            .into_iter()
+            .map(super::refine::Sides::from_words)
+            .collect())
+    }
+
     /// The open learning window as the GPU holds it: every slot's window sums, and the list
     /// of the slots it touched that the next fold visits (render.comp `mark_touched`:
     /// the fold's workgroup count, 1, 1, the count, then the slots and NO_SLOT after them).
