@@ -87,6 +87,10 @@ pub struct AliasEntry {
 
 /// `LightNode::flags`: some light below emits from both faces.
 pub const LIGHT_NODE_TWO_SIDED: u32 = 1;
+/// `LightNode::flags`: some light below is an area (triangle) light, whose irradiance is
+/// bounded: the importance keeps pbrt-v4's distance clamp there (src/lights/tree.rs
+/// `d2_floor`).
+pub const LIGHT_NODE_AREA: u32 = 2;
 
 /// A light-tree node (src/lights/tree.rs), depth-first: the left child is the next node.
 #[repr(C)]

@@ -4,7 +4,7 @@
 mod common;
 
 use glam::Vec3;
-use lightlearn::gpu::layout::{LightNode, LightQuery, LIGHT_NODE_TWO_SIDED};
+use lightlearn::gpu::layout::{LightNode, LightQuery, LIGHT_NODE_AREA, LIGHT_NODE_TWO_SIDED};
 use lightlearn::gpu::{kernels, Buffer, ComputePipeline};
 use lightlearn::lights::tree::{gpu_node, importance};
 use lightlearn::rng::SplitMix64;
@@ -36,7 +36,9 @@ fn glsl_and_rust_importance_agree_on_random_inputs() {
             right: 0,
             begin: 0,
             count: 2,
-            flags: if i % 5 == 0 { LIGHT_NODE_TWO_SIDED } else { 0 },
+            // Both distance clamps (tree.rs d2_floor): point lights alone, an area light inside.
+            flags: (if i % 5 == 0 { LIGHT_NODE_TWO_SIDED } else { 0 })
+                | (if i % 4 < 2 { LIGHT_NODE_AREA } else { 0 }),
         });
         // Points near, far and inside the box; every seventh without a receiver normal.
         let p = c + Vec3::new(r.range(-8.0, 8.0), r.range(-8.0, 8.0), r.range(-8.0, 8.0))
@@ -77,7 +79,7 @@ fn glsl_and_rust_importance_agree_on_random_inputs() {
             Vec3::from(nd.axis),
             nd.cos_o,
             nd.cos_e,
-            nd.flags & LIGHT_NODE_TWO_SIDED != 0,
+            nd.flags,
             Vec3::from(q.p),
             Vec3::from(q.n),
         );

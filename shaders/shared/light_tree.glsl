@@ -44,11 +44,17 @@ float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
     return cos_a > cos_b ? 0.0 : sin_a * cos_b - cos_a * sin_b;
 }
 
-// The squared distance of the importance and of the learned regression (pbrt-v4's clamp:
-// at least half the box diagonal, so points inside a big node do not blow up).
+// The least squared distance of the importance (src/lights/tree.rs d2_floor says why):
+// (radius / 2)² for a node of point lights alone, pbrt-v4's radius (half the box diagonal)
+// where an area light is inside; so points inside a node do not blow up.
+float d2_floor(GpuLightNode nd) {
+    return (nd.flags & LIGHT_NODE_AREA) != 0u ? nd.radius : 0.25 * nd.radius * nd.radius;
+}
+
+// The squared distance of the importance and of the learned regression.
 float node_d2(GpuLightNode nd, vec3 p) {
     vec3 to = p - nd.centre;
-    return max(dot(to, to), nd.radius);
+    return max(dot(to, to), d2_floor(nd));
 }
 
 // Unoccluded importance of a node at p for a receiver with normal n (see tree.rs
@@ -58,7 +64,7 @@ float node_d2(GpuLightNode nd, vec3 p) {
 float light_importance_d2(GpuLightNode nd, vec3 p, vec3 n, out float d2) {
     vec3 to = p - nd.centre;
     float dist2 = dot(to, to);
-    d2 = max(dist2, nd.radius);
+    d2 = max(dist2, d2_floor(nd));
     float inv_dist = dist2 > 0.0 ? 1.0 / sqrt(dist2) : 0.0;
     vec3 wi = to * inv_dist;
     float cos_w = dot(nd.axis, wi);

@@ -47,6 +47,7 @@ struct AliasEntry {
 };
 
 #define LIGHT_NODE_TWO_SIDED 1u
+#define LIGHT_NODE_AREA 2u
 
 // A light-tree node with its box as centre and bounding-sphere radius and its cone's sine
 // precomputed (GpuLightNode in src/abi.rs, made by tree.rs `gpu_node`).

@@ -12,7 +12,7 @@ use std::f32::consts::PI;
 
 use glam::Vec3;
 
-use crate::abi::{GpuLightNode, LightNode, LIGHT_NODE_TWO_SIDED};
+use crate::abi::{GpuLightNode, LightNode, LIGHT_NODE_AREA, LIGHT_NODE_TWO_SIDED};
 use crate::scene::{Light, Scene};
 
 /// What a light (or a set of lights) can emit, and where to.
@@ -29,6 +29,8 @@ pub struct LightBounds {
     /// cos θ_e: emission spreads at most θ_e beyond a normal.
     pub cos_e: f32,
     pub two_sided: bool,
+    /// Some light inside is a triangle (area) light (`LIGHT_NODE_AREA`).
+    pub area: bool,
 }
 
 impl LightBounds {
@@ -43,6 +45,7 @@ impl LightBounds {
                 cos_o: -1.0,
                 cos_e: 0.0,
                 two_sided: false,
+                area: false,
             },
             Light::Spot {
                 position,
@@ -60,6 +63,7 @@ impl LightBounds {
                 cos_e: (cos_outer.clamp(-1.0, 1.0).acos() - cos_inner.clamp(-1.0, 1.0).acos())
                     .cos(),
                 two_sided: false,
+                area: false,
             },
             Light::Triangle { triangle } => {
                 let [a, b, c] = scene.triangles[triangle as usize];
@@ -72,6 +76,7 @@ impl LightBounds {
                     cos_o: 1.0,
                     cos_e: 0.0, // a cosine lobe: up to 90° off the normal
                     two_sided: two,
+                    area: true,
                 }
             }
         }
@@ -94,12 +99,22 @@ impl LightBounds {
             cos_o,
             cos_e: self.cos_e.min(o.cos_e),
             two_sided: self.two_sided || o.two_sided,
+            area: self.area || o.area,
         }
     }
 
+    /// The node flags these bounds give (`LightNode::flags`).
+    pub fn flags(&self) -> u32 {
+        (if self.two_sided {
+            LIGHT_NODE_TWO_SIDED
+        } else {
+            0
+        }) | (if self.area { LIGHT_NODE_AREA } else { 0 })
+    }
+
     /// Ĩ(p, n): power × bound on the emitter's cosine towards p × bound on the receiver's
-    /// cosine / squared distance (clamped below by half the diagonal, pbrt-v4's choice).
-    /// Zero only when no light inside can send anything to the front of n at p.
+    /// cosine / squared distance (clamped below: [`d2_floor`]). Zero only when no light
+    /// inside can send anything to the front of n at p.
     pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
         importance(
             self.lo,
@@ -108,7 +123,7 @@ impl LightBounds {
             self.axis,
             self.cos_o,
             self.cos_e,
-            self.two_sided,
+            self.flags(),
             p,
             n,
         )
@@ -170,12 +185,30 @@ pub fn gpu_node(n: &LightNode) -> GpuLightNode {
     }
 }
 
-/// The squared distance from p to a box's centre, at least half the box diagonal (pbrt-v4's
-/// clamp): the importance's distance and the learned samplers' regression distance
-/// (`node_d2` in light_tree.glsl).
-pub fn clamped_d2(lo: Vec3, hi: Vec3, p: Vec3) -> f32 {
+/// The least squared distance the importance divides by, for a node whose bounding sphere
+/// has radius `radius` (half its box diagonal) and these `flags` (`d2_floor` in
+/// light_tree.glsl). pbrt-v4 clamps d² at the radius itself, a length against a squared
+/// distance, so the clamp depends on the scene's units: a 5 cm cluster of point lights is
+/// priced as if no point were nearer than 22 cm, and a surface a centimetre from a bulb of
+/// it got that cluster ~500× too rarely for what it gives: strings' fireflies. A point
+/// light's 1/d² is real, so nodes of point lights alone clamp at (radius / 2)², the same in
+/// any units; nodes holding an area light keep pbrt's clamp (their irradiance is bounded,
+/// and (radius / 2)² there overpriced the ceiling panel near cornell40's ceiling: 0.80× the
+/// variance). Measured (direct light, 256 spp, four seeds, `bayes`; docs/results.md, tenth
+/// session): strings 4.4× less variance, strings5k 18×, eight other scenes 0.99–1.00×.
+pub fn d2_floor(radius: f32, flags: u32) -> f32 {
+    if flags & LIGHT_NODE_AREA != 0 {
+        radius
+    } else {
+        0.25 * radius * radius
+    }
+}
+
+/// The squared distance from p to a box's centre, at least [`d2_floor`]: the importance's
+/// distance and the learned samplers' regression distance (`node_d2` in light_tree.glsl).
+pub fn clamped_d2(lo: Vec3, hi: Vec3, flags: u32, p: Vec3) -> f32 {
     let (centre, radius) = centre_radius(lo, hi);
-    (p - centre).length_squared().max(radius)
+    (p - centre).length_squared().max(d2_floor(radius, flags))
 }
 
 /// The importance function, argument by argument as in the GLSL.
@@ -187,7 +220,7 @@ pub fn importance(
     axis: Vec3,
     cos_o: f32,
     cos_e: f32,
-    two_sided: bool,
+    flags: u32,
     p: Vec3,
     n: Vec3,
 ) -> f32 {
@@ -200,7 +233,7 @@ pub fn importance(
         radius,
         sin_o: sin_of_cos(cos_o),
         cos_e,
-        flags: if two_sided { LIGHT_NODE_TWO_SIDED } else { 0 },
+        flags,
         ..Default::default()
     };
     node_importance(&g, p, n)
@@ -211,7 +244,7 @@ pub fn importance(
 pub fn node_importance(nd: &GpuLightNode, p: Vec3, n: Vec3) -> f32 {
     let to = p - Vec3::from(nd.centre);
     let dist2 = to.length_squared();
-    let d2 = dist2.max(nd.radius);
+    let d2 = dist2.max(d2_floor(nd.radius, nd.flags));
     let inv_dist = if dist2 > 0.0 { 1.0 / dist2.sqrt() } else { 0.0 };
     let wi = to * inv_dist;
     let mut cos_w = Vec3::from(nd.axis).dot(wi);
@@ -344,7 +377,7 @@ impl LightTree {
                 cos_o: b.cos_o,
                 axis: b.axis.to_array(),
                 cos_e: b.cos_e,
-                flags: if b.two_sided { LIGHT_NODE_TWO_SIDED } else { 0 },
+                flags: b.flags(),
                 ..n
             };
         }
@@ -375,6 +408,7 @@ impl LightTree {
             cos_o: n.cos_o,
             cos_e: n.cos_e,
             two_sided: n.flags & LIGHT_NODE_TWO_SIDED != 0,
+            area: n.flags & LIGHT_NODE_AREA != 0,
         }
     }
 
@@ -459,7 +493,7 @@ fn build_node(
         right: u32::MAX,
         begin: first,
         count: order.len() as u32,
-        flags: if b.two_sided { LIGHT_NODE_TWO_SIDED } else { 0 },
+        flags: b.flags(),
     });
     if order.len() == 1 {
         return me;
@@ -553,5 +587,32 @@ mod tests {
                 cos_o.acos()
             );
         }
+    }
+
+    /// A node of point lights 0.1 apart (radius 0.05) seen from its centre and from just
+    /// beside one of them: its importance is the same in any units (×1/s² when the scene
+    /// is s times larger), and at the centre it divides by (radius / 2)². pbrt-v4's clamp
+    /// (d² ≥ radius: 20 at the centre, not 1600) fails both. A node holding an area light
+    /// keeps pbrt's clamp.
+    #[test]
+    fn point_light_nodes_clamp_their_distance_in_any_units() {
+        let imp = |s: f32, p: Vec3, flags: u32| {
+            let h = Vec3::new(0.05, 0.0, 0.0) * s;
+            importance(-h, h, 1.0, Vec3::Z, -1.0, 0.0, flags, p * s, Vec3::ZERO)
+        };
+        let centre = imp(1.0, Vec3::ZERO, 0);
+        assert!((centre - 1600.0).abs() < 1e-2, "at the centre: {centre}");
+        let beside = Vec3::new(0.04, 0.0, 0.005);
+        for s in [1e-3, 1e3] {
+            for p in [Vec3::ZERO, beside] {
+                let (a, b) = (imp(1.0, p, 0), imp(s, p, 0) * s * s);
+                assert!((a - b).abs() < 1e-4 * a, "at {p} in units ×{s}: {a} vs {b}");
+            }
+        }
+        let area = imp(1.0, Vec3::ZERO, LIGHT_NODE_AREA);
+        assert!(
+            (area - 20.0).abs() < 1e-4,
+            "an area node at the centre: {area}"
+        );
     }
 }
