@@ -15,10 +15,10 @@
 //! tell the two apart: `--refine-cuts 8` then cost rooms16 7 % at equal time (1.10× less
 //! variance for 1.19× the time a sample). With the side sums and a split only where its gain
 //! beats [`SLOT_COST`] (direct light, 128×96, 256 spp, eight seeds, variance × time against
-//! off; docs/results.md, tenth session): rooms16 1.01×, strings 1.92× (trimmed of each run's
-//! ten worst pixels 1.11× the variance), rooms36 1.05×; where little splits, the counting
-//! and the read-backs cost 1–8 % a sample (cornell40 1.04× the time, best of 5), so it is
-//! off by default.
+//! off; docs/results.md, tenth session): rooms16 1.01×, rooms36 1.05× (strings 1.92× until
+//! the importance's distance clamp took its fireflies away, 0.97× since); where little
+//! splits, the counting and the read-backs cost 1–7 % a sample (cornell40 1.03× the time,
+//! best of 5), so it is off by default.
 //!
 //! Unbiased: the cut changes only at a fold boundary, between passes, and the new cut tiles
 //! the same lights. Deterministic: the decision reads integer sums. The children inherit
