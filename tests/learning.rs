@@ -1197,21 +1197,12 @@ fn refined_cuts_stay_unbiased_and_deterministic() {
     assert!(bytes == again, "--refine-cuts is not deterministic");
 }
 
-/// After a render with `--refine-cuts`, every region's cut still tiles the lights exactly
-/// once, in order (what the kernel's binary search by range start needs), within the
-/// kernel's 64 slots, and some cuts grew past the 32 they were built with. Pushing a split
-/// cluster's children right before left (a mutation tried by hand) fails here; the image
-/// test above saw it only as +0.6 % (z = 2.8).
-#[test]
-fn refined_cuts_tile_the_lights_in_order() {
-    let s = scene("rooms16.glb");
-    let ctx = common::ctx();
-    let bvh = Bvh::build(&s.triangles);
-    let gpu = GpuScene::upload(&ctx, &s, &bvh).unwrap();
-    let settings = RenderSettings {
+/// `bayes --refine-cuts 8`, direct light, 48×36, `spp` passes, seed 1.
+fn refining(spp: u32) -> RenderSettings {
+    RenderSettings {
         width: 48,
         height: 36,
-        budget: Budget::Samples(256),
+        budget: Budget::Samples(spp),
         seed: 1,
         sampler: LightSampler::Bayes,
         regions: RegionSettings::default(),
@@ -1224,7 +1215,21 @@ fn refined_cuts_tile_the_lights_in_order() {
         max_depth: 1,
         light_point: Default::default(),
         indirect_light_samples: 1,
-    };
+    }
+}
+
+/// After a render with `--refine-cuts`, every region's cut still tiles the lights exactly
+/// once, in order (what the kernel's binary search by range start needs), within the
+/// kernel's 64 slots, and some cuts grew past the 32 they were built with. Pushing a split
+/// cluster's children right before left (a mutation tried by hand) fails here; the image
+/// test above saw it only as +0.6 % (z = 2.8).
+#[test]
+fn refined_cuts_tile_the_lights_in_order() {
+    let s = scene("rooms16.glb");
+    let ctx = common::ctx();
+    let bvh = Bvh::build(&s.triangles);
+    let gpu = GpuScene::upload(&ctx, &s, &bvh).unwrap();
+    let settings = refining(256);
     let mut session = render::Session::new(&ctx, &s, &gpu, &settings).unwrap();
     session.run_passes(256).unwrap();
     assert!(session.regions_refined() > 0);
@@ -1280,23 +1285,7 @@ fn side_counts_add_up_to_each_slots_observations() {
     let ctx = common::ctx();
     let bvh = Bvh::build(&s.triangles);
     let gpu = GpuScene::upload(&ctx, &s, &bvh).unwrap();
-    let settings = RenderSettings {
-        width: 48,
-        height: 36,
-        budget: Budget::Samples(8),
-        seed: 1,
-        sampler: LightSampler::Bayes,
-        regions: RegionSettings::default(),
-        learn: LearnSettings {
-            refine_cuts: 8,
-            ..LearnSettings::default()
-        },
-        resume: None,
-        stratify: lightlearn::render::Stratify::Sobol,
-        max_depth: 1,
-        light_point: Default::default(),
-        indirect_light_samples: 1,
-    };
+    let settings = refining(8);
     let mut session = render::Session::new(&ctx, &s, &gpu, &settings).unwrap();
     let mut checked = None;
     for _ in 0..8 {
