@@ -194,8 +194,9 @@ pub fn gpu_node(n: &LightNode) -> GpuLightNode {
 /// light's 1/d² is real, so nodes of point lights alone clamp at (radius / 2)², the same in
 /// any units; nodes holding an area light keep pbrt's clamp (their irradiance is bounded,
 /// and (radius / 2)² there overpriced the ceiling panel near cornell40's ceiling: 0.80× the
-/// variance). Measured (direct light, 256 spp, four seeds, `bayes`; docs/results.md, tenth
-/// session): strings 4.4× less variance, strings5k 18×, eight other scenes 0.99–1.00×.
+/// variance). Measured (`bayes`, direct light, 256 spp, eight seeds; docs/results.md, tenth
+/// session): strings 12.5× less variance, strings5k 79×, city10k 0.98×, cornell40 0.96×, the
+/// other six 1.00×; `wang` on strings 25× less.
 pub fn d2_floor(radius: f32, flags: u32) -> f32 {
     if flags & LIGHT_NODE_AREA != 0 {
         radius

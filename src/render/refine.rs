@@ -33,7 +33,7 @@ use crate::learning::Regression;
 use crate::lights::regions::Cuts;
 use crate::lights::tree::LightTree;
 
-/// Observations a cluster needs (counted by side) before its children's rates count.
+/// Observations a cluster needs (counted by side) before its children's sums count.
 pub const MIN_OBSERVATIONS: u32 = 64;
 /// What one more slot costs a sample, as a share of the sample's time when the cut holds
 /// one slot: a sample's time in the light choice is about linear in the cut's length and
@@ -43,7 +43,9 @@ pub const MIN_OBSERVATIONS: u32 = 64;
 pub const SLOT_COST: f64 = 0.5;
 
 /// One slot's observations by side, from render.comp `side_counts`: for the left and the
-/// right child, how many and Σ (y / scale)².
+/// right child, how many and Σ (y / scale)², each y in the slot's scale when it was observed
+/// (the folds move the scale towards y's root mean square; both sides alike, so their
+/// ratio, which is all [`split_gain`] reads, keeps its meaning).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Sides {
     pub n: [f64; 2],
@@ -168,7 +170,8 @@ pub fn refined_cut(
             // Both children inherit the parent's statistics with half its counts, not the
             // part that came their way by the side counts: a child that its side's few
             // draws priced low was then drawn too rarely to learn otherwise, and strings
-            // met fireflies (5.5x the variance, trimmed even; docs/results.md, tenth session).
+            // met fireflies (5.5x the variance, trimmed even, before the importance's clamp for
+            // point lights; docs/results.md, tenth session).
             new_cut.push(child);
             new_stats.push(SlotStats {
                 n_zero: 0.5 * s.n_zero,
