@@ -1197,6 +1197,14 @@ fn refined_cuts_stay_unbiased_and_deterministic() {
     assert!(bytes == again, "--refine-cuts is not deterministic");
 }
 
+/// rooms16 loaded and uploaded, for a session of its own.
+fn rooms16_on_gpu() -> (std::sync::Arc<lightlearn::gpu::Context>, Scene, GpuScene) {
+    let s = scene("rooms16.glb");
+    let ctx = common::ctx();
+    let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
+    (ctx, s, gpu)
+}
+
 /// `bayes --refine-cuts 8`, direct light, 48×36, `spp` passes, seed 1.
 fn refining(spp: u32) -> RenderSettings {
     RenderSettings {
@@ -1225,10 +1233,7 @@ fn refining(spp: u32) -> RenderSettings {
 /// test above saw it only as +0.6 % (z = 2.8).
 #[test]
 fn refined_cuts_tile_the_lights_in_order() {
-    let s = scene("rooms16.glb");
-    let ctx = common::ctx();
-    let bvh = Bvh::build(&s.triangles);
-    let gpu = GpuScene::upload(&ctx, &s, &bvh).unwrap();
+    let (ctx, s, gpu) = rooms16_on_gpu();
     let settings = refining(256);
     let mut session = render::Session::new(&ctx, &s, &gpu, &settings).unwrap();
     session.run_passes(256).unwrap();
@@ -1281,10 +1286,7 @@ fn refined_cuts_tile_the_lights_in_order() {
 /// another slot's counters (mutations tried by hand), fails here.
 #[test]
 fn side_counts_add_up_to_each_slots_observations() {
-    let s = scene("rooms16.glb");
-    let ctx = common::ctx();
-    let bvh = Bvh::build(&s.triangles);
-    let gpu = GpuScene::upload(&ctx, &s, &bvh).unwrap();
+    let (ctx, s, gpu) = rooms16_on_gpu();
     let settings = refining(8);
     let mut session = render::Session::new(&ctx, &s, &gpu, &settings).unwrap();
     let mut checked = None;

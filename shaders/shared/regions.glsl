@@ -45,7 +45,8 @@ float sel_total = 0.0;
 // Which child of the chosen slot's node the last pick_in_cut descended into first: 0 the
 // left, 1 the right, 2 none (the slot is one light). --refine-cuts counts each slot's
 // observations by this side (render.comp `side_counts`), so a split is made where the two
-// children differ (src/render/refine.rs).
+// children differ (src/render/refine.rs). Set only under --refine-cuts (LEARN_FLAGS, which
+// every kernel that includes this file declares): nothing else reads it.
 uint sel_side = 2u;
 
 // Picks slot k of the cut at offset o ∝ cut_w (total > 0: their sum), then a light inside the
@@ -88,7 +89,7 @@ uint pick_in_cut(uint o, uint count, float total, float u, vec3 p, vec3 n, out f
         } else {
             pl = light_node(l).phi / (light_node(l).phi + light_node(r).phi);
         }
-        if (sel_side == 2u) sel_side = v < pl ? 0u : 1u;
+        if ((LEARN_FLAGS & LEARN_REFINE) != 0u && sel_side == 2u) sel_side = v < pl ? 0u : 1u;
         if (v < pl) {
             v = min(v / pl, ONE_MINUS_EPSILON);
             pmf *= pl;

@@ -363,8 +363,16 @@ impl LearnedState {
             return Ok(0);
         }
         let t0 = Instant::now();
-        let stats: Vec<SlotStats> = self.read_stats()?;
-        let sides: Vec<[u32; 6]> = self.sides.read_first(self.slots as usize)?;
+        // The totals and the side sums in one submission (src/gpu/transfer.rs says why).
+        let n = self.slots as u64;
+        let got = read_many(
+            ctx,
+            &[
+                (&self.stats, n * std::mem::size_of::<SlotStats>() as u64),
+                (&self.sides, n * SIDE_BYTES),
+            ],
+        )?;
+        let (stats, sides): (Vec<SlotStats>, Vec<[u32; 6]>) = (pod_vec(&got[0]), pod_vec(&got[1]));
         // --k-max caps the cut as built; refinement may grow it to what the kernel holds.
         let k_max = crate::lights::regions::MAX_K as usize;
         let mut plans = Vec::new();
