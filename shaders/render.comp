@@ -17,7 +17,7 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
-// Descriptor sets by lifetime (src/render/session.rs binds each when it changes): set 0 the
+// Descriptor sets by lifetime (src/render/session/mod.rs binds each when it changes): set 0 the
 // scene (uploaded once), set 1 the learned state (rebound when cuts are added), set 2 the
 // film (rebound on resize).
 

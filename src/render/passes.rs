@@ -1,7 +1,7 @@
 //! The render session's two kernels and their bindings: `render.comp` (one progressive pass)
 //! and `fold.comp` (a learning window into the posteriors), bound by descriptor set to the
 //! session's three lifetimes, and the command sequence of passes with their folds. The
-//! session (session.rs) decides what runs when; this module records it.
+//! session (session/mod.rs) decides what runs when; this module records it.
 
 use std::sync::Arc;
 use std::time::Instant;
