@@ -14,7 +14,10 @@ the pixels that vary: not the sky) is given too, as wang's divided by the sample
   python3 ci/bench_outside.py 8 64 4 bench-outside      # path traced
 
 ONLY=REGEX keeps the scenes whose name matches; SAMPLERS=wang,donikian,bayes by default;
-REUSE=1 reads renders already in OUT instead of rendering them again.
+REUSE=1 reads renders already in OUT instead of rendering them again; WIDTH and HEIGHT set
+the film (128×96 by default: a larger film gives each region more observations a pass, and
+the learned samplers gain more in the same passes, docs/results.md, eleventh session);
+COMMITTED=1 adds the committed scenes with learning to do (rooms16, city, hall, strings).
 Heavy-tailed scenes (strings: tiny bulbs next to surfaces) need more seeds for a stable
 variance. Reads the EXRs with Mitsuba 3's Bitmap (ci/setup.sh installs mitsuba); needs a
 release build (cargo build --release).
@@ -41,6 +44,8 @@ SCENES = [
     ("strings5k", ["strings", "--lights", "5000", "--seed", "2"]),
     ("cornell40", ["cornell", "--lights", "40", "--seed", "2"]),
 ]
+# The committed scenes with learning to do (COMMITTED=1), rendered from scenes/.
+COMMITTED = ["rooms16", "city", "hall", "strings"]
 
 
 def main():
@@ -54,24 +59,27 @@ def main():
         sys.exit("SEEDS must be at least 2 (the variance is taken across seeds)")
     os.makedirs(out, exist_ok=True)
     reuse = os.environ.get("REUSE") == "1"
+    width, height = os.environ.get("WIDTH", "128"), os.environ.get("HEIGHT", "96")
+    size = "" if (width, height) == ("128", "96") else f"-{width}x{height}"
+    scenes = [(n, None) for n in COMMITTED] if os.environ.get("COMMITTED") == "1" else []
     print(f"| scene | sampler | variance | seconds | equal spp / wang | equal time / wang "
           f"| equal time / donikian | median pixel / wang |\n|---|---|---|---|---|---|---|---|",
           flush=True)
-    for name, args in SCENES:
+    for name, args in scenes + SCENES:
         if only and not re.search(only, name):
             continue
-        scene = os.path.join(out, name + ".glb")
-        if not os.path.exists(scene):
+        scene = os.path.join(ROOT, "scenes", name + ".glb") if args is None else os.path.join(out, name + ".glb")
+        if args is not None and not os.path.exists(scene):
             subprocess.run([EXE, "scene", *args, "--out", scene], check=True,
                            stdout=subprocess.DEVNULL)
         rows = {}
         for sampler in samplers:
             imgs, secs = [], []
             for seed in range(1, seeds + 1):
-                f = os.path.join(out, f"{name}-{sampler}-d{depth}-{spp}-{seed}.exr")
+                f = os.path.join(out, f"{name}-{sampler}-d{depth}-{spp}{size}-{seed}.exr")
                 if not (reuse and os.path.exists(f) and os.path.exists(f[:-4] + ".json")):
                     subprocess.run([EXE, "render", scene, "--sampler", sampler, "--seed",
-                                    str(seed), "--spp", spp, "--width", "128", "--height", "96",
+                                    str(seed), "--spp", spp, "--width", width, "--height", height,
                                     "--max-depth", depth, "-q", "--force", "--out", f],
                                    check=True)
                 imgs.append(np.array(mi.Bitmap(f), dtype=np.float64)[:, :, :3])
