@@ -14,7 +14,7 @@ use crate::scene::Camera;
 
 impl Session<'_> {
     /// What reducing the statistics on the host between frames would cost now
-    /// ([`LearnedState::measure_host_reduction`]).
+    /// ([`crate::render::learned_state::LearnedState::measure_host_reduction`]).
     pub fn measure_host_reduction(&self) -> Result<HostReduction> {
         self.learned.measure_host_reduction(&self.settings.learn)
     }
