@@ -37,7 +37,7 @@ layout(constant_id = 2) const uint KNOCK_OUT = 0u;
                           // camera rays alone (everything after them left out)
 // The learned samplers' switches (LearnParams.flags), fixed for the pipeline (learning.glsl).
 layout(constant_id = 3) const uint LEARN_FLAGS = 0u;
-// What the scene's materials need (src/render/mod.rs kernel_flags): 1 a glossy material, 2 a
+// What the scene's materials need (src/render/gpu_scene.rs kernel_flags): 1 a glossy material, 2 a
 // textured one. Code no material needs is compiled out: on lavapipe a branch costs its body
 // even where no lane takes it (`lightlearn profile`).
 layout(constant_id = 4) const uint SCENE_FLAGS = 3u;

@@ -1,0 +1,191 @@
+//! The scene in GPU buffers (geometry BVH, materials, lights and their tree, textures),
+//! uploaded once and shared by every pass of every session on it.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::Result;
+
+use crate::accel::Bvh;
+use crate::gpu::layout::{GpuMaterial, GpuTexture, MATERIAL_TWO_SIDED};
+use crate::gpu::{Buffer, Context};
+use crate::learning::stats_file;
+use crate::lights;
+use crate::scene::Scene;
+
+/// The scene in GPU buffers, shared by every pass.
+pub struct GpuScene {
+    pub nodes: Buffer,
+    pub tris: Buffer,
+    pub(super) tri_material: Buffer,
+    pub(super) materials: Buffer,
+    pub(super) lights: Buffer,
+    pub(super) alias: Buffer,
+    pub(super) light_nodes: Buffer,
+    pub(super) light_order: Buffer,
+    pub(super) light_position: Buffer,
+    pub(super) tri_light: Buffer,
+    pub(super) textures: Buffer,
+    pub(super) texels: Buffer,
+    pub(super) tri_uv: Buffer,
+    /// Kept for building cuts: the tree, and the BVH to find which regions the camera sees.
+    pub tree: lights::tree::LightTree,
+    pub bvh: Bvh,
+    pub light_count: u32,
+    pub ray_eps: f32,
+    /// What the kernels' results are multiplied by to give radiance: 1 / the factor their
+    /// emission was scaled by ([`lights::emission_scale`]).
+    pub radiance_scale: f32,
+    /// Seconds spent building the light tree (reported in the JSON).
+    pub light_tree_seconds: f64,
+    /// What statistics learned on this scene are recorded against
+    /// ([`stats_file::scene_fingerprint`]; an animation frame's:
+    /// [`stats_file::topology_fingerprint`]).
+    pub fingerprint: String,
+    /// The kernel code the materials need (`render.comp` SCENE_FLAGS: [`SCENE_GLOSSY`],
+    /// [`SCENE_TEXTURED`]).
+    pub kernel_flags: u32,
+}
+
+/// Offset for secondary-ray origins: 1e-4 of the scene's size (1.7 mm in the default 12 m
+/// scene), far above fp32 rounding of hit points yet below any wall thickness we build.
+pub fn ray_epsilon(scene: &Scene) -> f32 {
+    let (lo, hi) = scene.bounds();
+    let size = (hi - lo).length().max(lo.abs().max(hi.abs()).max_element());
+    1e-4 * size.max(1e-3)
+}
+
+impl GpuScene {
+    /// Uploads a scene with a light tree built for it.
+    pub fn upload(ctx: &Arc<Context>, scene: &Scene, bvh: &Bvh) -> Result<GpuScene> {
+        Self::upload_with(ctx, scene, bvh, None)
+    }
+
+    /// Uploads a frame of an animation: `tree`'s topology refitted to the lights as they
+    /// are now ([`lights::tree::LightTree::refit`]), recorded by topology, so statistics
+    /// learned on earlier frames of the same tree carry over.
+    pub fn upload_refit(
+        ctx: &Arc<Context>,
+        scene: &Scene,
+        bvh: &Bvh,
+        tree: &lights::tree::LightTree,
+    ) -> Result<GpuScene> {
+        Self::upload_with(ctx, scene, bvh, Some(tree))
+    }
+
+    fn upload_with(
+        ctx: &Arc<Context>,
+        scene: &Scene,
+        bvh: &Bvh,
+        topology: Option<&lights::tree::LightTree>,
+    ) -> Result<GpuScene> {
+        let weights = lights::power_weights(scene);
+        let emission_scale = lights::emission_scale(&weights);
+        let materials: Vec<GpuMaterial> = scene
+            .materials
+            .iter()
+            .map(|m| GpuMaterial {
+                base_color: m.base_color.to_array(),
+                flags: if m.double_sided {
+                    MATERIAL_TWO_SIDED
+                } else {
+                    0
+                },
+                emission: (m.emission * emission_scale).to_array(),
+                texture: m.base_color_texture.unwrap_or(u32::MAX),
+                specular_color: m.specular_color.to_array(),
+                specular: m.specular,
+                metallic: m.metallic,
+                roughness: m.roughness,
+                pad: [0.0; 2],
+            })
+            .collect();
+        // Texture table and texels; one dummy entry each when there are none (a buffer is
+        // never empty).
+        let mut table = Vec::new();
+        let mut texels: Vec<u32> = Vec::new();
+        for t in &scene.textures {
+            table.push(GpuTexture {
+                offset: texels.len() as u32,
+                width: t.width,
+                height: t.height,
+                wrap: t.wrap[0] as u32 | (t.wrap[1] as u32) << 8,
+            });
+            texels.extend(t.texels.iter().map(|&c| u32::from_le_bytes(c)));
+        }
+        if table.is_empty() {
+            table.push(GpuTexture::default());
+            texels.push(0);
+        }
+        let uvs: Vec<[f32; 6]> = if scene.triangle_uv.is_empty() {
+            vec![[0.0; 6]]
+        } else {
+            scene
+                .triangle_uv
+                .iter()
+                .map(|t| [t[0][0], t[0][1], t[1][0], t[1][1], t[2][0], t[2][1]])
+                .collect()
+        };
+        let mut gpu_lights = lights::gpu_lights(scene);
+        for l in &mut gpu_lights {
+            l.radiance = l.radiance.map(|c| c * emission_scale);
+        }
+        let alias = lights::alias_table(&weights);
+        let t0 = Instant::now();
+        let mut tree = match topology {
+            Some(t) => t.refit(scene),
+            None => lights::tree::LightTree::build(scene),
+        };
+        // Exact (a power of two): the tree's shape and every ratio stay as built.
+        for n in &mut tree.nodes {
+            n.phi *= emission_scale;
+        }
+        // Of the tree as the kernels use it (scaled).
+        let fingerprint = match topology {
+            Some(_) => stats_file::topology_fingerprint(&tree),
+            None => stats_file::scene_fingerprint(&tree),
+        };
+        let light_tree_seconds = t0.elapsed().as_secs_f64();
+        let kernel_flags = kernel_flags(&materials);
+        Ok(GpuScene {
+            nodes: Buffer::texels(ctx, "bvh nodes", &bvh.nodes)?,
+            tris: Buffer::texels(ctx, "bvh triangles", &bvh.tris)?,
+            tri_material: Buffer::from_slice(ctx, "triangle materials", &scene.triangle_material)?,
+            materials: Buffer::texels(ctx, "materials", &materials)?,
+            lights: Buffer::texels(ctx, "lights", &gpu_lights)?,
+            alias: Buffer::from_slice(ctx, "light alias table", &alias)?,
+            light_nodes: Buffer::texels(ctx, "light tree", &tree.gpu_nodes())?,
+            light_order: Buffer::from_slice(ctx, "light tree order", &tree.order)?,
+            light_position: Buffer::from_slice(ctx, "light tree positions", &tree.position)?,
+            tri_light: Buffer::from_slice(ctx, "triangle lights", &lights::triangle_lights(scene))?,
+            textures: Buffer::from_slice(ctx, "texture table", &table)?,
+            texels: Buffer::from_slice(ctx, "texels", &texels)?,
+            tri_uv: Buffer::from_slice(ctx, "triangle texture coordinates", &uvs)?,
+            tree,
+            bvh: bvh.clone(),
+            light_count: gpu_lights.len() as u32,
+            ray_eps: ray_epsilon(scene),
+            radiance_scale: 1.0 / emission_scale,
+            light_tree_seconds,
+            fingerprint,
+            kernel_flags,
+        })
+    }
+}
+
+/// `render.comp` SCENE_FLAGS: a glossy material (GGX code compiled in).
+pub const SCENE_GLOSSY: u32 = 1;
+/// `render.comp` SCENE_FLAGS: a textured material (texture lookups compiled in).
+pub const SCENE_TEXTURED: u32 = 2;
+
+/// What the scene's materials need of `render.comp`, as its SCENE_FLAGS: a scene without
+/// glossy or textured materials gets a kernel without that code, with the same arithmetic
+/// (every material of such a scene takes the Lambertian / untextured branch anyway).
+fn kernel_flags(materials: &[GpuMaterial]) -> u32 {
+    // The kernel's test for a Lambertian material (bsdf.glsl make_bsdf), on the same values.
+    let glossy = materials
+        .iter()
+        .any(|m| !(m.metallic == 0.0 && m.specular == 0.0));
+    let textured = materials.iter().any(|m| m.texture != u32::MAX);
+    (glossy as u32 * SCENE_GLOSSY) | (textured as u32 * SCENE_TEXTURED)
+}
