@@ -318,6 +318,12 @@ pub fn prior_mean(importance: f32, d2: f32, brdf: f32, l: &LearnSettings) -> f32
 /// Window sums of the kernel's fixed point: 24 fraction bits of y / scale.
 pub const FIX_ONE: f64 = 16_777_216.0;
 
+/// The value of one of the kernel's 64-bit fixed-point sums (its low and high words), in
+/// units of the slot's scale (learning.glsl record_observation, render.comp record_side).
+pub fn fixed_sum(lo: u32, hi: u32) -> f64 {
+    ((hi as u64) << 32 | lo as u64) as f64 / FIX_ONE
+}
+
 /// The CPU mirror of `fold.comp` for a slot without borrowed observations ([`fold_with_prior`]).
 pub fn fold(s: &SlotStats, d: &SlotDelta, l: &LearnSettings) -> SlotStats {
     fold_with_prior(s, d, &[0.0; 4], l)
@@ -338,12 +344,11 @@ pub fn fold_with_prior(
         out.scale = 1.0;
     }
     if d.n_zero + d.n_nonzero > 0 {
-        let word = |lo: u32, hi: u32| ((hi as u64) << 32 | lo as u64) as f64;
         let scale = out.scale as f64;
         out.n_zero += d.n_zero as f32;
         out.n_nonzero += d.n_nonzero as f32;
-        out.sum = (s.sum as f64 + word(d.sum_lo, d.sum_hi) * scale / FIX_ONE) as f32;
-        out.sum_sq = (s.sum_sq as f64 + word(d.sq_lo, d.sq_hi) * scale * scale / FIX_ONE) as f32;
+        out.sum = (s.sum as f64 + fixed_sum(d.sum_lo, d.sum_hi) * scale) as f32;
+        out.sum_sq = (s.sum_sq as f64 + fixed_sum(d.sq_lo, d.sq_hi) * scale * scale) as f32;
         if out.sum_sq > 0.0 && out.n_nonzero > 0.0 {
             out.scale = (out.sum_sq / out.n_nonzero).sqrt();
         }

@@ -29,7 +29,7 @@
 //! occlusion.
 
 use crate::abi::SlotStats;
-use crate::learning::Regression;
+use crate::learning::{fixed_sum, Regression};
 use crate::lights::regions::Cuts;
 use crate::lights::tree::LightTree;
 
@@ -55,10 +55,9 @@ pub struct Sides {
 impl Sides {
     /// From the kernel's six words (`sq` in the 2^24 fixed point of the window sums).
     pub fn from_words(w: [u32; 6]) -> Sides {
-        let sq = |lo: u32, hi: u32| (lo as f64 + hi as f64 * 4294967296.0) / 16777216.0;
         Sides {
             n: [w[0] as f64, w[1] as f64],
-            sq: [sq(w[2], w[3]), sq(w[4], w[5])],
+            sq: [fixed_sum(w[2], w[3]), fixed_sum(w[4], w[5])],
         }
     }
 }
