@@ -292,12 +292,10 @@ void record_side(uint slot, uint side, float y) {
     atomicAdd(side_counts[b + side], 1u);
     if (!(y > 0.0)) return;
     float q = min(y / slot_stats_at(slot).scale, FIX_CLAMP);
-    float v = floor(q * q * FIX_ONE + 0.5);
-    float hi = floor(v / TWO_POW_32);
-    uint lo = uint(v - hi * TWO_POW_32);
-    uint old = atomicAdd(side_counts[b + 2u + 2u * side], lo);
-    uint carry = old + lo < old ? 1u : 0u;
-    if (uint(hi) + carry > 0u) atomicAdd(side_counts[b + 3u + 2u * side], uint(hi) + carry);
+    uvec2 w = fixed_words(q * q);
+    uint old = atomicAdd(side_counts[b + 2u + 2u * side], w.x);
+    uint carry = old + w.x < old ? 1u : 0u;
+    if (w.y + carry > 0u) atomicAdd(side_counts[b + 3u + 2u * side], w.y + carry);
 }
 
 // Next-event sample `rep` of `n_light` at vertex `depth` (x, its normal n, the direction

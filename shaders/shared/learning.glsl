@@ -219,6 +219,15 @@ uint sample_learned(vec3 p, vec3 n, float u, float brdf, out float pmf, out uint
     return li;
 }
 
+// x (≥ 0, at most FIX_CLAMP²) in the window sums' fixed point, as (low, high) words:
+// x · 2^24 is an integer-valued float after rounding, so splitting it at 2^32 is exact
+// (src/learning/mod.rs fixed_sum reads it back).
+uvec2 fixed_words(float x) {
+    float v = floor(x * FIX_ONE + 0.5);
+    float hi = floor(v / TWO_POW_32);
+    return uvec2(uint(v - hi * TWO_POW_32), uint(hi));
+}
+
 // Adds one observation y (≥ 0) of a slot to the window's sums (64-bit fixed point as two
 // 32-bit words: the carry of the low word goes into the high word, so the sum is exact).
 // A kernel that defines TRACK_TOUCHED (render.comp) lists the slot for the fold the first
@@ -237,19 +246,14 @@ void record_observation(uint slot, float y) {
     if (first == 0u) mark_touched(slot);
 #endif
     float q = min(y / slot_stats_at(slot).scale, FIX_CLAMP);
-    // q · 2^24 is an integer-valued float after rounding; splitting it at 2^32 is exact.
-    float v = floor(q * FIX_ONE + 0.5);
-    float hi = floor(v / TWO_POW_32);
-    uint lo = uint(v - hi * TWO_POW_32);
-    uint old = atomicAdd(slot_delta[slot].sum_lo, lo);
-    uint carry = old + lo < old ? 1u : 0u;
-    if (uint(hi) + carry > 0u) atomicAdd(slot_delta[slot].sum_hi, uint(hi) + carry);
-    v = floor(q * q * FIX_ONE + 0.5);
-    hi = floor(v / TWO_POW_32);
-    lo = uint(v - hi * TWO_POW_32);
-    old = atomicAdd(slot_delta[slot].sq_lo, lo);
-    carry = old + lo < old ? 1u : 0u;
-    if (uint(hi) + carry > 0u) atomicAdd(slot_delta[slot].sq_hi, uint(hi) + carry);
+    uvec2 w = fixed_words(q);
+    uint old = atomicAdd(slot_delta[slot].sum_lo, w.x);
+    uint carry = old + w.x < old ? 1u : 0u;
+    if (w.y + carry > 0u) atomicAdd(slot_delta[slot].sum_hi, w.y + carry);
+    w = fixed_words(q * q);
+    old = atomicAdd(slot_delta[slot].sq_lo, w.x);
+    carry = old + w.x < old ? 1u : 0u;
+    if (w.y + carry > 0u) atomicAdd(slot_delta[slot].sq_hi, w.y + carry);
 }
 
 #endif
