@@ -42,6 +42,7 @@ fn main() -> Result<()> {
         max_depth: 1,
         light_point: Default::default(),
         indirect_light_samples: 1,
+        first_light_samples: 1,
     };
     // Jumps inside the first corridor and into the second (rooms16: corridors at z 4–6 and
     // 14–16, rooms 4 m wide along x).

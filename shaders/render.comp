@@ -59,6 +59,16 @@ layout(constant_id = 6) const bool LIGHT_POINT_SOLID_ANGLE = false;
 // the BSDF ray at N times its pdf (the multi-sample MIS of N light samples and one BSDF
 // sample). 1 (the default) compiles to the one sample the loop always took.
 layout(constant_id = 7) const uint INDIRECT_LIGHT_SAMPLES = 1u;
+// --first-light-samples N (RenderSettings::first_light_samples, 1 to 16): next-event samples
+// at the first vertex, averaged, each from independent numbers (above 1 the first vertex's
+// stratified light numbers are not used), so the variance of their light sampling falls as
+// 1/N and what stays as N grows is the camera ray's: the floor under any light choice
+// (ci/bench_floor.py). 1 (the default) compiles to the one stratified sample.
+layout(constant_id = 8) const uint FIRST_LIGHT_SAMPLES = 1u;
+// Whether any vertex takes more than one light sample (sums of specialization constants:
+// glslang 11 mistranslates || between them, learning.glsl says so).
+const bool MULTI_LIGHT_SAMPLES = INDIRECT_LIGHT_SAMPLES + FIRST_LIGHT_SAMPLES > 2u;
+const bool FIRST_INDEPENDENT = FIRST_LIGHT_SAMPLES > 1u;
 
 // The BVH as texels (bvh.glsl).
 layout(set = 0, binding = 0) uniform usamplerBuffer bvh_node_texels;
@@ -153,7 +163,8 @@ layout(std430, set = 1, binding = 8) buffer SideCounts { uint side_counts[]; };
 #define DIMS_PER_VERTEX 6u
 // The extra next-event samples of --indirect-light-samples draw their three numbers from
 // dimensions DIM_EXTRA_LIGHT + 64 · depth + 3 · (sample − 1) + 0…2 (at most 15 extra: 45 a
-// vertex), apart from the others (100 vertices, the most --max-depth allows, use dimensions
+// vertex), and those of --first-light-samples N > 1 from DIM_EXTRA_LIGHT + 3 · sample + 0…2
+// (all N: 48), apart from the others (100 vertices, the most --max-depth allows, use dimensions
 // up to 100 · DIMS_PER_VERTEX + DIM_RR < 1024).
 #define DIM_EXTRA_LIGHT 1024u
 
@@ -309,9 +320,11 @@ void next_event(inout Path st, vec3 x, vec3 n, vec3 wo, Bsdf bsdf, float brdf, u
     const bool learned = SAMPLER == SAMPLER_BAYES || SAMPLER == SAMPLER_DONIKIAN;
     const bool mis = params.max_depth > (DIRECT_ONLY ? 0xffffffffu : 1u);
     const bool brdf_aware = (BAYES_FLAGS & LEARN_BRDF) != 0u;
-    uint dim_extra = DIM_EXTRA_LIGHT + 64u * depth + 3u * (rep - 1u);
+    // Sample 0 takes the vertex's own numbers, except at a first vertex of several samples.
+    bool own = rep == 0u && !(FIRST_INDEPENDENT && depth == 0u);
+    uint dim_extra = DIM_EXTRA_LIGHT + 64u * depth + 3u * (depth == 0u ? rep : rep - 1u);
     float pmf;
-    float u_light = rep == 0u ? vertex_rand(seed, pixel, s, depth, DIM_LIGHT) : sample_rand(seed, pixel, s, dim_extra);
+    float u_light = own ? vertex_rand(seed, pixel, s, depth, DIM_LIGHT) : sample_rand(seed, pixel, s, dim_extra);
     uint li;
     uint slot = NO_SLOT;
     float p_slot = 1.0;
@@ -331,7 +344,7 @@ void next_event(inout Path st, vec3 x, vec3 n, vec3 wo, Bsdf bsdf, float brdf, u
     vec3 Ic = vec3(0.0);  // Î_C in RGB, for the control variate
     vec3 wi;
     float dist;
-    vec2 u = rep == 0u
+    vec2 u = own
         ? vec2(vertex_rand(seed, pixel, s, depth, DIM_LIGHT_U), vertex_rand(seed, pixel, s, depth, DIM_LIGHT_V))
         : vec2(sample_rand(seed, pixel, s, dim_extra + 1u), sample_rand(seed, pixel, s, dim_extra + 2u));
     // NO_LIGHT: no light can reach the front of n here (zero contribution, exactly).
@@ -429,8 +442,9 @@ bool path_vertex(inout Path st, uint depth) {
             float sa_pdf = solid_angle_pdf(hit_light, st.prev_x);
             float p_light = sa_pdf > 0.0 ? p_sel * sa_pdf
                 : cos_l > 0.0 ? p_sel * dot(to, to) / (hit_light.area * cos_l) : 0.0;
-            // The vertex before took INDIRECT_LIGHT_SAMPLES light samples unless it was the first.
-            float n_light = depth >= 2u ? float(INDIRECT_LIGHT_SAMPLES) : 1.0;
+            // The vertex before took INDIRECT_LIGHT_SAMPLES light samples, the first
+            // FIRST_LIGHT_SAMPLES.
+            float n_light = float(depth >= 2u ? INDIRECT_LIGHT_SAMPLES : FIRST_LIGHT_SAMPLES);
             w = power_heuristic(st.prev_bsdf_pdf, n_light * p_light);
         }
         st.L += st.beta * m.emission * w;
@@ -452,16 +466,16 @@ bool path_vertex(inout Path st, uint depth) {
     // prior (and light_pmf) take the BRDF's albedo / π, the Lambertian f of equal albedo.
     const bool brdf_aware = (BAYES_FLAGS & LEARN_BRDF) != 0u;
     float brdf = brdf_aware ? bsdf.albedo / PI : 1.0;
-    // Next-event samples at this vertex (the first vertex always takes one).
-    uint n_light = depth >= 1u ? INDIRECT_LIGHT_SAMPLES : 1u;
+    // Next-event samples at this vertex.
+    uint n_light = depth >= 1u ? INDIRECT_LIGHT_SAMPLES : FIRST_LIGHT_SAMPLES;
     next_event(st, x, n, wo, bsdf, brdf, depth, 0u, n_light);
     // Compiled out at 1 (the default): a loop around the one sample cost paths 5-10 %.
-    if (INDIRECT_LIGHT_SAMPLES > 1u && depth >= 1u) {
+    if (MULTI_LIGHT_SAMPLES) {
         uint rep = 1u;
-        do {
+        while (rep < n_light) {
             next_event(st, x, n, wo, bsdf, brdf, depth, rep, n_light);
             ++rep;
-        } while (rep < n_light);
+        }
     }
 
     if (!mis) return false;

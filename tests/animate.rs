@@ -283,6 +283,7 @@ fn reference(scene: &Path, t: f32) -> (f64, f64) {
         max_depth: 1,
         light_point: Default::default(),
         indirect_light_samples: 1,
+        first_light_samples: 1,
     };
     let r = render::render(&ctx, &s, &gpu, &settings, &mut |_, _| {}).unwrap();
     let px = r.mean();

@@ -79,6 +79,7 @@ fn render_pixels(
         max_depth,
         light_point,
         indirect_light_samples: 1,
+        first_light_samples: 1,
     };
     render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap()
 }
@@ -283,6 +284,55 @@ fn sobol_jitter_is_a_net_in_the_kernel() {
     }
 }
 
+/// `--first-light-samples N` averages N light samples at the first vertex, each from its own
+/// independent numbers, so the light choice's variance falls as 1/N: from 2 to 8 samples 4×
+/// (`uniform` over four unequal bulbs above a floor seen through a 1° camera, so the pixel
+/// footprint adds nothing). Fails where the samples share their numbers (tried: 1.0×), which
+/// the furnace above cannot see (still unbiased).
+#[test]
+fn first_vertex_light_samples_are_independent() {
+    let mut g = GltfBuilder::new();
+    floor_scene(&mut g);
+    for (i, (x, z, intensity)) in [
+        (-1.0, 0.5, 1.0),
+        (1.0, -0.5, 4.0),
+        (0.3, 1.2, 2.0),
+        (-0.8, -1.0, 8.0),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        g.point_light(
+            &format!("bulb{i}"),
+            Vec3::new(x, 1.5, z),
+            Vec3::ONE,
+            intensity,
+        );
+    }
+    let scene = common::load(&g, "four bulbs");
+    let ctx = common::ctx();
+    let gpu = GpuScene::upload(&ctx, &scene, &Bvh::build(&scene.triangles)).unwrap();
+    let variance = |n: u32| {
+        let settings = RenderSettings {
+            budget: Budget::Samples(256),
+            seed: 3,
+            first_light_samples: n,
+            ..RenderSettings::new(LightSampler::Uniform, 8, 8, 1)
+        };
+        let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
+        r.variance_of_mean()
+            .iter()
+            .map(|v| v[1] as f64)
+            .sum::<f64>()
+    };
+    let ratio = variance(2) / variance(8);
+    eprintln!("variance of 2 first-vertex light samples / of 8: {ratio:.3}");
+    assert!(
+        (3.2..4.8).contains(&ratio),
+        "2 → 8 independent light samples should cut the variance 4×, got {ratio:.3}"
+    );
+}
+
 /// The zero-light-sample count (accum .w) is exact: under a point light every light sample
 /// of the floor is non-zero; with an opaque sheet between them every one is zero.
 #[test]
@@ -320,6 +370,7 @@ fn zero_light_samples_are_counted() {
             max_depth: 1,
             light_point: Default::default(),
             indirect_light_samples: 1,
+            first_light_samples: 1,
         };
         let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
         assert!(r
@@ -339,7 +390,9 @@ fn zero_light_samples_are_counted() {
 /// Russian roulette, for a sampler of each kind; and with several next-event samples at the
 /// vertices after the first (`--indirect-light-samples`: the power heuristic of N light
 /// samples against one BSDF ray; with the BSDF hit weighed against 1 × the light pdf instead
-/// of N × it fails, tried).
+/// of N × it fails, tried), and at the first vertex (`--first-light-samples`: each from
+/// independent numbers; fails where the BSDF hit after the first vertex is weighed against
+/// 1 × the light pdf, or where the N samples take the same numbers, tried).
 #[test]
 fn closed_emissive_box_has_the_geometric_series_radiance() {
     let (le, rho) = (0.5f32, 0.6f32);
@@ -356,19 +409,24 @@ fn closed_emissive_box_has_the_geometric_series_radiance() {
     let gpu = GpuScene::upload(&ctx, &scene, &Bvh::build(&scene.triangles)).unwrap();
     // bayes also with control variates: unbiased under MIS too (g need not predict the
     // weighted term).
-    for (sampler, depth, control_variates, indirect_light_samples) in [
-        (LightSampler::Uniform, 1, false, 1),
-        (LightSampler::Uniform, 8, false, 1),
-        (LightSampler::Power, 3, false, 1),
-        (LightSampler::Lightbvh, 8, false, 1),
-        (LightSampler::Wang, 2, false, 1),
-        (LightSampler::Bayes, 8, false, 1),
-        (LightSampler::Bayes, 8, true, 1),
-        (LightSampler::Donikian, 4, false, 1),
-        (LightSampler::Uniform, 4, false, 4),
-        (LightSampler::Wang, 3, false, 2),
-        (LightSampler::Bayes, 8, false, 4),
-        (LightSampler::Bayes, 6, true, 3),
+    for (sampler, depth, control_variates, indirect_light_samples, first_light_samples) in [
+        (LightSampler::Uniform, 1, false, 1, 1),
+        (LightSampler::Uniform, 8, false, 1, 1),
+        (LightSampler::Power, 3, false, 1, 1),
+        (LightSampler::Lightbvh, 8, false, 1, 1),
+        (LightSampler::Wang, 2, false, 1, 1),
+        (LightSampler::Bayes, 8, false, 1, 1),
+        (LightSampler::Bayes, 8, true, 1, 1),
+        (LightSampler::Donikian, 4, false, 1, 1),
+        (LightSampler::Uniform, 4, false, 4, 1),
+        (LightSampler::Wang, 3, false, 2, 1),
+        (LightSampler::Bayes, 8, false, 4, 1),
+        (LightSampler::Bayes, 6, true, 3, 1),
+        // Several independent light samples at the first vertex: direct, and paths whose
+        // BSDF hit after the first vertex is weighed against them.
+        (LightSampler::Wang, 1, false, 1, 4),
+        (LightSampler::Uniform, 3, false, 1, 4),
+        (LightSampler::Bayes, 8, false, 2, 3),
     ] {
         let settings = RenderSettings {
             width: 8,
@@ -386,6 +444,7 @@ fn closed_emissive_box_has_the_geometric_series_radiance() {
             max_depth: depth,
             light_point: Default::default(),
             indirect_light_samples,
+            first_light_samples,
         };
         let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
         let n = r.mean().len() as f64;
@@ -404,9 +463,9 @@ fn closed_emissive_box_has_the_geometric_series_radiance() {
         assert_eq!(r.invalid_samples, 0);
         assert!(
             (mean - want).abs() < 4.0 * se + 1e-4 * want,
-            "{sampler:?} (cv {control_variates}), max depth {depth}, {indirect_light_samples} light samples after the first vertex: mean radiance {mean:.5} ± {se:.5}, closed form {want:.5}"
+            "{sampler:?} (cv {control_variates}), max depth {depth}, {first_light_samples} light samples at the first vertex and {indirect_light_samples} after it: mean radiance {mean:.5} ± {se:.5}, closed form {want:.5}"
         );
-        eprintln!("{sampler:?} (cv {control_variates}) depth {depth} x{indirect_light_samples}: {mean:.5} ± {se:.5} (want {want:.5})");
+        eprintln!("{sampler:?} (cv {control_variates}) depth {depth} x{first_light_samples}/x{indirect_light_samples}: {mean:.5} ± {se:.5} (want {want:.5})");
     }
 }
 
@@ -493,6 +552,7 @@ fn base_color_texture_multiplies_the_albedo() {
             max_depth: 1,
             light_point: Default::default(),
             indirect_light_samples: 1,
+            first_light_samples: 1,
         };
         let image = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {})
             .unwrap()

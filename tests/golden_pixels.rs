@@ -118,6 +118,7 @@ fn small_renders_keep_their_pixels() {
                     max_depth: depth,
                     light_point: Default::default(),
                     indirect_light_samples: 1,
+                    first_light_samples: 1,
                 };
                 let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
                 let px: Vec<f32> = r.mean().into_iter().flatten().collect();

@@ -74,15 +74,18 @@ fn run_render(extra: &[&str], dir: &Path) -> Output {
     run(&args, dir, &[])
 }
 
-/// `--indirect-light-samples` out of 1..=16, or above 1 where a path has one vertex, is
-/// refused by name before anything is written; in range it reaches the report.
+/// `--indirect-light-samples` and `--first-light-samples` out of 1..=16, or the indirect ones
+/// above 1 where a path has one vertex, are refused by name before anything is written; in range
+/// they reach the report.
 #[test]
-fn indirect_light_samples_out_of_range_are_refused_by_name() {
+fn light_samples_out_of_range_are_refused_by_name() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    for n in ["0", "17"] {
-        let o = run_render(&["--indirect-light-samples", n, "--out", "i.exr"], d);
-        refused(&o, &["--indirect-light-samples", "1 to 16", n]);
+    for flag in ["--indirect-light-samples", "--first-light-samples"] {
+        for n in ["0", "17"] {
+            let o = run_render(&[flag, n, "--out", "i.exr"], d);
+            refused(&o, &[flag, "1 to 16", n]);
+        }
     }
     let o = run_render(&["--indirect-light-samples", "4", "--out", "i.exr"], d);
     refused(&o, &["--indirect-light-samples 4", "--max-depth 2"]);
@@ -99,6 +102,12 @@ fn indirect_light_samples_out_of_range_are_refused_by_name() {
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.join("i.json")).unwrap()).unwrap();
     assert_eq!(report["indirect_light_samples"], 3);
+    // Direct light takes several at the first vertex.
+    let o = run_render(&["--first-light-samples", "4", "--out", "f.exr"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("f.json")).unwrap()).unwrap();
+    assert_eq!(report["first_light_samples"], 4);
 }
 
 #[test]

@@ -37,6 +37,7 @@ fn settings(sampler: LightSampler, spp: u32, max_depth: u32) -> RenderSettings {
         max_depth,
         light_point: Default::default(),
         indirect_light_samples: 1,
+        first_light_samples: 1,
     }
 }
 

@@ -1223,6 +1223,7 @@ fn refining(spp: u32) -> RenderSettings {
         max_depth: 1,
         light_point: Default::default(),
         indirect_light_samples: 1,
+        first_light_samples: 1,
     }
 }
 

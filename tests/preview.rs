@@ -494,6 +494,7 @@ fn learning_carries_across_a_camera_jump() {
         max_depth: 1,
         light_point: Default::default(),
         indirect_light_samples: 1,
+        first_light_samples: 1,
     };
     let jump = Camera::looking(
         Vec3::new(12.0, 1.6, 5.0),

@@ -138,6 +138,7 @@ fn gpu_render(scene: &Scene, sampler: LightSampler, light_point: LightPoint) -> 
         max_depth: 1,
         light_point,
         indirect_light_samples: 1,
+        first_light_samples: 1,
     };
     render::render(&ctx, scene, &gpu, &settings, &mut |_, _| {}).unwrap()
 }

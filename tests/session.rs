@@ -37,6 +37,7 @@ fn settings(sampler: LightSampler, seed: u32) -> RenderSettings {
         max_depth: 1,
         light_point: Default::default(),
         indirect_light_samples: 1,
+        first_light_samples: 1,
     }
 }
 

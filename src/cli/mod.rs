@@ -181,6 +181,13 @@ pub struct RenderArgs {
     /// `bayes`'s). Costs about N times the shadow rays; it did not pay at equal time there.
     #[arg(long, default_value_t = 1, value_name = "N")]
     pub indirect_light_samples: u32,
+    /// Next-event samples at the first vertex, averaged, each from independent numbers (above
+    /// 1 the first vertex's stratified light numbers are not used); 1 to 16. A diagnostic:
+    /// their light sampling's variance falls as 1/N and what stays is the camera ray's
+    /// (the pixel footprint), the floor under any light choice: ci/bench_floor.py fits it
+    /// from N = 4 and 16 (rooms16, direct, 256 spp: 4.5× below `wang`'s variance).
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub first_light_samples: u32,
     /// sobol (or on): the pixel jitter and the first vertex's light choice, point on the light
     /// and BSDF direction are dimensions of the Sobol' sequence over the passes, Owen-scrambled
     /// per pixel (a pixel's samples split between the lights close to their probabilities and
@@ -386,6 +393,7 @@ impl RenderArgs {
             max_depth: self.max_depth,
             light_point: self.light_point,
             indirect_light_samples: self.indirect_light_samples,
+            first_light_samples: self.first_light_samples,
             stratify: self.stratify,
             regions: self.regions.settings()?,
             learn: self.learn.settings()?,

@@ -60,6 +60,7 @@ impl ProfileArgs {
             resume: None,
             light_point: Default::default(),
             indirect_light_samples: 1,
+            first_light_samples: 1,
         };
         let (times, learned) = lightlearn::bench::stages::profile(
             &ctx,

@@ -265,6 +265,7 @@ pub fn run(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
             max_depth: req.max_depth,
             light_point: Default::default(),
             indirect_light_samples: 1,
+            first_light_samples: 1,
         };
         let mut learning = "fresh".to_string();
         let mut start_forget = None;

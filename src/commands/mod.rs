@@ -89,6 +89,16 @@ pub fn check_indirect_light_samples(n: u32, max_depth: u32) -> Result<()> {
     Ok(())
 }
 
+/// `--first-light-samples N`: 1 to [`crate::render::MAX_INDIRECT_LIGHT_SAMPLES`] (render.comp
+/// numbers their random dimensions apart up to that many), at any depth.
+pub fn check_first_light_samples(n: u32) -> Result<()> {
+    let max = crate::render::MAX_INDIRECT_LIGHT_SAMPLES;
+    if !(1..=max).contains(&n) {
+        bail!("--first-light-samples must be 1 to {max} (got {n})");
+    }
+    Ok(())
+}
+
 /// The scene at `path`, or the built-in default scene; warnings go to `ui`.
 pub fn load_scene(path: Option<&Path>, ui: &mut dyn Ui) -> Result<Scene> {
     let mut warn = |w: String| ui.message(&format!("warning: {w}"));

@@ -32,6 +32,8 @@ pub struct RenderRequest {
     pub light_point: LightPoint,
     /// `--indirect-light-samples`: RenderSettings::indirect_light_samples.
     pub indirect_light_samples: u32,
+    /// `--first-light-samples`: RenderSettings::first_light_samples.
+    pub first_light_samples: u32,
     /// `--stratify`: RenderSettings::stratify.
     pub stratify: crate::render::Stratify,
     pub regions: RegionSettings,
@@ -78,6 +80,7 @@ pub fn run(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
     super::check_size(req.width, req.height)?;
     check_depth(req.max_depth)?;
     super::check_indirect_light_samples(req.indirect_light_samples, req.max_depth)?;
+    super::check_first_light_samples(req.first_light_samples)?;
     let skip = chunk_offset(req.chunk, req.spp)?;
     req.regions.check()?;
     req.learn.check()?;
@@ -128,6 +131,7 @@ pub fn run(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         max_depth: req.max_depth,
         light_point: req.light_point,
         indirect_light_samples: req.indirect_light_samples,
+        first_light_samples: req.first_light_samples,
     };
     if let (Some(saved), Some(p)) = (loaded, &req.load_stats) {
         render::check_resume(&scene, &gpu, &settings, &saved, p)?;

@@ -199,6 +199,7 @@ fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> 
         resume: None,
         light_point: Default::default(),
         indirect_light_samples: 1,
+        first_light_samples: 1,
     };
     let mut rows = Vec::new();
     for &sampler in &a.samplers {

@@ -157,6 +157,7 @@ pub fn compare(
             max_depth,
             light_point,
             indirect_light_samples: 1,
+            first_light_samples: 1,
         };
         let mut convergence = Vec::new();
         let result = render::render_with_checkpoints(

@@ -148,6 +148,7 @@ pub fn settings(
         max_depth,
         light_point: Default::default(),
         indirect_light_samples: 1,
+        first_light_samples: 1,
     })
 }
 

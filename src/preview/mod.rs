@@ -226,6 +226,7 @@ impl<'a> App<'a, '_> {
             max_depth: self.depth,
             light_point: Default::default(),
             indirect_light_samples: 1,
+            first_light_samples: 1,
         }
     }
 

@@ -210,6 +210,11 @@ pub struct RenderSettings {
     /// diagnostic of where a path's variance sits, the light choice after the first vertex
     /// or the rest (docs/results.md, ninth session).
     pub indirect_light_samples: u32,
+    /// Next-event samples at the first vertex, averaged, each from independent numbers
+    /// (render.comp FIRST_LIGHT_SAMPLES; 1 to [`MAX_INDIRECT_LIGHT_SAMPLES`], 1 by default):
+    /// a diagnostic, the floor of what any light choice can take out of a film's variance
+    /// (ci/bench_floor.py, docs/results.md, twelfth session).
+    pub first_light_samples: u32,
     /// Statistics to start from (`--load-stats`): their cuts replace the built ones and the
     /// sample indices continue after theirs.
     pub resume: Option<Arc<SavedStats>>,
@@ -242,6 +247,7 @@ impl RenderSettings {
             max_depth,
             light_point: Default::default(),
             indirect_light_samples: 1,
+            first_light_samples: 1,
             resume: None,
         }
     }
@@ -479,6 +485,7 @@ pub fn report_json(
         "max_depth": settings.max_depth,
         "light_point": settings.light_point,
         "indirect_light_samples": settings.indirect_light_samples,
+        "first_light_samples": settings.first_light_samples,
         "stratify": settings.stratify.name(),
         "camera": camera_json(&scene.camera),
     })

@@ -446,6 +446,8 @@ fn render_pipeline(
             (settings.light_point == LightPoint::SolidAngle) as u32,
             // INDIRECT_LIGHT_SAMPLES.
             settings.indirect_light_samples,
+            // FIRST_LIGHT_SAMPLES.
+            settings.first_light_samples,
         ],
     )
 }

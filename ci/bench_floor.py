@@ -1,0 +1,95 @@
+#!/usr/bin/env python3
+"""The floor under any light choice, and how far each sampler is from it (issue #17).
+
+A film's variance at equal spp splits by the law of total variance into the camera ray's
+(what the pixel's value varies by where its rays land: the footprint) and the light
+sample's given the ray. No light choice, however good, takes out the first part:
+Var X >= Var E[X | ray] = F. F is measured, not modelled: `wang` with --first-light-samples
+N averages N light samples at the first vertex, each from independent numbers, so its
+variance is V_N = F + I / N (I: one independent light sample's), and two N give
+F = (16 V16 - 4 V4) / 12. V2 checks the 1/N law (measured / predicted, near 1).
+
+Then each sampler at its defaults (one stratified light sample): its variance V, wang's
+over it (equal spp), the ceiling V_wang / F (what a perfect light choice would be at equal
+spp over wang), and the share of wang's reducible variance V_wang - F that it takes out.
+The variance of a render is the mean over pixels of the sample variance across SEEDS
+renders of other seeds (no reference needed), as in ci/bench_flags.py, whose renders this
+reuses (in OUT: the defaults' renders are shared).
+
+  python3 ci/bench_floor.py [DEPTH] [SPP] [SEEDS] [OUT]
+  python3 ci/bench_floor.py 1 256 4 bench-floor        # docs/results.md, twelfth session
+
+SAMPLERS=wang,bayes (default wang,donikian,bayes); ONLY=REGEX keeps the scenes whose name
+matches (the committed rooms16, city, hall, strings and the six of ci/bench_outside.py,
+generated into OUT). At DEPTH >= 2 F is the floor under the first vertex's light choice
+alone (the later vertices': ci/bench_gi_split.py). The N = 16 renders take ~10x a default
+render. Reads the EXRs with Mitsuba 3's Bitmap (ci/setup.sh installs mitsuba); needs a
+release build (cargo build --release).
+"""
+import importlib.util
+import os
+import re
+import subprocess
+import sys
+
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def load(name):
+    spec = importlib.util.spec_from_file_location(name, os.path.join(ROOT, "ci", name + ".py"))
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def main():
+    flags_mod = load("bench_flags")
+    outside = load("bench_outside")
+    depth = sys.argv[1] if len(sys.argv) > 1 else "1"
+    spp = sys.argv[2] if len(sys.argv) > 2 else "256"
+    seeds = int(sys.argv[3]) if len(sys.argv) > 3 else 4
+    out = sys.argv[4] if len(sys.argv) > 4 else "bench-floor"
+    samplers = os.environ.get("SAMPLERS", "wang,donikian,bayes").split(",")
+    only = os.environ.get("ONLY")
+    if seeds < 2:
+        sys.exit("SEEDS must be at least 2 (the variance is taken across seeds)")
+    if "wang" not in samplers:
+        samplers = ["wang"] + samplers
+    os.makedirs(out, exist_ok=True)
+    scenes = [(n, os.path.join(ROOT, "scenes", n + ".glb"), None) for n in flags_mod.COMMITTED]
+    scenes += [(n, os.path.join(out, n + ".glb"), a) for n, a in outside.SCENES]
+    others = [s for s in samplers if s != "wang"]
+    head = " | ".join(f"`{s}` V, wang ÷ it, share taken" for s in others)
+    print(f"Direct-light floor F (depth {depth}), {spp} spp, {seeds} seeds, 128×96\n\n"
+          f"| scene | `wang` V | F | V2 measured ÷ predicted | ceiling V_wang ÷ F | {head} |\n"
+          f"|---|---|---|---|---|{'---|' * len(others)}", flush=True)
+    for name, scene, args in scenes:
+        if only and not re.search(only, name):
+            continue
+        if args and not os.path.exists(scene):
+            subprocess.run([flags_mod.EXE, "scene", *args, "--out", scene], check=True,
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+        def variance(sampler, flags=()):
+            v, _ = flags_mod.renders(scene, name, list(flags), depth, spp, seeds, out, sampler)
+            return float(np.mean(v))
+
+        v = {n: variance("wang", ["--first-light-samples", str(n)]) for n in (2, 4, 16)}
+        floor = (16 * v[16] - 4 * v[4]) / 12
+        independent = (v[4] - v[16]) / (1 / 4 - 1 / 16)
+        check = v[2] / (floor + independent / 2)
+        vw = variance("wang")
+        cells = []
+        for s in others:
+            vs = variance(s)
+            taken = (vw - vs) / (vw - floor) if vw > floor else float("nan")
+            cells.append(f"{vs:.3e}, {vw / vs:.2f}×, {100 * taken:.0f} %")
+        ceiling = f"{vw / floor:.1f}×" if floor > 0 else "∞ (F ≤ 0: more seeds)"
+        print(f"| {name} | {vw:.3e} | {floor:.3e} | {check:.2f} | {ceiling} | "
+              f"{' | '.join(cells)} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
