@@ -19,7 +19,9 @@ reuses (in OUT: the defaults' renders are shared).
   python3 ci/bench_floor.py [DEPTH] [SPP] [SEEDS] [OUT]
   python3 ci/bench_floor.py 1 256 4 bench-floor        # docs/results.md, twelfth session
 
-SAMPLERS=wang,bayes (default wang,donikian,bayes); ONLY=REGEX keeps the scenes whose name
+SAMPLERS=wang,bayes (default wang,donikian,bayes); FROZEN=N adds `bayes` with statistics
+learned over N spp (one render of seed 100, --save-stats) and then frozen (--load-stats,
+--update-every 1000000): the model's ceiling as built; ONLY=REGEX keeps the scenes whose name
 matches (the committed rooms16, city, hall, strings and the six of ci/bench_outside.py,
 generated into OUT). At DEPTH >= 2 F is the floor under the first vertex's light choice
 alone (the later vertices': ci/bench_gi_split.py). The N = 16 renders take ~10x a default
@@ -60,7 +62,8 @@ def main():
     os.makedirs(out, exist_ok=True)
     scenes = [(n, os.path.join(ROOT, "scenes", n + ".glb"), None) for n in flags_mod.COMMITTED]
     scenes += [(n, os.path.join(out, n + ".glb"), a) for n, a in outside.SCENES]
-    others = [s for s in samplers if s != "wang"]
+    frozen = int(os.environ.get("FROZEN", "0"))
+    others = [s for s in samplers if s != "wang"] + ([f"bayes frozen after {frozen} spp"] if frozen else [])
     head = " | ".join(f"`{s}` V, wang ÷ it, share taken" for s in others)
     print(f"Direct-light floor F (depth {depth}), {spp} spp, {seeds} seeds, 128×96\n\n"
           f"| scene | `wang` V | F | V2 measured ÷ predicted | ceiling V_wang ÷ F | {head} |\n"
@@ -83,9 +86,19 @@ def main():
         vw = variance("wang")
         cells = []
         for s in others:
-            vs = variance(s)
-            taken = (vw - vs) / (vw - floor) if vw > floor else float("nan")
-            cells.append(f"{vs:.3e}, {vw / vs:.2f}×, {100 * taken:.0f} %")
+            if s.startswith("bayes frozen"):
+                stats = os.path.join(out, f"{name}-learned-{frozen}.stats")
+                if not os.path.exists(stats):
+                    subprocess.run([flags_mod.EXE, "render", scene, "--sampler", "bayes", "--seed",
+                                    "100", "--spp", str(frozen), "--width", "128", "--height",
+                                    "96", "--max-depth", depth, "-q", "--force", "--out",
+                                    stats[:-6] + ".exr", "--save-stats", stats], check=True)
+                vs = variance("bayes", ["--load-stats", stats, "--update-every", "1000000"])
+            else:
+                vs = variance(s)
+            # Where F is within 5 % of wang's variance there is nothing to take.
+            taken = f"{100 * (vw - vs) / (vw - floor):.0f} %" if vw - floor > 0.05 * vw else "–"
+            cells.append(f"{vs:.3e}, {vw / vs:.2f}×, {taken}")
         ceiling = f"{vw / floor:.1f}×" if floor > 0 else "∞ (F ≤ 0: more seeds)"
         print(f"| {name} | {vw:.3e} | {floor:.3e} | {check:.2f} | {ceiling} | "
               f"{' | '.join(cells)} |", flush=True)
