@@ -5,7 +5,7 @@
 
 use std::sync::Arc;
 
-use anyhow::{Context as _, Result};
+use anyhow::{bail, Context as _, Result};
 use ash::vk;
 
 use super::buffer::Buffer;
@@ -50,6 +50,18 @@ impl ComputePipeline {
         let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv))
             .with_context(|| format!("kernel '{name}' is not valid SPIR-V"))?;
         let declared = spirv::bindings(&code).with_context(|| format!("kernel '{name}'"))?;
+        // Every constant the kernel declares gets a value here (one it does not declare, as
+        // light_sample.comp skips id 2, is ignored by Vulkan).
+        let spec_ids = spirv::spec_ids(&code).with_context(|| format!("kernel '{name}'"))?;
+        if let Some(&id) = spec_ids
+            .iter()
+            .find(|&&id| id as usize >= specialization.len())
+        {
+            bail!(
+                "kernel '{name}' declares specialization constant {id} but is given {} values: the host and the kernel disagree",
+                specialization.len()
+            );
+        }
         let kinds: Vec<Vec<vk::DescriptorType>> = (0..bindings.len() as u32)
             .map(|set| {
                 (0..bindings[set as usize])

@@ -16,6 +16,7 @@ const OP_TYPE_POINTER: u32 = 32;
 const OP_VARIABLE: u32 = 59;
 const OP_DECORATE: u32 = 71;
 const DECORATION_BINDING: u32 = 33;
+const DECORATION_SPEC_ID: u32 = 1;
 const DECORATION_DESCRIPTOR_SET: u32 = 34;
 const DIM_BUFFER: u32 = 5;
 
@@ -103,6 +104,30 @@ pub fn bindings(spirv: &[u32]) -> Result<Vec<Binding>> {
     Ok(out)
 }
 
+/// The specialization-constant ids a module declares (`layout(constant_id = k)`), sorted:
+/// the pipeline checks that the host gives each of them a value (src/gpu/pipeline.rs), so a
+/// constant added to a kernel but not to its caller is an error, not its default in silence.
+pub fn spec_ids(spirv: &[u32]) -> Result<Vec<u32>> {
+    if spirv.len() < 5 || spirv[0] != 0x0723_0203 {
+        bail!("not a SPIR-V module");
+    }
+    let mut ids = Vec::new();
+    let mut i = 5;
+    while i < spirv.len() {
+        let count = (spirv[i] >> 16) as usize;
+        if count == 0 || i + count > spirv.len() {
+            bail!("SPIR-V instruction at word {i} overruns the module");
+        }
+        let ins = &spirv[i..i + count];
+        if ins[0] & 0xffff == OP_DECORATE && count >= 4 && ins[2] == DECORATION_SPEC_ID {
+            ids.push(ins[3]);
+        }
+        i += count;
+    }
+    ids.sort_unstable();
+    Ok(ids)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -150,9 +175,23 @@ mod tests {
         );
     }
 
+    /// The render kernel's constants, SAMPLER (0) … FIRST_LIGHT_SAMPLES (8); the test kernel
+    /// light_sample.comp leaves 2 out. Fails if the decoration were read from another word.
+    #[test]
+    fn specialization_ids_are_read() {
+        let render = spec_ids(&words(crate::gpu::kernels::RENDER)).unwrap();
+        assert_eq!(render, (0..=8).collect::<Vec<_>>());
+        let sampler = spec_ids(&words(crate::gpu::kernels::LIGHT_SAMPLE)).unwrap();
+        assert_eq!(sampler, [0, 1, 3]);
+        assert!(spec_ids(&words(crate::gpu::kernels::FOLD))
+            .unwrap()
+            .is_empty());
+    }
+
     #[test]
     fn a_damaged_module_is_an_error() {
         assert!(bindings(&[1, 2, 3]).is_err());
+        assert!(spec_ids(&[1, 2, 3]).is_err());
         let mut w = words(crate::gpu::kernels::FOLD);
         w.truncate(w.len() - 1);
         w.push(0x00ff_0000); // an instruction that claims 255 words
