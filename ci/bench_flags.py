@@ -44,6 +44,20 @@ def outside_scenes():
     return mod.SCENES
 
 
+def scenes(out, only=None):
+    """(name, path) of the committed scenes and of ci/bench_outside.py's, those matching the
+    regular expression `only`; the outside ones are generated into OUT if missing."""
+    listed = [(n, os.path.join(ROOT, "scenes", n + ".glb"), None) for n in COMMITTED]
+    listed += [(n, os.path.join(out, n + ".glb"), args) for n, args in outside_scenes()]
+    for name, scene, args in listed:
+        if only and not re.search(only, name):
+            continue
+        if args and not os.path.exists(scene):
+            subprocess.run([EXE, "scene", *args, "--out", scene], check=True,
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        yield name, scene
+
+
 def renders(scene, name, flags, depth, spp, seeds, out, sampler):
     """The per-pixel variance over seeds (RGB mean) and the mean render seconds."""
     tag = hashlib.sha1(" ".join(flags).encode()).hexdigest()[:8]
@@ -74,17 +88,10 @@ def main():
     if seeds < 2:
         sys.exit("SEEDS must be at least 2 (the variance is taken across seeds)")
     os.makedirs(out, exist_ok=True)
-    scenes = [(n, os.path.join(ROOT, "scenes", n + ".glb"), None) for n in COMMITTED]
-    scenes += [(n, os.path.join(out, n + ".glb"), args) for n, args in outside_scenes()]
     print(f"`{sampler}` with `{' '.join(flags)}` against the defaults, depth {depth}, {spp} spp, "
           f"{seeds} seeds (defaults / flags)\n\n| scene | variance | ratio | trimmed | time, flags ÷ defaults "
           f"| variance × time |\n|---|---|---|---|---|---|", flush=True)
-    for name, scene, args in scenes:
-        if only and not re.search(only, name):
-            continue
-        if args and not os.path.exists(scene):
-            subprocess.run([EXE, "scene", *args, "--out", scene], check=True,
-                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    for name, scene in scenes(out, only):
         base, tb = renders(scene, name, [], depth, spp, seeds, out, sampler)
         other, to = renders(scene, name, flags, depth, spp, seeds, out, sampler)
         trim = lambda v: float(np.mean(np.sort(v.ravel())[:-10]))

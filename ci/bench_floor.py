@@ -30,7 +30,6 @@ release build (cargo build --release).
 """
 import importlib.util
 import os
-import re
 import subprocess
 import sys
 
@@ -40,6 +39,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def load(name):
+    """A script of ci/ as a module."""
     spec = importlib.util.spec_from_file_location(name, os.path.join(ROOT, "ci", name + ".py"))
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
@@ -48,7 +48,6 @@ def load(name):
 
 def main():
     flags_mod = load("bench_flags")
-    outside = load("bench_outside")
     depth = sys.argv[1] if len(sys.argv) > 1 else "1"
     spp = sys.argv[2] if len(sys.argv) > 2 else "256"
     seeds = int(sys.argv[3]) if len(sys.argv) > 3 else 4
@@ -60,20 +59,13 @@ def main():
     if "wang" not in samplers:
         samplers = ["wang"] + samplers
     os.makedirs(out, exist_ok=True)
-    scenes = [(n, os.path.join(ROOT, "scenes", n + ".glb"), None) for n in flags_mod.COMMITTED]
-    scenes += [(n, os.path.join(out, n + ".glb"), a) for n, a in outside.SCENES]
     frozen = int(os.environ.get("FROZEN", "0"))
     others = [s for s in samplers if s != "wang"] + ([f"bayes frozen after {frozen} spp"] if frozen else [])
     head = " | ".join(f"`{s}` V, wang ÷ it, share taken" for s in others)
     print(f"Direct-light floor F (depth {depth}), {spp} spp, {seeds} seeds, 128×96\n\n"
           f"| scene | `wang` V | F | V2 measured ÷ predicted | ceiling V_wang ÷ F | {head} |\n"
           f"|---|---|---|---|---|{'---|' * len(others)}", flush=True)
-    for name, scene, args in scenes:
-        if only and not re.search(only, name):
-            continue
-        if args and not os.path.exists(scene):
-            subprocess.run([flags_mod.EXE, "scene", *args, "--out", scene], check=True,
-                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    for name, scene in flags_mod.scenes(out, only):
 
         def variance(sampler, flags=()):
             v, _ = flags_mod.renders(scene, name, list(flags), depth, spp, seeds, out, sampler)

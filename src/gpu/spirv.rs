@@ -33,9 +33,6 @@ pub struct Binding {
 /// uniform or storage texel buffers (`uimageBuffer`, which the wavefront's path queues are
 /// written through) is refused: the device layer makes no other descriptors.
 pub fn bindings(spirv: &[u32]) -> Result<Vec<Binding>> {
-    if spirv.len() < 5 || spirv[0] != 0x0723_0203 {
-        bail!("not a SPIR-V module");
-    }
     let mut names: HashMap<u32, String> = HashMap::new();
     let mut set: HashMap<u32, u32> = HashMap::new();
     let mut binding: HashMap<u32, u32> = HashMap::new();
@@ -44,14 +41,8 @@ pub fn bindings(spirv: &[u32]) -> Result<Vec<Binding>> {
     let mut images: HashMap<u32, (u32, u32)> = HashMap::new();
     let mut sampled: HashMap<u32, u32> = HashMap::new();
     let mut vars = Vec::new();
-    let mut i = 5;
-    while i < spirv.len() {
-        let count = (spirv[i] >> 16) as usize;
-        if count == 0 || i + count > spirv.len() {
-            bail!("SPIR-V instruction at word {i} overruns the module");
-        }
-        let ins = &spirv[i..i + count];
-        match (ins[0] & 0xffff, count) {
+    for ins in instructions(spirv)? {
+        match (ins[0] & 0xffff, ins.len()) {
             (OP_NAME, 3..) => {
                 let bytes: Vec<u8> = ins[2..].iter().flat_map(|w| w.to_le_bytes()).collect();
                 let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
@@ -76,7 +67,6 @@ pub fn bindings(spirv: &[u32]) -> Result<Vec<Binding>> {
             (OP_VARIABLE, 4..) => vars.push((ins[2], ins[1])),
             _ => {}
         }
-        i += count;
     }
     let mut out = Vec::new();
     for (var, ptr) in vars {
@@ -108,24 +98,33 @@ pub fn bindings(spirv: &[u32]) -> Result<Vec<Binding>> {
 /// the pipeline checks that the host gives each of them a value (src/gpu/pipeline.rs), so a
 /// constant added to a kernel but not to its caller is an error, not its default in silence.
 pub fn spec_ids(spirv: &[u32]) -> Result<Vec<u32>> {
+    let mut ids: Vec<u32> = instructions(spirv)?
+        .into_iter()
+        .filter(|ins| ins[0] & 0xffff == OP_DECORATE && ins.len() >= 4)
+        .filter(|ins| ins[2] == DECORATION_SPEC_ID)
+        .map(|ins| ins[3])
+        .collect();
+    ids.sort_unstable();
+    Ok(ids)
+}
+
+/// The instructions of a module after its five-word header, each as its words (the opcode
+/// and word count first); an instruction that overruns the module is an error.
+fn instructions(spirv: &[u32]) -> Result<Vec<&[u32]>> {
     if spirv.len() < 5 || spirv[0] != 0x0723_0203 {
         bail!("not a SPIR-V module");
     }
-    let mut ids = Vec::new();
+    let mut out = Vec::new();
     let mut i = 5;
     while i < spirv.len() {
         let count = (spirv[i] >> 16) as usize;
         if count == 0 || i + count > spirv.len() {
             bail!("SPIR-V instruction at word {i} overruns the module");
         }
-        let ins = &spirv[i..i + count];
-        if ins[0] & 0xffff == OP_DECORATE && count >= 4 && ins[2] == DECORATION_SPEC_ID {
-            ids.push(ins[3]);
-        }
+        out.push(&spirv[i..i + count]);
         i += count;
     }
-    ids.sort_unstable();
-    Ok(ids)
+    Ok(out)
 }
 
 #[cfg(test)]
