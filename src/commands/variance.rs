@@ -63,8 +63,8 @@ pub struct Row {
     /// Per decomposed pixel: spp · (a − b)² / 2 (the terms of `measured`).
     pub measured_pixels: Vec<f64>,
     /// The same with the renderer's own jitter, stratified over the passes (the default
-    /// `--stratify`, Sobol'; R2 before 2026-12-05, hence the name): the footprint term it
-    /// leaves is this less the selection terms.
+    /// `--stratify`, Sobol'; R2 before 2026-12-05, hence the name); the table shows
+    /// `measured` ÷ this, what stratification takes out.
     pub measured_r2: f64,
     /// The same at `max_depth` (None for direct light only), stratified jitter.
     pub measured_gi: Option<f64>,
@@ -466,6 +466,19 @@ fn two_seed_pixels(a: &VarianceRequest, x: &[[f32; 3]], y: &[[f32; 3]]) -> Vec<f
         .collect()
 }
 
+/// The measured variance with independent numbers over the one with the renderer's
+/// stratified numbers. (Until 2026-12-05 this column was a "stratified footprint",
+/// stratified − the independent selection terms: stratification takes variance out of the
+/// light choice as well as out of the footprint, so that difference went negative, e.g.
+/// −184 % for `wang` on rooms16, and meant nothing.)
+fn stratification_gain(independent: f64, stratified: f64) -> String {
+    if stratified > 0.0 && independent.is_finite() {
+        format!("{:.1}×", independent / stratified)
+    } else {
+        "—".into()
+    }
+}
+
 fn table(a: &VarianceRequest, rows: &[Row]) -> String {
     let wang = rows
         .iter()
@@ -477,7 +490,7 @@ fn table(a: &VarianceRequest, rows: &[Row]) -> String {
         rows.first().map_or(0, |r| r.pixels.len()),
         a.hits
     );
-    t += "| sampler | predicted | measured | ÷ wang | cluster | light in cluster | point on light | footprint (at emitter pixels) | measured, stratified | stratified footprint | zero samples (lit hits) | dark hits | top pixel's share of measured |";
+    t += "| sampler | predicted | measured | ÷ wang | cluster | light in cluster | point on light | footprint (at emitter pixels) | measured, stratified | stratification's gain | zero samples (lit hits) | dark hits | top pixel's share of measured |";
     if a.max_depth > 1 {
         t += &format!(
             " measured, depth {} (stratified) | later vertices (beyond stratified direct) |",
@@ -494,9 +507,8 @@ fn table(a: &VarianceRequest, rows: &[Row]) -> String {
         let tot = s.total();
         let pct = |v: f64| format!("{:.1} %", 100.0 * v / tot);
         let ratio = wang.map_or("—".into(), |w| format!("{:.2}×", w / tot));
-        let selection = s.cluster + s.light + s.point;
         t += &format!(
-            "| {} | {:.3e} | {:.3e} | {} | {} | {} | {} | {} ({}) | {:.3e} | {:.1} % | {:.1} % | {:.1} % | {:.1} % |",
+            "| {} | {:.3e} | {:.3e} | {} | {} | {} | {} | {} ({}) | {:.3e} | {} | {:.1} % | {:.1} % | {:.1} % |",
             r.name,
             tot,
             r.measured,
@@ -507,7 +519,7 @@ fn table(a: &VarianceRequest, rows: &[Row]) -> String {
             pct(s.jitter),
             pct(s.jitter_emitter),
             r.measured_r2,
-            100.0 * (r.measured_r2 - selection) / r.measured_r2,
+            stratification_gain(r.measured, r.measured_r2),
             100.0 * s.zero_lit,
             100.0 * s.dark_hits as f64 / s.hits.max(1) as f64,
             100.0 * r.top_pixel_share(),
