@@ -21,15 +21,19 @@ reuses (in OUT: the defaults' renders are shared).
 
 SAMPLERS=wang,bayes (default wang,donikian,bayes); FROZEN=N adds `bayes` with statistics
 learned over N spp (one render of seed 100, --save-stats) and then frozen (--load-stats,
---update-every 1000000): the model's ceiling as built; ONLY=REGEX keeps the scenes whose name
+--update-every 1000000): the model's ceiling as built; FROZEN_FLAGS="..." learns and renders
+that column with these flags too (e.g. "--k-max 64 --tau 0.005": the ceiling of finer cuts,
+docs/results.md, thirteenth session); ONLY=REGEX keeps the scenes whose name
 matches (the committed rooms16, city, hall, strings and the six of ci/bench_outside.py,
 generated into OUT). At DEPTH >= 2 F is the floor under the first vertex's light choice
 alone (the later vertices': ci/bench_gi_split.py). The N = 16 renders take ~10x a default
 render. Reads the EXRs with Mitsuba 3's Bitmap (ci/setup.sh installs mitsuba); needs a
 release build (cargo build --release).
 """
+import hashlib
 import importlib.util
 import os
+import shlex
 import subprocess
 import sys
 
@@ -60,7 +64,10 @@ def main():
         samplers = ["wang"] + samplers
     os.makedirs(out, exist_ok=True)
     frozen = int(os.environ.get("FROZEN", "0"))
-    others = [s for s in samplers if s != "wang"] + ([f"bayes frozen after {frozen} spp"] if frozen else [])
+    frozen_flags = shlex.split(os.environ.get("FROZEN_FLAGS", ""))
+    tag = hashlib.sha1(" ".join(frozen_flags).encode()).hexdigest()[:8] if frozen_flags else ""
+    label = f"bayes {' '.join(frozen_flags)} frozen after {frozen} spp".replace("  ", " ")
+    others = [s for s in samplers if s != "wang"] + ([label] if frozen else [])
     head = " | ".join(f"`{s}` V, wang ÷ it, share taken" for s in others)
     print(f"Direct-light floor F (depth {depth}), {spp} spp, {seeds} seeds, 128×96\n\n"
           f"| scene | `wang` V | F | V2 measured ÷ predicted | ceiling V_wang ÷ F | {head} |\n"
@@ -78,14 +85,16 @@ def main():
         vw = variance("wang")
         cells = []
         for s in others:
-            if s.startswith("bayes frozen"):
-                stats = os.path.join(out, f"{name}-learned-{frozen}.stats")
+            if s == label and frozen:
+                stats = os.path.join(out, f"{name}-learned-{frozen}{'-' + tag if tag else ''}.stats")
                 if not os.path.exists(stats):
                     subprocess.run([flags_mod.EXE, "render", scene, "--sampler", "bayes", "--seed",
                                     "100", "--spp", str(frozen), "--width", "128", "--height",
                                     "96", "--max-depth", depth, "-q", "--force", "--out",
-                                    stats[:-6] + ".exr", "--save-stats", stats], check=True)
-                vs = variance("bayes", ["--load-stats", stats, "--update-every", "1000000"])
+                                    stats[:-6] + ".exr", "--save-stats", stats, *frozen_flags],
+                                   check=True)
+                vs = variance("bayes", [*frozen_flags, "--load-stats", stats,
+                                        "--update-every", "1000000"])
             else:
                 vs = variance(s)
             # Where F is within 5 % of wang's variance there is nothing to take.
