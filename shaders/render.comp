@@ -35,6 +35,9 @@ layout(constant_id = 2) const uint KNOCK_OUT = 0u;
 #define KNOCK_OBSERVE 8u  // observations not recorded (no statistics atomics)
 #define KNOCK_SHADING 16u // the path ends at its first hit, whose distance is its sample: the
                           // camera rays alone (everything after them left out)
+#define KNOCK_IMPORTANCE 32u // the unoccluded importance is Φ/d² (light_tree.glsl): its cone
+                             // and cosine bounds' arithmetic left out
+#define IMPORTANCE_KNOCKED_OUT ((KNOCK_OUT & KNOCK_IMPORTANCE) != 0u)
 // The learned samplers' switches (LearnParams.flags), fixed for the pipeline (learning.glsl).
 layout(constant_id = 3) const uint LEARN_FLAGS = 0u;
 // What the scene's materials need (src/render/gpu_scene.rs kernel_flags): 1 a glossy material, 2 a

@@ -427,6 +427,7 @@ fn profile_times_every_stage_of_a_learning_path_tracer() {
         "nothing (the real kernel)",
         "light selection",
         "shadow rays",
+        "the importance's cone and cosine bounds",
         "MIS light pmf",
         "statistics atomics",
         "folds and region growth between passes",

@@ -33,6 +33,12 @@ GpuLightNode light_node(uint i) {
     return nd;
 }
 
+// render.comp's stage profile (`lightlearn profile`) can leave the importance's bounds out;
+// every other kernel and every render keep them.
+#ifndef IMPORTANCE_KNOCKED_OUT
+#define IMPORTANCE_KNOCKED_OUT false
+#endif
+
 #define NO_LIGHT 0xffffffffu
 #define ONE_MINUS_EPSILON 0.99999994
 
@@ -65,6 +71,7 @@ float light_importance_d2(GpuLightNode nd, vec3 p, vec3 n, out float d2) {
     vec3 to = p - nd.centre;
     float dist2 = dot(to, to);
     d2 = max(dist2, d2_floor(nd));
+    if (IMPORTANCE_KNOCKED_OUT) return nd.phi / d2;
     float inv_dist = dist2 > 0.0 ? 1.0 / sqrt(dist2) : 0.0;
     vec3 wi = to * inv_dist;
     float cos_w = dot(nd.axis, wi);

@@ -20,6 +20,7 @@ pub const KNOCK_SHADOW: u32 = 2;
 pub const KNOCK_MIS_PMF: u32 = 4;
 pub const KNOCK_OBSERVE: u32 = 8;
 pub const KNOCK_SHADING: u32 = 16;
+pub const KNOCK_IMPORTANCE: u32 = 32;
 
 /// One timed variant.
 pub struct StageTime {
@@ -37,6 +38,15 @@ fn variants(settings: &RenderSettings) -> Vec<(&'static str, u32, bool)> {
         ("light selection (uniform picks)", KNOCK_SELECT, true),
         ("shadow rays (all visible)", KNOCK_SHADOW, true),
     ];
+    if settings.sampler.uses_importance() {
+        // Its share of light selection: the default render 9-10 % of a `bayes` pass, the
+        // texel fetches of the cut's loop 5-7 % (docs/results.md, thirteenth session).
+        v.push((
+            "the importance's cone and cosine bounds (Φ/d² instead)",
+            KNOCK_IMPORTANCE,
+            true,
+        ));
+    }
     if settings.max_depth > 1 {
         v.push(("MIS light pmf of BSDF hits", KNOCK_MIS_PMF, true));
     }

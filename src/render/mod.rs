@@ -137,6 +137,12 @@ impl LightSampler {
     pub fn uses_cuts(self) -> bool {
         self == LightSampler::Wang || self.learned()
     }
+
+    /// Weighs lights or clusters by the light tree's unoccluded importance (shaders/shared/
+    /// light_tree.glsl).
+    pub fn uses_importance(self) -> bool {
+        self == LightSampler::Lightbvh || self.uses_cuts()
+    }
 }
 
 /// When a render stops.
