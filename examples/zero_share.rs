@@ -6,8 +6,9 @@
 //! over 1024 passes (each light equally likely, so a pixel that any light reaches gets a
 //! non-zero sample unless that light's visible share is tiny); its samples are zero for any
 //! sampler. For `wang`, `bayes` learning from scratch and `bayes` with statistics learned
-//! over 2048 passes and then frozen (also with learned cut refinement, `--refine-cuts 8`): the
-//! zero share over all light samples and over the lightable pixels' alone.
+//! over 2048 passes and then frozen (also with learned cut refinement, `--refine-cuts 8`, and
+//! with finer cuts, `--k-max 64 --tau 0.005`): the zero share over all light samples and over
+//! the lightable pixels' alone.
 //!
 //! `cargo run --release --example zero_share [SPP] [SCENE.glb ...]` (default: 256 spp; the
 //! committed rooms16, city, hall and strings), direct light, 128×96.
@@ -73,12 +74,20 @@ fn main() -> anyhow::Result<()> {
 
         // bayes learned over 2048 passes (another seed), then frozen: no fold in the
         // measured passes; `refine`: with learned cut refinement (--refine-cuts).
-        let frozen = |refine: u32| -> anyhow::Result<RenderSettings> {
-            let mut learn = settings(LightSampler::Bayes, 9);
-            learn.learn.refine_cuts = refine;
+        // `fine`: cuts of up to 64 clusters split to τ = 0.005 (docs/results.md, thirteenth
+        // session: the converged model's best ceiling).
+        let frozen = |refine: u32, fine: bool| -> anyhow::Result<RenderSettings> {
+            let with = |mut s: RenderSettings| {
+                s.learn.refine_cuts = refine;
+                if fine {
+                    s.regions.k_max = 64;
+                    s.regions.tau = 0.005;
+                }
+                s
+            };
+            let learn = with(settings(LightSampler::Bayes, 9));
             let learned = run(&learn, 2048)?.snapshot()?.expect("bayes learns");
-            let mut frozen = settings(LightSampler::Bayes, 1);
-            frozen.learn.refine_cuts = refine;
+            let mut frozen = with(settings(LightSampler::Bayes, 1));
             frozen.resume = Some(std::sync::Arc::new(learned));
             frozen.learn.update_every = UpdateEvery::Passes(1 << 30);
             Ok(frozen)
@@ -88,8 +97,9 @@ fn main() -> anyhow::Result<()> {
         for (name, set) in [
             ("wang", settings(LightSampler::Wang, 1)),
             ("bayes, from scratch", settings(LightSampler::Bayes, 1)),
-            ("bayes, learned over 2048 spp and frozen", frozen(0)?),
-            ("the same with --refine-cuts 8", frozen(8)?),
+            ("bayes, learned over 2048 spp and frozen", frozen(0, false)?),
+            ("the same with --refine-cuts 8", frozen(8, false)?),
+            ("the same with --k-max 64 --tau 0.005", frozen(0, true)?),
         ] {
             let r = run(&set, spp)?.result()?;
             let per_pixel = zero_and_all(&r);
