@@ -77,34 +77,41 @@ pub fn profile(
     repeats: u32,
     progress: &mut dyn FnMut(&str),
 ) -> Result<(Vec<StageTime>, Option<LearnDiagnostics>)> {
-    let mut out = Vec::new();
+    let variants = variants(settings);
+    let mut best = vec![f64::INFINITY; variants.len()];
     let mut learned = None;
-    for (name, mask, folds) in variants(settings) {
-        let mut s = settings.clone();
-        if !folds {
-            // No fold inside the timed passes (the coefficients are set once, untimed), and so
-            // no region growth either: it waits for a fold boundary. With direct light the
-            // passes then share dispatches too (one learning window), so what this saves is
-            // everything a fold costs, its breaking of the dispatch included.
-            s.learn.update_every = UpdateEvery::Passes(passes + 1);
-        }
-        let mut best = f64::INFINITY;
-        let repeats = repeats.max(1);
-        for rep in 0..repeats {
+    let repeats = repeats.max(1);
+    // Round by round over the variants, not each variant's repeats in a row: this machine's
+    // speed drifts by 10-15 % within minutes, and a drift between two variants' turns read
+    // as a stage's cost (rows of -9 % and -13 % in a row-by-row profile, docs/results.md,
+    // thirteenth session).
+    for rep in 0..repeats {
+        for (v, &(name, mask, folds)) in variants.iter().enumerate() {
+            let mut s = settings.clone();
+            if !folds {
+                // No fold inside the timed passes (the coefficients are set once, untimed), and
+                // so no region growth either: it waits for a fold boundary. With direct light
+                // the passes then share dispatches too (one learning window), so what this
+                // saves is everything a fold costs, its breaking of the dispatch included.
+                s.learn.update_every = UpdateEvery::Passes(passes + 1);
+            }
             let mut session = Session::new(ctx, scene, gpu, &s)?;
             session.knock_out(mask)?;
-            best = best.min(session.run_passes(passes)?);
+            best[v] = best[v].min(session.run_passes(passes)?);
             // Once, after the real kernel's last repeat (untimed: it reads the film back).
             if mask == 0 && folds && rep + 1 == repeats {
                 learned = session.result()?.learned.map(|l| l.diagnostics);
             }
+            if rep + 1 == repeats {
+                progress(&format!("without {name}: {:.3} s", best[v]));
+            }
         }
-        progress(&format!("without {name}: {best:.3} s"));
-        out.push(StageTime {
-            name,
-            seconds: best,
-        });
     }
+    let out = variants
+        .iter()
+        .zip(best)
+        .map(|(&(name, _, _), seconds)| StageTime { name, seconds })
+        .collect();
     Ok((out, learned))
 }
 
