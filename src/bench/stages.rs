@@ -39,8 +39,8 @@ fn variants(settings: &RenderSettings) -> Vec<(&'static str, u32, bool)> {
         ("shadow rays (all visible)", KNOCK_SHADOW, true),
     ];
     if settings.sampler.uses_importance() {
-        // Its share of light selection: the default render 9-10 % of a `bayes` pass, the
-        // texel fetches of the cut's loop 5-7 % (docs/results.md, thirteenth session).
+        // Part of light selection: on the default render 9-13 % of a `bayes` pass, against
+        // 5-7 % for the texel fetches of the cut's loop (docs/results.md, thirteenth session).
         v.push((
             "the importance's cone and cosine bounds (Φ/d² instead)",
             KNOCK_IMPORTANCE,
@@ -82,9 +82,10 @@ pub fn profile(
     let mut learned = None;
     let repeats = repeats.max(1);
     // Round by round over the variants, not each variant's repeats in a row: this machine's
-    // speed drifts by 10-15 % within minutes, and a drift between two variants' turns read
-    // as a stage's cost (rows of -9 % and -13 % in a row-by-row profile, docs/results.md,
-    // thirteenth session).
+    // speed drifts by 10-15 % within minutes, and a drift between two variants' turns reads
+    // as a stage's cost (rows of -9 % and -13 % in row-by-row profiles). Rounds spread the
+    // drift over every variant; they do not remove the noise (3 rounds still gave a -21 %
+    // row once, 5 gave none: docs/results.md, thirteenth session).
     for rep in 0..repeats {
         for (v, &(name, mask, folds)) in variants.iter().enumerate() {
             let mut s = settings.clone();
