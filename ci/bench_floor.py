@@ -65,6 +65,8 @@ def main():
     os.makedirs(out, exist_ok=True)
     frozen = int(os.environ.get("FROZEN", "0"))
     frozen_flags = shlex.split(os.environ.get("FROZEN_FLAGS", ""))
+    if frozen_flags and not frozen:
+        sys.exit("FROZEN_FLAGS needs FROZEN=N (the spp the frozen statistics learn over)")
     tag = hashlib.sha1(" ".join(frozen_flags).encode()).hexdigest()[:8] if frozen_flags else ""
     label = f"bayes {' '.join(frozen_flags)} frozen after {frozen} spp".replace("  ", " ")
     others = [s for s in samplers if s != "wang"] + ([label] if frozen else [])

@@ -39,8 +39,9 @@ fn variants(settings: &RenderSettings) -> Vec<(&'static str, u32, bool)> {
         ("shadow rays (all visible)", KNOCK_SHADOW, true),
     ];
     if settings.sampler.uses_importance() {
-        // Part of light selection: on the default render 9-13 % of a `bayes` pass, against
-        // 5-7 % for the texel fetches of the cut's loop (docs/results.md, thirteenth session).
+        // Part of light selection: on the default render 4-13 % of a `bayes` pass in single
+        // profiles, ~10 % over six interleaved rounds, against 5-7 % for the texel fetches of
+        // the cut's loop (docs/results.md, thirteenth session).
         v.push((
             "the importance's cone and cosine bounds (Φ/d² instead)",
             KNOCK_IMPORTANCE,
@@ -54,6 +55,7 @@ fn variants(settings: &RenderSettings) -> Vec<(&'static str, u32, bool)> {
         v.push(("statistics atomics", KNOCK_OBSERVE, true));
         v.push(("folds and region growth between passes", 0, false));
     }
+    // (KNOCK_IMPORTANCE need not be in it: with uniform picks no importance is evaluated.)
     let all = KNOCK_SELECT | KNOCK_SHADOW | KNOCK_MIS_PMF | KNOCK_OBSERVE;
     v.push(("all of the above", all, false));
     // What is left is the camera rays (their hits) and the film: on lavapipe with `uniform`
@@ -87,6 +89,9 @@ pub fn profile(
     // drift over every variant; they do not remove the noise (3 rounds still gave a -21 %
     // row once, 5 gave none: docs/results.md, thirteenth session).
     for rep in 0..repeats {
+        if rep + 1 < repeats {
+            progress(&format!("round {} of {repeats}", rep + 1));
+        }
         for (v, &(name, mask, folds)) in variants.iter().enumerate() {
             let mut s = settings.clone();
             if !folds {

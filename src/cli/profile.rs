@@ -27,7 +27,8 @@ pub struct ProfileArgs {
     /// Surface vertices of a path (1 = direct light).
     #[arg(long, default_value_t = 8, value_name = "D")]
     pub max_depth: u32,
-    /// Timed runs per variant; the fastest counts.
+    /// Timed rounds (each runs every variant once); a variant's fastest run counts. 5 where the
+    /// machine is shared: its speed drifts by 10-15 % within minutes.
     #[arg(long, default_value_t = 3)]
     pub repeats: u32,
     #[command(flatten)]
