@@ -27,9 +27,10 @@ pub struct ProfileArgs {
     /// Surface vertices of a path (1 = direct light).
     #[arg(long, default_value_t = 8, value_name = "D")]
     pub max_depth: u32,
-    /// Timed rounds (each runs every variant once); a variant's fastest run counts. 5 where the
-    /// machine is shared: its speed drifts by 10-15 % within minutes.
-    #[arg(long, default_value_t = 3)]
+    /// Timed rounds (each runs every variant once); a variant's fastest run counts. 5 by
+    /// default: on a shared 2-core machine 3 rounds still left rows of -7 % and -21 %, 5 none
+    /// (docs/results.md, thirteenth session).
+    #[arg(long, default_value_t = 5)]
     pub repeats: u32,
     #[command(flatten)]
     pub regions: RegionArgs,
