@@ -36,19 +36,20 @@ EXE = os.environ.get("LIGHTLEARN_BIN", os.path.join(ROOT, "target", "release", "
 COMMITTED = ["rooms16", "city", "hall", "strings"]
 
 
-def outside_scenes():
+def outside():
+    """ci/bench_outside.py as a module (its scenes and its argument reader)."""
     spec = importlib.util.spec_from_file_location(
         "bench_outside", os.path.join(ROOT, "ci", "bench_outside.py"))
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    return mod.SCENES
+    return mod
 
 
 def scenes(out, only=None):
     """(name, path) of the committed scenes and of ci/bench_outside.py's, those matching the
     regular expression `only`; the outside ones are generated into OUT if missing."""
     listed = [(n, os.path.join(ROOT, "scenes", n + ".glb"), None) for n in COMMITTED]
-    listed += [(n, os.path.join(out, n + ".glb"), args) for n, args in outside_scenes()]
+    listed += [(n, os.path.join(out, n + ".glb"), args) for n, args in outside().SCENES]
     for name, scene, args in listed:
         if only and not re.search(only, name):
             continue
@@ -79,15 +80,9 @@ def main():
     if len(sys.argv) < 2:
         sys.exit(__doc__)
     flags = sys.argv[1].split()
-    depth = sys.argv[2] if len(sys.argv) > 2 else "1"
-    spp = sys.argv[3] if len(sys.argv) > 3 else "256"
-    seeds = int(sys.argv[4]) if len(sys.argv) > 4 else 4
-    out = sys.argv[5] if len(sys.argv) > 5 else "bench-flags"
+    depth, spp, seeds, out = outside().run_args(sys.argv[2:], "bench-flags")
     sampler = os.environ.get("SAMPLER", "bayes")
     only = os.environ.get("ONLY")
-    if seeds < 2:
-        sys.exit("SEEDS must be at least 2 (the variance is taken across seeds)")
-    os.makedirs(out, exist_ok=True)
     print(f"`{sampler}` with `{' '.join(flags)}` against the defaults, depth {depth}, {spp} spp, "
           f"{seeds} seeds (defaults / flags)\n\n| scene | variance | ratio | trimmed | time, flags ÷ defaults "
           f"| variance × time |\n|---|---|---|---|---|---|", flush=True)

@@ -52,17 +52,11 @@ def load(name):
 
 def main():
     flags_mod = load("bench_flags")
-    depth = sys.argv[1] if len(sys.argv) > 1 else "1"
-    spp = sys.argv[2] if len(sys.argv) > 2 else "256"
-    seeds = int(sys.argv[3]) if len(sys.argv) > 3 else 4
-    out = sys.argv[4] if len(sys.argv) > 4 else "bench-floor"
+    depth, spp, seeds, out = flags_mod.outside().run_args(sys.argv[1:], "bench-floor")
     samplers = os.environ.get("SAMPLERS", "wang,donikian,bayes").split(",")
     only = os.environ.get("ONLY")
-    if seeds < 2:
-        sys.exit("SEEDS must be at least 2 (the variance is taken across seeds)")
     if "wang" not in samplers:
         samplers = ["wang"] + samplers
-    os.makedirs(out, exist_ok=True)
     frozen = int(os.environ.get("FROZEN", "0"))
     frozen_flags = shlex.split(os.environ.get("FROZEN_FLAGS", ""))
     if frozen_flags and not frozen:

@@ -48,16 +48,24 @@ SCENES = [
 COMMITTED = ["rooms16", "city", "hall", "strings"]
 
 
-def main():
-    depth = sys.argv[1] if len(sys.argv) > 1 else "1"
-    spp = sys.argv[2] if len(sys.argv) > 2 else "256"
-    seeds = int(sys.argv[3]) if len(sys.argv) > 3 else 4
-    out = sys.argv[4] if len(sys.argv) > 4 else "bench-outside"
-    samplers = os.environ.get("SAMPLERS", "wang,donikian,bayes").split(",")
-    only = os.environ.get("ONLY")
+def run_args(argv, default_out):
+    """[DEPTH] [SPP] [SEEDS] [OUT] from argv (defaults 1, 256, 4, default_out), as the bench
+    scripts that take variances across seeds read them (also ci/bench_flags.py and
+    ci/bench_floor.py); SEEDS below 2 is refused, OUT is made."""
+    depth = argv[0] if len(argv) > 0 else "1"
+    spp = argv[1] if len(argv) > 1 else "256"
+    seeds = int(argv[2]) if len(argv) > 2 else 4
+    out = argv[3] if len(argv) > 3 else default_out
     if seeds < 2:
         sys.exit("SEEDS must be at least 2 (the variance is taken across seeds)")
     os.makedirs(out, exist_ok=True)
+    return depth, spp, seeds, out
+
+
+def main():
+    depth, spp, seeds, out = run_args(sys.argv[1:], "bench-outside")
+    samplers = os.environ.get("SAMPLERS", "wang,donikian,bayes").split(",")
+    only = os.environ.get("ONLY")
     reuse = os.environ.get("REUSE") == "1"
     width, height = os.environ.get("WIDTH", "128"), os.environ.get("HEIGHT", "96")
     size = "" if (width, height) == ("128", "96") else f"-{width}x{height}"
