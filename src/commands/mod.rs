@@ -77,10 +77,7 @@ pub fn check_depth(d: u32) -> Result<()> {
 /// `--indirect-light-samples N`: 1 to [`crate::render::MAX_INDIRECT_LIGHT_SAMPLES`], and more
 /// than 1 only where a path has vertices after the first.
 pub fn check_indirect_light_samples(n: u32, max_depth: u32) -> Result<()> {
-    let max = crate::render::MAX_INDIRECT_LIGHT_SAMPLES;
-    if !(1..=max).contains(&n) {
-        bail!("--indirect-light-samples must be 1 to {max} (got {n})");
-    }
+    check_light_samples("--indirect-light-samples", n)?;
     if n > 1 && max_depth < 2 {
         bail!(
             "--indirect-light-samples {n} needs paths with more than one vertex: add --max-depth 2 or more (--max-depth {max_depth} is direct light alone)"
@@ -89,12 +86,18 @@ pub fn check_indirect_light_samples(n: u32, max_depth: u32) -> Result<()> {
     Ok(())
 }
 
-/// `--first-light-samples N`: 1 to [`crate::render::MAX_INDIRECT_LIGHT_SAMPLES`] (render.comp
-/// numbers their random dimensions apart up to that many), at any depth.
+/// `--first-light-samples N`: 1 to [`crate::render::MAX_INDIRECT_LIGHT_SAMPLES`], at any depth.
 pub fn check_first_light_samples(n: u32) -> Result<()> {
+    check_light_samples("--first-light-samples", n)
+}
+
+/// Next-event samples a vertex takes (`flag` N): 1 to
+/// [`crate::render::MAX_INDIRECT_LIGHT_SAMPLES`], as many as render.comp numbers their random
+/// dimensions apart.
+fn check_light_samples(flag: &str, n: u32) -> Result<()> {
     let max = crate::render::MAX_INDIRECT_LIGHT_SAMPLES;
     if !(1..=max).contains(&n) {
-        bail!("--first-light-samples must be 1 to {max} (got {n})");
+        bail!("{flag} must be 1 to {max} (got {n})");
     }
     Ok(())
 }
