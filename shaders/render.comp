@@ -581,16 +581,21 @@ void push_path(Path st) {
     }
 }
 
-// A finished path into the film: its sample, its square, and the light-sample counts.
-void finish_path(Path st) {
-    vec3 L = st.L;
-    if (any(isnan(L)) || any(isinf(L))) {
-        atomicAdd(counters[0], 1u);
-        L = vec3(0.0);
-    }
-    PixelAccum a = accum[st.pixel];
+// A finished path added to a pixel's sums: its sample, its square, and the light-sample
+// counts. Returns 1 where the sample was NaN or infinite (then dropped, for counters[0]),
+// else 0.
+uint add_path(Path st, inout PixelAccum a) {
+    bool bad = any(isnan(st.L)) || any(isinf(st.L));
+    vec3 L = bad ? vec3(0.0) : st.L;
     a.sum += vec4(L, st.zero_samples);
     a.sum_sq += vec4(L * L, st.light_samples);
+    return bad ? 1u : 0u;
+}
+
+// A finished path into the film.
+void finish_path(Path st) {
+    PixelAccum a = accum[st.pixel];
+    if (add_path(st, a) != 0u) atomicAdd(counters[0], 1u);
     accum[st.pixel] = a;
 }
 
@@ -640,15 +645,25 @@ void main() {
     // ci/bench_outside.py, 128×96, 256 spp: 0.49 against 0.34 s), 1.15× with this loop
     // (0.386 against 0.335 s). The same reason shapes the loops of bvh.glsl, light_tree.glsl,
     // regions.glsl and learning.glsl (docs/results.md, 2026-12-04, fifth session).
+    // The pixel's sums stay in registers over the passes and go back to the film once, with
+    // the dropped samples' count: the same additions in the same order as a read and a write
+    // a pass (the same bits). lavapipe reads and writes a storage buffer word by word and
+    // lane by lane: without those 32 bytes a sample `uniform` direct light takes 1.32× (rooms)
+    // and 1.41× (city) the samples a second (ci/bench_mitsuba.py; docs/results.md, fourteenth
+    // session).
     uint passes = max(params.passes, 1u);
     uint j = 0u;
+    PixelAccum a = accum[px.y * params.width + px.x];
+    uint dropped = 0u;
     do {
         sample_s = params.sample_index + j;
         st = camera_path(px);
         for (depth = 0u; depth <= params.max_depth; ++depth) {
             if (!path_vertex(st, depth)) break;
         }
-        finish_path(st);
+        dropped += add_path(st, a);
         ++j;
     } while (j < passes);
+    accum[px.y * params.width + px.x] = a;
+    if (dropped > 0u) atomicAdd(counters[0], dropped);
 }

@@ -161,17 +161,20 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
         COMPARE_EXCHANGE(0, 2)
         COMPARE_EXCHANGE(1, 3)
         COMPARE_EXCHANGE(1, 2)
+        // A shadow ray (any_hit) ends at its first hit, so best_t stays tmax and every stacked
+        // entry (key ≤ best_t) is visited: it stores no distances (a constant after inlining;
+        // `uniform` direct light 0.97-0.99× the time on rooms and city, the same images).
         if (m > 0u) {
-            if (m > 3u) { stack[sp] = rf[3]; stack_t[sp] = key[3]; sp++; }
-            if (m > 2u) { stack[sp] = rf[2]; stack_t[sp] = key[2]; sp++; }
-            if (m > 1u) { stack[sp] = rf[1]; stack_t[sp] = key[1]; sp++; }
+            if (m > 3u) { stack[sp] = rf[3]; if (!any_hit) stack_t[sp] = key[3]; sp++; }
+            if (m > 2u) { stack[sp] = rf[2]; if (!any_hit) stack_t[sp] = key[2]; sp++; }
+            if (m > 1u) { stack[sp] = rf[1]; if (!any_hit) stack_t[sp] = key[1]; sp++; }
             node = rf[0];
         } else {
             // Pop the next child that can still hold a closer hit.
             bool found = false;
             while (sp > 0u && !found) {
                 sp--;
-                found = stack_t[sp] <= best_t;
+                found = any_hit || stack_t[sp] <= best_t;
                 node = stack[sp];
             }
             if (!found) break;
