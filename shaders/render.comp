@@ -70,6 +70,11 @@ layout(constant_id = 7) const uint INDIRECT_LIGHT_SAMPLES = 1u;
 layout(constant_id = 8) const uint FIRST_LIGHT_SAMPLES = 1u;
 // Whether any vertex takes more than one light sample (sums of specialization constants:
 // glslang 11 mistranslates || between them, learning.glsl says so).
+// --stratify (RenderSettings::stratify, fixed for a session): STRATIFY_SOBOL, STRATIFY_R2 or
+// STRATIFY_OFF (types.glsl). A push constant before: every sample then computed the numbers
+// of all three (lavapipe runs both sides of a choice), and the first vertex's stratified
+// numbers at every later vertex too.
+layout(constant_id = 9) const uint STRATIFY = STRATIFY_SOBOL;
 const bool MULTI_LIGHT_SAMPLES = INDIRECT_LIGHT_SAMPLES + FIRST_LIGHT_SAMPLES > 2u;
 const bool FIRST_INDEPENDENT = FIRST_LIGHT_SAMPLES > 1u;
 
@@ -175,9 +180,9 @@ layout(std430, set = 1, binding = 8) buffer SideCounts { uint side_counts[]; };
 // at the first vertex (rng.glsl first_vertex_sobol or first_vertex_r5) when the jitter is,
 // independent elsewhere.
 float vertex_rand(uint seed, uint pixel, uint s, uint depth, uint dim) {
-    if (params.stratified != 0u && depth == 0u) {
-        return params.stratified == STRATIFY_SOBOL ? first_vertex_sobol(seed, pixel, dim - DIM_LIGHT)
-                                                   : first_vertex_r5(seed, pixel, s, dim - DIM_LIGHT);
+    if (STRATIFY != STRATIFY_OFF && depth == 0u) {
+        return STRATIFY == STRATIFY_SOBOL ? first_vertex_sobol(dim - DIM_LIGHT)
+                                          : first_vertex_r5(s, dim - DIM_LIGHT);
     }
     return sample_rand(seed, pixel, s, depth * DIMS_PER_VERTEX + dim);
 }
@@ -276,9 +281,9 @@ Path camera_path(uvec2 px) {
     uint s = sample_s;
     uint seed = params.seed;
     // The sample's Sobol' point, once for its jitter and its first vertex (rng.glsl).
-    if (params.stratified == STRATIFY_SOBOL) sobol_point(s, sobol_lo, sobol_hi);
-    vec2 jitter = params.stratified == STRATIFY_SOBOL ? pixel_jitter_sobol(seed, st.pixel)
-        : params.stratified == STRATIFY_R2 ? pixel_jitter_r2(seed, st.pixel, s)
+    if (STRATIFY == STRATIFY_SOBOL) sobol_point(s, sobol_lo, sobol_hi);
+    vec2 jitter = STRATIFY == STRATIFY_SOBOL ? pixel_jitter_sobol()
+        : STRATIFY == STRATIFY_R2 ? pixel_jitter_r2(s)
         : vec2(sample_rand(seed, st.pixel, s, DIM_JITTER_X), sample_rand(seed, st.pixel, s, DIM_JITTER_Y));
     vec2 ndc = vec2((float(px.x) + jitter.x) / float(params.width) * 2.0 - 1.0,
                     1.0 - (float(px.y) + jitter.y) / float(params.height) * 2.0);
@@ -619,6 +624,7 @@ void main() {
         } else {
             uvec2 px = uvec2(gl_GlobalInvocationID.x, gl_GlobalInvocationID.y + params.row0);
             if (px.x >= params.width || px.y >= params.height) return;
+            set_pixel_keys(params.seed, px.y * params.width + px.x);
             st = camera_path(px);
         }
         if (path_vertex(st, depth)) {
@@ -655,6 +661,7 @@ void main() {
     uint j = 0u;
     PixelAccum a = accum[px.y * params.width + px.x];
     uint dropped = 0u;
+    set_pixel_keys(params.seed, px.y * params.width + px.x);
     do {
         sample_s = params.sample_index + j;
         st = camera_path(px);

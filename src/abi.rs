@@ -317,10 +317,6 @@ pub struct RenderParams {
     pub light_count: u32,
     /// Offset of secondary ray origins, relative to the scene size.
     pub ray_eps: f32,
-    /// [`crate::render::Stratify::code`]: 0 independent numbers per sample; 1 pixel jitter
-    /// (R2) and the first vertex's light and BSDF numbers (R5) stratified over passes; 2 the
-    /// same by Owen-scrambled Sobol'.
-    pub stratified: u32,
     /// Surface vertices of a path (1: direct light by light sampling alone).
     pub max_depth: u32,
     /// The wavefront's bounce (`render.comp` WAVEFRONT): 0 starts paths, d ≥ 1 takes

@@ -212,7 +212,6 @@ fn host_and_shader_structs_match() {
             seed,
             light_count,
             ray_eps,
-            stratified,
             max_depth,
             bounce,
             row0,

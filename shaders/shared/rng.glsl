@@ -27,14 +27,24 @@ uint vertex_key(uint seed, uint pixel, uint k) {
     return hash32(seed ^ hash32(pixel ^ hash32(k ^ 0xa511e9b3u)));
 }
 
+// The keys of the pixel being traced (set_pixel_keys): a pixel's samples share them, so an
+// invocation hashes them once, not once a sample (a direct-light dispatch takes many).
+uvec2 px_jitter_key = uvec2(0u);
+uint px_vertex_key[5] = uint[5](0u, 0u, 0u, 0u, 0u);
+
+void set_pixel_keys(uint seed, uint pixel) {
+    px_jitter_key = jitter_keys(seed, pixel);
+    for (uint k = 0u; k < 5u; ++k) px_vertex_key[k] = vertex_key(seed, pixel, k);
+}
+
 // The point in the pixel of sample s, stratified over the passes: the R2 sequence (Roberts
 // 2018, the plastic-number Kronecker lattice) in 32-bit fixed point, so it stays exact for
 // any sample count, shifted per pixel by a random offset (Cranley–Patterson rotation: each
 // sample is still uniform over the pixel, so the estimate stays unbiased). Edge pixels of
 // visible emitters converge far faster than with independent jitter; measured on rooms16,
 // 128×96, 256 spp: pixels with ref > 1 held 50–70 % of every sampler's squared error.
-vec2 pixel_jitter_r2(uint seed, uint pixel, uint s) {
-    uvec2 o = jitter_keys(seed, pixel);
+vec2 pixel_jitter_r2(uint s) {
+    uvec2 o = px_jitter_key;
     uint x = s * 3242174889u + o.x;  // round(0.7548776662 · 2^32)
     uint y = s * 2447445414u + o.y;  // round(0.5698402910 · 2^32)
     return vec2(float(x >> 8), float(y >> 8)) * (1.0 / 16777216.0);
@@ -52,8 +62,8 @@ vec2 pixel_jitter_r2(uint seed, uint pixel, uint s) {
 // paths and cost direct light 26 % (`wang`).
 const uint R5_STEP[5] = uint[5](3785032107u, 3335640777u, 2939605023u, 2590590015u, 2283013049u);
 
-float first_vertex_r5(uint seed, uint pixel, uint s, uint k) {
-    uint o = vertex_key(seed, pixel, k);
+float first_vertex_r5(uint s, uint k) {
+    uint o = px_vertex_key[k];
     return float((s * R5_STEP[k] + o) >> 8) * (1.0 / 16777216.0);
 }
 
@@ -181,17 +191,17 @@ uvec4 sobol_lo;
 uvec4 sobol_hi;
 
 // The point in the pixel of the current sample (dimensions 0 and 1).
-vec2 pixel_jitter_sobol(uint seed, uint pixel) {
-    uvec2 k = jitter_keys(seed, pixel);
+vec2 pixel_jitter_sobol() {
+    uvec2 k = px_jitter_key;
     return vec2(owen_float(sobol_lo.x, k.x), owen_float(sobol_lo.y, k.y));
 }
 
 // Number k (0 … 4, as first_vertex_r5) of the first vertex of the current sample: dimension
 // 2 + k (the point on the light 3, 4 and the BSDF direction 5, 6: up to 256 samples no pair of
 // dimensions 2–6 has t < 2).
-float first_vertex_sobol(uint seed, uint pixel, uint k) {
+float first_vertex_sobol(uint k) {
     uint x = k == 0u ? sobol_lo.z : (k == 1u ? sobol_lo.w : (k == 2u ? sobol_hi.x : (k == 3u ? sobol_hi.y : sobol_hi.z)));
-    return owen_float(x, vertex_key(seed, pixel, k));
+    return owen_float(x, px_vertex_key[k]);
 }
 
 #endif

@@ -148,7 +148,6 @@ struct RenderParams {
     uint seed;
     uint light_count;
     float ray_eps;
-    uint stratified; // STRATIFY_OFF, STRATIFY_R2 or STRATIFY_SOBOL (src/abi.rs)
     uint max_depth;
     uint bounce;     // the wavefront's bounce (render.comp WAVEFRONT), 0 otherwise
     uint row0;       // the first film row of a dispatch that starts paths

@@ -153,7 +153,7 @@ pub enum Budget {
 }
 
 /// Which numbers the pixel jitter and the first vertex's light choice, point on the light and
-/// BSDF direction take over the passes (`--stratify`; rng.glsl, RenderParams.stratified).
+/// BSDF direction take over the passes (`--stratify`; rng.glsl, render.comp STRATIFY).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum Stratify {
     /// Independent numbers per sample.
@@ -169,7 +169,8 @@ pub enum Stratify {
 }
 
 impl Stratify {
-    /// RenderParams.stratified (types.glsl STRATIFY_OFF, STRATIFY_R2, STRATIFY_SOBOL).
+    /// render.comp's specialization constant STRATIFY (types.glsl STRATIFY_OFF, STRATIFY_R2,
+    /// STRATIFY_SOBOL).
     pub fn code(self) -> u32 {
         match self {
             Stratify::Off => 0,

@@ -448,6 +448,8 @@ fn render_pipeline(
             settings.indirect_light_samples,
             // FIRST_LIGHT_SAMPLES.
             settings.first_light_samples,
+            // STRATIFY.
+            settings.stratify.code(),
         ],
     )
 }

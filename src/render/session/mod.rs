@@ -201,7 +201,6 @@ impl<'a> Session<'a> {
         p.seed = self.settings.seed;
         p.light_count = self.gpu.light_count;
         p.ray_eps = self.gpu.ray_eps;
-        p.stratified = self.settings.stratify.code();
         p.max_depth = self.settings.max_depth;
         p.sample_index = self.learned.passes;
         p
