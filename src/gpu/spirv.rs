@@ -174,12 +174,12 @@ mod tests {
         );
     }
 
-    /// The render kernel's constants, SAMPLER (0) … FIRST_LIGHT_SAMPLES (8); the test kernel
+    /// The render kernel's constants, SAMPLER (0) … STRATIFY (9); the test kernel
     /// light_sample.comp leaves 2 out. Fails if the decoration were read from another word.
     #[test]
     fn specialization_ids_are_read() {
         let render = spec_ids(&words(crate::gpu::kernels::RENDER)).unwrap();
-        assert_eq!(render, (0..=8).collect::<Vec<_>>());
+        assert_eq!(render, (0..=9).collect::<Vec<_>>());
         let sampler = spec_ids(&words(crate::gpu::kernels::LIGHT_SAMPLE)).unwrap();
         assert_eq!(sampler, [0, 1, 3]);
         assert!(spec_ids(&words(crate::gpu::kernels::FOLD))
