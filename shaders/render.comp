@@ -68,13 +68,12 @@ layout(constant_id = 7) const uint INDIRECT_LIGHT_SAMPLES = 1u;
 // 1/N and what stays as N grows is the camera ray's: the floor under any light choice
 // (ci/bench_floor.py). 1 (the default) compiles to the one stratified sample.
 layout(constant_id = 8) const uint FIRST_LIGHT_SAMPLES = 1u;
-// Whether any vertex takes more than one light sample (sums of specialization constants:
-// glslang 11 mistranslates || between them, learning.glsl says so).
 // --stratify (RenderSettings::stratify, fixed for a session): STRATIFY_SOBOL, STRATIFY_R2 or
 // STRATIFY_OFF (types.glsl). A push constant before: every sample then computed the numbers
-// of all three (lavapipe runs both sides of a choice), and the first vertex's stratified
-// numbers at every later vertex too.
+// of all three modes (lavapipe runs both sides of a choice).
 layout(constant_id = 9) const uint STRATIFY = STRATIFY_SOBOL;
+// Whether any vertex takes more than one light sample (sums of specialization constants:
+// glslang 11 mistranslates || between them, learning.glsl says so).
 const bool MULTI_LIGHT_SAMPLES = INDIRECT_LIGHT_SAMPLES + FIRST_LIGHT_SAMPLES > 2u;
 const bool FIRST_INDEPENDENT = FIRST_LIGHT_SAMPLES > 1u;
 
