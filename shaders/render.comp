@@ -658,9 +658,10 @@ void main() {
     // session).
     uint passes = max(params.passes, 1u);
     uint j = 0u;
-    PixelAccum a = accum[px.y * params.width + px.x];
+    uint pixel = px.y * params.width + px.x;
+    PixelAccum a = accum[pixel];
     uint dropped = 0u;
-    set_pixel_keys(params.seed, px.y * params.width + px.x);
+    set_pixel_keys(params.seed, pixel);
     do {
         sample_s = params.sample_index + j;
         st = camera_path(px);
@@ -670,6 +671,6 @@ void main() {
         dropped += add_path(st, a);
         ++j;
     } while (j < passes);
-    accum[px.y * params.width + px.x] = a;
+    accum[pixel] = a;
     if (dropped > 0u) atomicAdd(counters[0], dropped);
 }
