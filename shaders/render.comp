@@ -89,6 +89,9 @@ layout(std430, set = 2, binding = 0) buffer Accum { PixelAccum accum[]; };
 // [0]: samples dropped because they were NaN or Inf (reported, never averaged in).
 // [1]: learned-sampler samples taken in a region without its own cut (the shared fallback).
 layout(std430, set = 2, binding = 1) buffer Counters { uint counters[]; };
+// Direct light: the rows of 8 pixels that can see the scene (x / 8 in the low 16 bits, y in
+// the high 16), one per SIMD group of a workgroup (main(); src/render/coverage.rs says why).
+layout(std430, set = 2, binding = 5) readonly buffer LiveRows { uint live_count; uint live_row[]; };
 // The light tree as texels (light_tree.glsl light_node).
 layout(set = 0, binding = 6) uniform usamplerBuffer light_node_texels;
 layout(std430, set = 0, binding = 7) readonly buffer LightOrder { uint light_order[]; };
@@ -641,7 +644,14 @@ void main() {
     // against the loop compiled out for them, bayes on rooms16 and city (128×96, 256 spp,
     // four interleaved pairs) took 1.03× the time with windows of 1 (within the noise) and
     // 0.75–0.8× with windows of 4 (docs/results.md, 2026-12-03).
-    uvec2 px = uvec2(gl_GlobalInvocationID.x, gl_GlobalInvocationID.y + params.row0);
+    // Row gl_LocalInvocationID.y of the workgroup takes one row of 8 pixels of the list the
+    // host made: only rows that can see the scene (the rest would add exact zeros) in an
+    // order that shares them evenly among lavapipe's threads (src/render/coverage.rs).
+    uint group = gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+    uint row = group * 8u + gl_LocalInvocationID.y;
+    if (row >= live_count) return;
+    uint code = live_row[row];
+    uvec2 px = uvec2((code & 0xffffu) * 8u + gl_LocalInvocationID.x, code >> 16u);
     if (px.x >= params.width || px.y >= params.height) return;
     // Bottom-tested: llvmpipe (lavapipe) runs every loop body once more, with all lanes
     // masked off, when a top test fails (its loops only branch back at the end, and its ifs

@@ -618,3 +618,57 @@ fn borrowed_observations_end_with_the_young_age() {
     );
     eprintln!("{lending} slots borrowed at {POOL_AGE_MAX} passes, none after");
 }
+
+/// Direct light covers only the rows of 8 pixels whose camera rays can meet the scene
+/// (src/render/coverage.rs): the pixels left out would have added exact zeros, so the image
+/// is bit for bit that of every pixel, learning and region growth included, before and
+/// after a camera move; on city (a street under an empty sky) rows are left out.
+#[test]
+fn pixels_that_cannot_see_the_scene_are_left_out_with_the_same_image() {
+    let ctx = common::ctx();
+    for name in ["city.glb", "strings.glb"] {
+        let s = scene(name);
+        let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
+        // Looking up and sideways from the scene's camera: the sky's edge moves across the
+        // film.
+        let c = s.camera;
+        let turned = Camera::looking(
+            c.position,
+            c.forward + 0.4 * c.up + 0.3 * c.forward.cross(c.up),
+            c.up,
+            c.yfov,
+        );
+        for sampler in [LightSampler::Uniform, LightSampler::Bayes] {
+            let mut set = settings(sampler, 5);
+            set.width = 61;
+            set.height = 43;
+            let all_rows = 43 * 61u32.div_ceil(8);
+            let mut culled = Session::new(&ctx, &s, &gpu, &set).unwrap();
+            let mut full = Session::new(&ctx, &s, &gpu, &set).unwrap();
+            full.set_pixel_culling(false).unwrap();
+            assert_eq!(full.covered_rows(), all_rows);
+            if name == "city.glb" {
+                assert!(
+                    culled.covered_rows() < all_rows * 3 / 4,
+                    "{name}: {} of {all_rows} rows covered",
+                    culled.covered_rows()
+                );
+            }
+            for cam in [None, Some(turned)] {
+                for x in [&mut culled, &mut full] {
+                    if let Some(cam) = cam {
+                        x.set_camera(cam).unwrap();
+                    }
+                    x.run_passes(40).unwrap();
+                }
+                let (a, b) = (culled.image().unwrap(), full.image().unwrap());
+                assert!(a.iter().flatten().any(|&v| v > 0.0));
+                assert!(
+                    a == b,
+                    "{name}, {sampler:?}, turned {}: leaving rows out changed the image",
+                    cam.is_some()
+                );
+            }
+        }
+    }
+}

@@ -14,6 +14,7 @@ use crate::lights::regions::RegionSettings;
 pub use crate::lights::LightPoint;
 use crate::scene::{Camera, Scene};
 
+pub mod coverage;
 mod cuts;
 mod gpu_scene;
 mod learned_state;

@@ -52,6 +52,7 @@ pub const RENDER_BINDINGS: [&[&str]; 3] = [
         "QueueHeads",
         "path_texels",
         "path_image",
+        "LiveRows",
     ],
 ];
 const SCENE_SET: usize = 0;
@@ -155,6 +156,9 @@ pub(super) struct PassKernels {
     queues: Option<PathQueues>,
     /// The most bytes the path queues may take ([`QUEUE_BYTES`] by default).
     queue_bytes: u64,
+    /// Direct light: the rows of 8 pixels its dispatch covers (render.comp `LiveRows`: their
+    /// count, then the rows; [`super::coverage`]) and their count.
+    live: Option<(Buffer, u32)>,
 }
 
 impl PassKernels {
@@ -167,6 +171,7 @@ impl PassKernels {
             wavefront: wavefront(settings),
             queues: None,
             queue_bytes: QUEUE_BYTES,
+            live: None,
             render: render_pipeline(ctx, gpu, settings, 0)?,
             fold: ComputePipeline::new(
                 ctx,
@@ -197,6 +202,17 @@ impl PassKernels {
     ) -> Result<()> {
         self.render = render_pipeline(ctx, gpu, settings, mask)?;
         Ok(())
+    }
+
+    /// Whether a pass is one dispatch over the film's rows of 8 pixels (direct light), not
+    /// the wavefront's dispatches of paths.
+    pub(super) fn direct_light(&self) -> bool {
+        !self.wavefront
+    }
+
+    /// The rows of 8 pixels a direct-light dispatch covers.
+    pub(super) fn live_rows(&self) -> u32 {
+        self.live.as_ref().map_or(0, |(_, n)| *n)
     }
 
     /// Binds the scene's buffers (once).
@@ -245,7 +261,8 @@ impl PassKernels {
         self.fold.bind(&in_binding_order(&fold, &FOLD_BINDINGS))
     }
 
-    /// Binds the film's buffers and makes its path queues (again after a resize).
+    /// Binds the film's buffers and makes its path queues (again after a resize); `rows`:
+    /// the rows of 8 pixels direct light covers ([`super::coverage`]).
     pub(super) fn bind_film(
         &mut self,
         ctx: &Arc<Context>,
@@ -253,18 +270,42 @@ impl PassKernels {
         counters: &Buffer,
         width: u32,
         height: u32,
+        rows: &[u32],
     ) -> Result<()> {
-        let queues = PathQueues::new(ctx, width, height, self.wavefront, self.queue_bytes)?;
-        let film: [(&str, &Buffer); 5] = [
+        self.queues = Some(PathQueues::new(
+            ctx,
+            width,
+            height,
+            self.wavefront,
+            self.queue_bytes,
+        )?);
+        self.set_live_rows(ctx, accum, counters, rows)
+    }
+
+    /// Direct light covers `rows` from the next pass on (a new camera); binds the film's
+    /// buffers again with them.
+    pub(super) fn set_live_rows(
+        &mut self,
+        ctx: &Arc<Context>,
+        accum: &Buffer,
+        counters: &Buffer,
+        rows: &[u32],
+    ) -> Result<()> {
+        let count = rows.len() as u32;
+        let words: Vec<u32> = std::iter::once(count).chain(rows.iter().copied()).collect();
+        let live = Buffer::from_slice(ctx, "rows of pixels that see the scene", &words)?;
+        let queues = self.queues.as_ref().expect("the film's queues are made");
+        let film: [(&str, &Buffer); 6] = [
             ("Accum", accum),
             ("Counters", counters),
             ("QueueHeads", &queues.heads),
             ("path_texels", &queues.paths),
             ("path_image", &queues.paths),
+            ("LiveRows", &live),
         ];
         let set = in_binding_order(&film, RENDER_BINDINGS[FILM_SET]);
         self.render.bind_set(FILM_SET, &set)?;
-        self.queues = Some(queues);
+        self.live = Some((live, count));
         Ok(())
     }
 
@@ -326,7 +367,10 @@ impl PassKernels {
         learned: &LearnedState,
     ) -> Result<f64> {
         let first = params.sample_index;
-        let groups = [params.width.div_ceil(8), params.height.div_ceil(8), 1];
+        // Direct light: a workgroup takes 8 of the rows of 8 pixels that see the scene, the
+        // workgroups in rows of at most MAX_GROUPS_X (Vulkan promises 65535 a dimension).
+        let wgs = self.live_rows().div_ceil(8);
+        let groups = [wgs.min(MAX_GROUPS_X), wgs.div_ceil(MAX_GROUPS_X), 1];
         let fold_push = [learned.slots, FOLD_TOUCHED, 0];
         let queues = self.queues.as_ref().expect("the film is bound");
         params.queue_cap = queues.cap;
@@ -353,7 +397,7 @@ impl PassKernels {
                 params.passes = n;
                 if self.wavefront {
                     self.record_wavefront(ctx, cmd, params, queues);
-                } else {
+                } else if groups[0] > 0 {
                     self.render
                         .dispatch(cmd, bytemuck::bytes_of(&params), groups);
                     ctx.barrier(cmd);
@@ -409,6 +453,10 @@ impl PassKernels {
         }
     }
 }
+
+/// Direct light: the most workgroups along x in one dispatch (a 16384×16384 film has 2^22
+/// workgroups of 8 rows of 8 pixels).
+const MAX_GROUPS_X: u32 = 8192;
 
 /// Direct light: the most samples one dispatch takes (whole passes of the film, at least
 /// one). Batching passes saves lavapipe's ~0.4 ms per dispatch: rooms, `uniform`, 96×72,

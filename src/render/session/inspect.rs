@@ -135,6 +135,12 @@ impl Session<'_> {
         self.camera
     }
 
+    /// Direct light: the rows of 8 pixels a pass covers (those that can see the scene, or
+    /// all with [`Session::set_pixel_culling`] off); 0 for paths.
+    pub fn covered_rows(&self) -> u32 {
+        self.kernels.live_rows()
+    }
+
     /// The film's mean image (radiance), read back now.
     pub fn image(&self) -> Result<Vec<[f32; 3]>> {
         let data: Vec<PixelAccum> = self.film.accum.read()?;

@@ -24,6 +24,7 @@ use std::time::Instant;
 
 use anyhow::{bail, Result};
 
+use super::coverage;
 use super::cuts::{check_region_index_fits, stats_header};
 use super::learned_state::LearnedState;
 use super::passes::PassKernels;
@@ -96,6 +97,8 @@ pub struct Session<'a> {
     /// Growth waits (the preview while the camera moves: a cut build every frame halved
     /// the frame rate); due growth happens once it is resumed.
     growth_paused: bool,
+    /// Direct light covers only the pixels that can see the scene ([`Session::set_pixel_culling`]).
+    cull_pixels: bool,
 }
 
 impl<'a> Session<'a> {
@@ -139,6 +142,7 @@ impl<'a> Session<'a> {
             growth_due: false,
             growth_paused: false,
             skipped: 0,
+            cull_pixels: true,
         };
         session.bind_scene()?;
         session.bind_learned()?;
@@ -181,13 +185,47 @@ impl<'a> Session<'a> {
     }
 
     fn bind_film(&mut self) -> Result<()> {
+        let rows = self.live_rows();
         self.kernels.bind_film(
             &self.ctx,
             &self.film.accum,
             &self.film.counters,
             self.film.width,
             self.film.height,
+            &rows,
         )
+    }
+
+    /// The rows of 8 pixels the direct-light kernel covers for the camera and film size:
+    /// those that can see the scene, or all of them with culling off ([`coverage`]).
+    fn live_rows(&self) -> Vec<u32> {
+        let params = camera_vectors(&self.camera, self.film.width, self.film.height);
+        if !self.kernels.direct_light() {
+            // Paths start from every pixel (their bounces are queued).
+            Vec::new()
+        } else if self.cull_pixels {
+            coverage::dispatch_order(&coverage::live_rows(
+                &self.gpu.bvh,
+                &params,
+                self.gpu.ray_eps,
+            ))
+        } else {
+            coverage::dispatch_order(&coverage::all_rows(self.film.width, self.film.height))
+        }
+    }
+
+    /// The direct-light kernel leaves out the rows of 8 pixels whose camera rays cannot meet
+    /// the scene (`true`, the default; the image is the same bit for bit, the time less) or
+    /// covers every pixel (`false`: for the test that compares the two).
+    pub fn set_pixel_culling(&mut self, on: bool) -> Result<()> {
+        self.cull_pixels = on;
+        self.rebind_live_rows()
+    }
+
+    fn rebind_live_rows(&mut self) -> Result<()> {
+        let rows = self.live_rows();
+        self.kernels
+            .set_live_rows(&self.ctx, &self.film.accum, &self.film.counters, &rows)
     }
 
     /// Sets the coefficients of the slots from `first` on from their totals.
@@ -420,7 +458,8 @@ impl<'a> Session<'a> {
         }
         self.camera = camera;
         self.moved = true;
-        self.reset_film()
+        self.reset_film()?;
+        self.rebind_live_rows()
     }
 
     /// The most memory the path tracer's queues may take (by default
