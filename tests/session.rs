@@ -669,6 +669,21 @@ fn pixels_that_cannot_see_the_scene_are_left_out_with_the_same_image() {
                     cam.is_some()
                 );
             }
+            // Outside the scene's box looking away from it: no row can see the scene, no
+            // dispatch runs, and the image is black as with every row covered.
+            let (lo, hi) = s.bounds();
+            let away = Camera::looking(hi + (hi - lo), hi - lo, Vec3::Y, c.yfov);
+            for x in [&mut culled, &mut full] {
+                x.set_camera(away).unwrap();
+                x.run_passes(3).unwrap();
+            }
+            assert_eq!(
+                culled.covered_rows(),
+                0,
+                "{name}: rows covered looking away"
+            );
+            let (a, b) = (culled.image().unwrap(), full.image().unwrap());
+            assert!(a == b && a.iter().flatten().all(|&v| v == 0.0));
         }
     }
 }
