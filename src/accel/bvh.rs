@@ -150,13 +150,7 @@ impl Bvh {
         let mut sp = 0usize;
         let mut node = 0u32;
         loop {
-            let n = &self.nodes[node as usize];
-            let kids = [
-                (n.a_min, n.a_max, n.a_ref, n.a_count),
-                (n.b_min, n.b_max, n.b_ref, n.b_count),
-                (n.c_min, n.c_max, n.c_ref, n.c_count),
-                (n.d_min, n.d_max, n.d_ref, n.d_count),
-            ];
+            let kids = children(&self.nodes[node as usize]);
             // All four boxes against the distance known on arrival (-1: missed), then the
             // leaves in order.
             let mut key = slab4(&kids, oi, inv, tmin, best_t).to_array();
@@ -350,7 +344,17 @@ fn partition(ids: &mut [u32], left: impl Fn(u32) -> bool) -> usize {
 }
 
 /// A child slot of a node: (box min, box max, reference, leaf triangle count).
-type Child = ([f32; 3], [f32; 3], u32, u32);
+pub type Child = ([f32; 3], [f32; 3], u32, u32);
+
+/// A node's four child slots in order.
+pub fn children(n: &BvhNode) -> [Child; 4] {
+    [
+        (n.a_min, n.a_max, n.a_ref, n.a_count),
+        (n.b_min, n.b_max, n.b_ref, n.b_count),
+        (n.c_min, n.c_max, n.c_ref, n.c_count),
+        (n.d_min, n.d_max, n.d_ref, n.d_count),
+    ]
+}
 
 fn set_child(n: &mut BvhNode, i: usize, (lo, hi, r, count): Child) {
     let (min, max, rf, c) = match i {

@@ -14,6 +14,7 @@
 
 use glam::DVec3;
 
+use crate::accel::bvh::children;
 use crate::accel::Bvh;
 use crate::gpu::layout::{RenderParams, BVH_LEAF_BIT};
 
@@ -180,14 +181,7 @@ fn sees_scene(bvh: &Bvh, f: &Frustum, eps: f64, stack: &mut Vec<u32>) -> bool {
     stack.clear();
     stack.push(0);
     while let Some(i) = stack.pop() {
-        let n = &bvh.nodes[i as usize];
-        let children = [
-            (n.a_min, n.a_max, n.a_ref, n.a_count),
-            (n.b_min, n.b_max, n.b_ref, n.b_count),
-            (n.c_min, n.c_max, n.c_ref, n.c_count),
-            (n.d_min, n.d_max, n.d_ref, n.d_count),
-        ];
-        for (lo, hi, r, count) in children {
+        for (lo, hi, r, count) in children(&bvh.nodes[i as usize]) {
             let leaf = r & BVH_LEAF_BIT != 0;
             if leaf && count == 0 || !f.meets(lo, hi, eps) {
                 continue;
