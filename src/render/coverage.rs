@@ -18,17 +18,18 @@ use crate::accel::bvh::children;
 use crate::accel::Bvh;
 use crate::gpu::layout::{RenderParams, BVH_LEAF_BIT};
 
-/// Pixels in a row that one entry stands for (render.comp LIVE_ROW_PIXELS, the workgroup's
-/// width).
+/// Pixels in a row that one entry stands for (the width of render.comp's 8×8 workgroup,
+/// written there as `8u`).
 pub const ROW_PIXELS: u32 = 8;
 /// How far each frustum is widened on every side, in pixels.
 const MARGIN_PIXELS: f64 = 1.0 / 64.0;
 
 /// The rows of 8 pixels (`x / 8` in the low 16 bits, `y` in the high 16) of a
 /// `params.width`×`params.height` film whose camera rays can meet a triangle of `bvh`, in the
-/// order of the film's 8×8 blocks, and within a block by row: a block that sees the scene
-/// everywhere gives its 8 rows in the order the 2-D dispatch ran them. `eps`: how far the
-/// boxes are widened (the scene's ray epsilon).
+/// order of the film's 8×8 blocks, and within a block by row, so that the 8 entries a
+/// workgroup takes lie close together on the film (one block where all of it sees the
+/// scene, two neighbours where rows were left out). `eps`: how far the boxes are widened
+/// (the scene's ray epsilon).
 pub fn live_rows(bvh: &Bvh, params: &RenderParams, eps: f32) -> Vec<u32> {
     let (w, h) = (params.width, params.height);
     let v = |a: [f32; 4]| DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64);
@@ -76,8 +77,8 @@ pub fn live_rows(bvh: &Bvh, params: &RenderParams, eps: f32) -> Vec<u32> {
 /// neighbouring workgroups, which cost about the same, in different shares for any number
 /// of threads that is a power of two.
 pub fn dispatch_order(rows: &[u32]) -> Vec<u32> {
-    // Whole workgroups are reordered; a last one of fewer than 8 rows stays last, so that
-    // every workgroup still takes 8 consecutive entries of one block's rows.
+    // Whole workgroups (8 consecutive entries) are reordered; a last one of fewer than 8
+    // entries stays last, so that no other workgroup is cut short.
     let groups = rows.len() / 8;
     let n = groups.next_power_of_two();
     let bits = n.trailing_zeros();

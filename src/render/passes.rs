@@ -262,7 +262,8 @@ impl PassKernels {
     }
 
     /// Binds the film's buffers and makes its path queues (again after a resize); `rows`:
-    /// the rows of 8 pixels direct light covers ([`super::coverage`]).
+    /// the rows of 8 pixels direct light covers ([`super::coverage`]). On an error the
+    /// binding and the queues stay as they were.
     pub(super) fn bind_film(
         &mut self,
         ctx: &Arc<Context>,
@@ -272,18 +273,16 @@ impl PassKernels {
         height: u32,
         rows: &[u32],
     ) -> Result<()> {
-        self.queues = Some(PathQueues::new(
-            ctx,
-            width,
-            height,
-            self.wavefront,
-            self.queue_bytes,
-        )?);
-        self.set_live_rows(ctx, accum, counters, rows)
+        let queues = PathQueues::new(ctx, width, height, self.wavefront, self.queue_bytes)?;
+        let live = live_rows_buffer(ctx, rows)?;
+        self.bind_film_set(accum, counters, &queues, &live.0)?;
+        self.queues = Some(queues);
+        self.live = Some(live);
+        Ok(())
     }
 
     /// Direct light covers `rows` from the next pass on (a new camera); binds the film's
-    /// buffers again with them.
+    /// buffers again with them. On an error the binding stays as it was.
     pub(super) fn set_live_rows(
         &mut self,
         ctx: &Arc<Context>,
@@ -291,22 +290,30 @@ impl PassKernels {
         counters: &Buffer,
         rows: &[u32],
     ) -> Result<()> {
-        let count = rows.len() as u32;
-        let words: Vec<u32> = std::iter::once(count).chain(rows.iter().copied()).collect();
-        let live = Buffer::from_slice(ctx, "rows of pixels that see the scene", &words)?;
-        let queues = self.queues.as_ref().expect("the film's queues are made");
+        let live = live_rows_buffer(ctx, rows)?;
+        let queues = self.queues.as_ref().expect("the film is bound");
+        self.bind_film_set(accum, counters, queues, &live.0)?;
+        self.live = Some(live);
+        Ok(())
+    }
+
+    fn bind_film_set(
+        &self,
+        accum: &Buffer,
+        counters: &Buffer,
+        queues: &PathQueues,
+        live: &Buffer,
+    ) -> Result<()> {
         let film: [(&str, &Buffer); 6] = [
             ("Accum", accum),
             ("Counters", counters),
             ("QueueHeads", &queues.heads),
             ("path_texels", &queues.paths),
             ("path_image", &queues.paths),
-            ("LiveRows", &live),
+            ("LiveRows", live),
         ];
         let set = in_binding_order(&film, RENDER_BINDINGS[FILM_SET]);
-        self.render.bind_set(FILM_SET, &set)?;
-        self.live = Some((live, count));
-        Ok(())
+        self.render.bind_set(FILM_SET, &set)
     }
 
     /// Folds the window into the totals and recomputes the coefficients of the slots from
@@ -452,6 +459,14 @@ impl PassKernels {
             row0 += rows;
         }
     }
+}
+
+/// render.comp `LiveRows`: the count of `rows`, then the rows; with the count.
+fn live_rows_buffer(ctx: &Arc<Context>, rows: &[u32]) -> Result<(Buffer, u32)> {
+    let count = rows.len() as u32;
+    let words: Vec<u32> = std::iter::once(count).chain(rows.iter().copied()).collect();
+    let live = Buffer::from_slice(ctx, "rows of pixels that see the scene", &words)?;
+    Ok((live, count))
 }
 
 /// Direct light: the most workgroups along x in one dispatch (a 16384×16384 film has 2^22

@@ -185,7 +185,7 @@ impl<'a> Session<'a> {
     }
 
     fn bind_film(&mut self) -> Result<()> {
-        let rows = self.live_rows();
+        let rows = self.live_rows(&self.camera, self.film.width, self.film.height);
         self.kernels.bind_film(
             &self.ctx,
             &self.film.accum,
@@ -196,10 +196,11 @@ impl<'a> Session<'a> {
         )
     }
 
-    /// The rows of 8 pixels the direct-light kernel covers for the camera and film size:
-    /// those that can see the scene, or all of them with culling off ([`coverage`]).
-    fn live_rows(&self) -> Vec<u32> {
-        let params = camera_vectors(&self.camera, self.film.width, self.film.height);
+    /// The rows of 8 pixels the direct-light kernel covers for `camera` on a
+    /// `width`×`height` film: those that can see the scene, or all of them with culling off
+    /// ([`coverage`]).
+    fn live_rows(&self, camera: &Camera, width: u32, height: u32) -> Vec<u32> {
+        let params = camera_vectors(camera, width, height);
         if !self.kernels.direct_light() {
             // Paths start from every pixel (their bounces are queued).
             Vec::new()
@@ -210,7 +211,7 @@ impl<'a> Session<'a> {
                 self.gpu.ray_eps,
             ))
         } else {
-            coverage::dispatch_order(&coverage::all_rows(self.film.width, self.film.height))
+            coverage::dispatch_order(&coverage::all_rows(width, height))
         }
     }
 
@@ -218,12 +219,14 @@ impl<'a> Session<'a> {
     /// the scene (`true`, the default; the image is the same bit for bit, the time less) or
     /// covers every pixel (`false`: for the test that compares the two).
     pub fn set_pixel_culling(&mut self, on: bool) -> Result<()> {
-        self.cull_pixels = on;
-        self.rebind_live_rows()
+        let old = std::mem::replace(&mut self.cull_pixels, on);
+        self.rebind_live_rows(&self.camera.clone())
+            .inspect_err(|_| self.cull_pixels = old)
     }
 
-    fn rebind_live_rows(&mut self) -> Result<()> {
-        let rows = self.live_rows();
+    /// Binds the rows `camera` sees on the film (the binding stays as it was on an error).
+    fn rebind_live_rows(&mut self, camera: &Camera) -> Result<()> {
+        let rows = self.live_rows(camera, self.film.width, self.film.height);
         self.kernels
             .set_live_rows(&self.ctx, &self.film.accum, &self.film.counters, &rows)
     }
@@ -456,10 +459,11 @@ impl<'a> Session<'a> {
         {
             bail!("a camera needs a finite position, forward and up directions that are not parallel, and 0 < yfov < π");
         }
+        // The rows first: if they cannot be bound, nothing has changed.
+        self.rebind_live_rows(&camera)?;
         self.camera = camera;
         self.moved = true;
-        self.reset_film()?;
-        self.rebind_live_rows()
+        self.reset_film()
     }
 
     /// The most memory the path tracer's queues may take (by default
@@ -475,11 +479,17 @@ impl<'a> Session<'a> {
 
     /// A new image size: a new, empty film; the learning stays.
     pub fn resize(&mut self, width: u32, height: u32) -> Result<()> {
-        self.film = Film::new(&self.ctx, width, height)?;
+        // Bound before the old film is dropped: on an error the session keeps its film and
+        // its bindings.
+        let film = Film::new(&self.ctx, width, height)?;
+        let rows = self.live_rows(&self.camera, width, height);
+        self.kernels
+            .bind_film(&self.ctx, &film.accum, &film.counters, width, height, &rows)?;
+        self.film = film;
         self.moved = true;
         self.settings.width = width;
         self.settings.height = height;
-        self.bind_film()
+        Ok(())
     }
 
     /// The learned statistics with their regions and cuts, as a file would hold them
