@@ -47,16 +47,29 @@ pub fn live_rows(bvh: &Bvh, params: &RenderParams, eps: f32) -> Vec<u32> {
         stack: Vec::new(),
         last: None,
     };
+    rows_where(w, h, |x0, x1, y0, y1| {
+        search.sees_scene(&cam.frustum(x0, x1, y0, y1))
+    })
+}
+
+/// The rows of 8 pixels of a `width`×`height` film, block by block and within a block by
+/// row, for which `sees(x0, x1, y0, y1)` holds of the pixels [x0, x1) × [y0, y1): asked of
+/// each 8×8 block first, then of each row of a block where it held.
+fn rows_where(
+    width: u32,
+    height: u32,
+    mut sees: impl FnMut(u32, u32, u32, u32) -> bool,
+) -> Vec<u32> {
     let mut rows = Vec::new();
-    for by in 0..h.div_ceil(8) {
-        for bx in 0..w.div_ceil(ROW_PIXELS) {
-            let (x0, x1) = (bx * ROW_PIXELS, ((bx + 1) * ROW_PIXELS).min(w));
-            let (y0, y1) = (by * 8, (by * 8 + 8).min(h));
-            if !search.sees_scene(&cam.frustum(x0, x1, y0, y1)) {
+    for by in 0..height.div_ceil(8) {
+        for bx in 0..width.div_ceil(ROW_PIXELS) {
+            let (x0, x1) = (bx * ROW_PIXELS, ((bx + 1) * ROW_PIXELS).min(width));
+            let (y0, y1) = (by * 8, (by * 8 + 8).min(height));
+            if !sees(x0, x1, y0, y1) {
                 continue;
             }
             for y in y0..y1 {
-                if search.sees_scene(&cam.frustum(x0, x1, y, y + 1)) {
+                if sees(x0, x1, y, y + 1) {
                     rows.push(y << 16 | bx);
                 }
             }
@@ -100,15 +113,7 @@ pub fn dispatch_order(rows: &[u32]) -> Vec<u32> {
 /// Every row of 8 pixels of a `width`×`height` film in the order of [`live_rows`] (nothing
 /// left out).
 pub fn all_rows(width: u32, height: u32) -> Vec<u32> {
-    let mut rows = Vec::new();
-    for by in 0..height.div_ceil(8) {
-        for bx in 0..width.div_ceil(ROW_PIXELS) {
-            for y in by * 8..(by * 8 + 8).min(height) {
-                rows.push(y << 16 | bx);
-            }
-        }
-    }
-    rows
+    rows_where(width, height, |_, _, _, _| true)
 }
 
 /// The camera as render.comp `camera_path` makes its rays: through (x + jx, y + jy) for

@@ -220,7 +220,8 @@ impl<'a> Session<'a> {
     /// covers every pixel (`false`: for the test that compares the two).
     pub fn set_pixel_culling(&mut self, on: bool) -> Result<()> {
         let old = std::mem::replace(&mut self.cull_pixels, on);
-        self.rebind_live_rows(&self.camera.clone())
+        let camera = self.camera;
+        self.rebind_live_rows(&camera)
             .inspect_err(|_| self.cull_pixels = old)
     }
 
