@@ -13,15 +13,14 @@ layout(local_size_x = 64) in;
 
 layout(std430, set = 0, binding = 0) buffer Stats { SlotStats slot_stats[]; };
 layout(std430, set = 0, binding = 1) buffer Delta { SlotDelta slot_delta[]; };
-layout(std430, set = 0, binding = 2) readonly buffer Learn { LearnParams learn[]; };
 // The window's touched slots as render.comp's mark_touched lists them: [0] the workgroup
 // count of this dispatch (indirect), [1], [2] 1, [3] the count, then the slots, NO_SLOT
 // after the last (the list has room for every slot, rounded up to whole workgroups).
-layout(std430, set = 0, binding = 3) buffer Touched { uint touched_slots[]; };
+layout(std430, set = 0, binding = 2) buffer Touched { uint touched_slots[]; };
 // Each slot's borrowed pseudo-observations (n_zero, n_nonzero, Σy, Σy²; src/learning/pooling.rs,
 // all 0 unless --pool-priors): added to the totals the posterior is computed from, never to
 // the totals themselves.
-layout(std430, set = 0, binding = 4) readonly buffer Prior { vec4 slot_prior[]; };
+layout(std430, set = 0, binding = 3) readonly buffer Prior { vec4 slot_prior[]; };
 
 // mode FOLD_TOUCHED (between passes, an indirect dispatch): the listed slots, and the list
 // emptied for the next window; lavapipe runs the body for every invocation of a dispatch,
@@ -29,7 +28,11 @@ layout(std430, set = 0, binding = 4) readonly buffer Prior { vec4 slot_prior[]; 
 // cheap. FOLD_ALL: the slots from `first` on, coefficients recomputed (fresh or loaded
 // statistics: from 0; slots appended by region growth or cut refinement: from the first new
 // one, as the others' totals did not change); the list is left as it is.
-layout(push_constant) uniform Push { uint slot_count; uint mode; uint first; };
+// The learning's parameters come with the push constants (src/abi.rs FoldPush), not from a
+// storage buffer: lavapipe loads a storage buffer word lane by lane even at an address every
+// lane shares, and those loads were a fifth of a fold (every slot of city, 37k: 3.4 against
+// 2.75 ms; docs/results.md, sixteenth session).
+layout(push_constant) uniform FoldPush { uint slot_count; uint mode; uint first; LearnParams learn; };
 #define FOLD_TOUCHED 0u
 #define FOLD_ALL 1u
 #define NO_SLOT 0xffffffffu
@@ -75,7 +78,7 @@ void main() {
     post.n_nonzero += pr.y;
     post.sum += pr.z;
     post.sum_sq += pr.w;
-    vec3 c = weight_coefficients(post, learn[0]);
+    vec3 c = weight_coefficients(post, learn);
     s.coef_a = c.x;
     s.coef_b = c.y;
     s.coef_c = c.z;

@@ -241,6 +241,17 @@ pub struct LearnParams {
     pub defensive: f32,
 }
 
+/// `fold.comp`'s push constants: which slots it folds (`mode`: FOLD_TOUCHED, the listed
+/// ones; FOLD_ALL, those from `first` to `slot_count`) and the learning's parameters.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FoldPush {
+    pub slot_count: u32,
+    pub mode: u32,
+    pub first: u32,
+    pub learn: LearnParams,
+}
+
 pub const MATERIAL_TWO_SIDED: u32 = 1;
 
 #[repr(C)]

@@ -95,6 +95,19 @@ fn reflect(spv: &[u8]) -> HashMap<String, SpvStruct> {
             _ => {}
         }
     }
+    // A laid-out struct's size as a member of another (fold.comp's push constants hold
+    // LearnParams): its last member's end, nested structs first.
+    for _ in 0..4 {
+        for (id, members) in &structs {
+            let last = members.len() as u32 - 1;
+            if let (Some(off), Some(sz)) = (
+                offsets.get(&(*id, last)),
+                sizes.get(&members[last as usize]).copied(),
+            ) {
+                sizes.insert(*id, off + sz);
+            }
+        }
+    }
     let mut out = HashMap::new();
     for (id, members) in &structs {
         let Some(name) = names.get(id) else { continue };
@@ -312,6 +325,12 @@ fn host_and_shader_structs_match() {
             flags,
             prior_scale,
             defensive
+        }),
+        rust_layout!(FoldPush {
+            slot_count,
+            mode,
+            first,
+            learn
         }),
         rust_layout!(GridParams {
             lo,

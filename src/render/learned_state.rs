@@ -9,7 +9,7 @@ use anyhow::Result;
 
 use super::cuts::{build_cuts, fill_initial, initial_stats};
 use super::{GpuScene, RenderSettings};
-use crate::gpu::layout::{SlotDelta, SlotStats};
+use crate::gpu::layout::{LearnParams, SlotDelta, SlotStats};
 use crate::gpu::transfer::{pod_vec, read_many};
 use crate::gpu::{Buffer, Context, Transfers};
 use crate::learning::pooling::SlotPrior;
@@ -38,7 +38,10 @@ pub struct LearnedState {
     pub sides: Buffer,
     /// The host's copy of what `prior` holds for the slots in use.
     borrowed: Vec<SlotPrior>,
+    /// The learning's parameters (render.comp `Learn`) and the same values for fold.comp,
+    /// which takes them as push constants.
     pub params: Buffer,
+    pub learn: LearnParams,
     /// Regions without a cut that samples reached (render.comp `missing_regions`): a count
     /// of newly set bits, then one bit per region.
     pub missing: Buffer,
@@ -118,6 +121,7 @@ impl LearnedState {
             sides: Buffer::zeroed(ctx, "observations by side", slots as u64 * SIDE_BYTES)?,
             borrowed: Vec::new(),
             params: Buffer::from_slice(ctx, "learning parameters", &[settings.learn.gpu_params()])?,
+            learn: settings.learn.gpu_params(),
             slots,
             capacity: slots,
             passes: settings

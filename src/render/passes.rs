@@ -10,7 +10,7 @@ use anyhow::Result;
 
 use super::learned_state::LearnedState;
 use super::{GpuScene, LightPoint, RenderSettings};
-use crate::gpu::layout::RenderParams;
+use crate::gpu::layout::{FoldPush, RenderParams};
 use crate::gpu::{kernels, Buffer, ComputePipeline, Context, Transfers};
 use crate::learning::{LearningClock, UpdateEvery};
 
@@ -60,12 +60,22 @@ const LEARNED_SET: usize = 1;
 const FILM_SET: usize = 2;
 
 /// The storage blocks of `fold.comp` by binding number (set 0).
-pub const FOLD_BINDINGS: [&str; 5] = ["Stats", "Delta", "Learn", "Touched", "Prior"];
+pub const FOLD_BINDINGS: [&str; 4] = ["Stats", "Delta", "Touched", "Prior"];
 
 /// fold.comp's modes (its push constant `mode`): the slots the window listed (between
 /// passes, an indirect dispatch), or every slot with its coefficients recomputed.
 const FOLD_TOUCHED: u32 = 0;
 const FOLD_ALL: u32 = 1;
+
+/// fold.comp's push constants for `learned` in `mode` (from slot `first` under FOLD_ALL).
+fn fold_push(learned: &LearnedState, mode: u32, first: u32) -> FoldPush {
+    FoldPush {
+        slot_count: learned.slots,
+        mode,
+        first,
+        learn: learned.learn,
+    }
+}
 
 /// The buffers of `named` in the order of `bindings` (each name once).
 fn in_binding_order<'b>(named: &[(&str, &'b Buffer)], bindings: &[&str]) -> Vec<&'b Buffer> {
@@ -178,7 +188,7 @@ impl PassKernels {
                 "fold",
                 kernels::FOLD,
                 FOLD_BINDINGS.len() as u32,
-                std::mem::size_of::<[u32; 3]>() as u32,
+                std::mem::size_of::<FoldPush>() as u32,
                 &[],
             )?,
         })
@@ -251,10 +261,9 @@ impl PassKernels {
         ];
         let set = in_binding_order(&learned, RENDER_BINDINGS[LEARNED_SET]);
         self.render.bind_set(LEARNED_SET, &set)?;
-        let fold: [(&str, &Buffer); 5] = [
+        let fold: [(&str, &Buffer); 4] = [
             ("Stats", &l.stats),
             ("Delta", &l.delta),
-            ("Learn", &l.params),
             ("Touched", &l.touched),
             ("Prior", &l.prior),
         ];
@@ -320,22 +329,27 @@ impl PassKernels {
     /// `first` to `slots` (fresh or loaded statistics: all; after growth: the appended ones,
     /// as the others' totals did not change); between passes the fold visits the touched
     /// slots alone ([`PassKernels::submit`]).
-    pub(super) fn fold_from(&self, ctx: &Context, first: u32, slots: u32) -> Result<()> {
-        ctx.submit(|cmd| self.record_fold_from(cmd, first, slots))
+    pub(super) fn fold_from(
+        &self,
+        ctx: &Context,
+        first: u32,
+        learned: &LearnedState,
+    ) -> Result<()> {
+        ctx.submit(|cmd| self.record_fold_from(cmd, first, learned))
     }
 
-    fn record_fold_from(&self, cmd: ash::vk::CommandBuffer, first: u32, slots: u32) {
-        let push = [slots, FOLD_ALL, first];
-        let groups = [(slots - first).div_ceil(64).max(1), 1, 1];
-        self.fold.dispatch(cmd, bytemuck::cast_slice(&push), groups)
+    fn record_fold_from(&self, cmd: ash::vk::CommandBuffer, first: u32, learned: &LearnedState) {
+        let push = fold_push(learned, FOLD_ALL, first);
+        let groups = [(learned.slots - first).div_ceil(64).max(1), 1, 1];
+        self.fold.dispatch(cmd, bytemuck::bytes_of(&push), groups)
     }
 
     /// Folds the slots listed in `learned`'s touched list (a fold boundary: their windows are
     /// empty, so this recomputes their coefficients) and empties the list.
     fn record_fold_listed(&self, cmd: ash::vk::CommandBuffer, learned: &LearnedState) {
-        let push = [learned.slots, FOLD_TOUCHED, 0];
+        let push = fold_push(learned, FOLD_TOUCHED, 0);
         self.fold
-            .dispatch_indirect(cmd, bytemuck::cast_slice(&push), &learned.touched, 0)
+            .dispatch_indirect(cmd, bytemuck::bytes_of(&push), &learned.touched, 0)
     }
 
     /// A growth point's uploads `up` and, after them in the same submission, the fold of
@@ -355,7 +369,7 @@ impl PassKernels {
                 ctx.barrier(cmd);
             }
             if let Some(first) = fold_new {
-                self.record_fold_from(cmd, first, learned.slots);
+                self.record_fold_from(cmd, first, learned);
             }
         })
     }
@@ -378,7 +392,7 @@ impl PassKernels {
         // workgroups in rows of at most MAX_GROUPS_X (Vulkan promises 65535 a dimension).
         let wgs = self.live_rows().div_ceil(8);
         let groups = [wgs.min(MAX_GROUPS_X), wgs.div_ceil(MAX_GROUPS_X), 1];
-        let fold_push = [learned.slots, FOLD_TOUCHED, 0];
+        let fold_push = fold_push(learned, FOLD_TOUCHED, 0);
         let queues = self.queues.as_ref().expect("the film is bound");
         params.queue_cap = queues.cap;
         let t0 = Instant::now();
@@ -414,7 +428,7 @@ impl PassKernels {
                     // As many workgroups as the pass listed touched slots (render.comp).
                     self.fold.dispatch_indirect(
                         cmd,
-                        bytemuck::cast_slice(&fold_push),
+                        bytemuck::bytes_of(&fold_push),
                         &learned.touched,
                         0,
                     );

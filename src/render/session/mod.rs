@@ -234,7 +234,7 @@ impl<'a> Session<'a> {
 
     /// Sets the coefficients of the slots from `first` on from their totals.
     fn fold_from(&self, first: u32) -> Result<()> {
-        self.kernels.fold_from(&self.ctx, first, self.learned.slots)
+        self.kernels.fold_from(&self.ctx, first, &self.learned)
     }
 
     /// The push constants of the next pass.
