@@ -61,11 +61,6 @@ pub const COARSE: u32 = 4;
 /// posterior of).
 pub type SlotPrior = [f32; 4];
 
-/// The key of `node` in the pooling block and normal bin of `region`.
-fn key(grid: &Grid, region: u32, node: u32) -> u64 {
-    grid.block_key(region, COARSE) << 32 | node as u64
-}
-
 /// The borrowed pseudo-observations of every slot (indexed like `stats` and the cuts array)
 /// for the regions of `index` (cut offset per region, 0: none) and `cuts`: each slot with no
 /// observation of its own gets the totals of the other slots of its node in its block,
@@ -93,9 +88,11 @@ pub fn pooled_priors(
             continue;
         }
         let o = o as usize;
+        // A slot's key: its region's pooling block and normal bin, then its node.
+        let block = grid.block_key(r as u32, COARSE) << 32;
         for (i, &node) in cuts.iter().enumerate().skip(o + 1).take(cuts[o] as usize) {
             let s = &stats[i];
-            let k = key(grid, r as u32, node);
+            let k = block | node as u64;
             if s.n_zero + s.n_nonzero > 0.0 {
                 let e = pooled.entry(k).or_insert([0.0; 4]);
                 e[0] += s.n_zero as f64;
