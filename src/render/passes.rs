@@ -47,12 +47,13 @@ pub const RENDER_BINDINGS: [&[&str]; 3] = [
         "SideCounts",
     ],
     &[
-        "Accum",
+        "accum_texels",
         "Counters",
         "QueueHeads",
         "path_texels",
         "path_image",
         "LiveRows",
+        "accum_image",
     ],
 ];
 const SCENE_SET: usize = 0;
@@ -313,13 +314,14 @@ impl PassKernels {
         queues: &PathQueues,
         live: &Buffer,
     ) -> Result<()> {
-        let film: [(&str, &Buffer); 6] = [
-            ("Accum", accum),
+        let film: [(&str, &Buffer); 7] = [
+            ("accum_texels", accum),
             ("Counters", counters),
             ("QueueHeads", &queues.heads),
             ("path_texels", &queues.paths),
             ("path_image", &queues.paths),
             ("LiveRows", live),
+            ("accum_image", accum),
         ];
         let set = in_binding_order(&film, RENDER_BINDINGS[FILM_SET]);
         self.render.bind_set(FILM_SET, &set)

@@ -55,10 +55,19 @@ impl Film {
             bail!("image size {width}×{height} is out of range; use 1..=16384 for --width and --height");
         }
         let pixels = width as u64 * height as u64;
+        // Two texels a pixel (render.comp film_read): the device's texel-buffer limit bounds
+        // the film as its storage-buffer limit does (Buffer::new).
+        let max = ctx.properties.limits.max_texel_buffer_elements as u64;
+        if 2 * pixels > max {
+            bail!(
+                "a {width}×{height} film needs {} texels but this device allows texel buffers of at most {max}; use a smaller --width/--height",
+                2 * pixels
+            );
+        }
         Ok(Film {
             width,
             height,
-            accum: Buffer::zeroed(
+            accum: Buffer::scratch_texels(
                 ctx,
                 "pixel accumulators",
                 pixels * std::mem::size_of::<PixelAccum>() as u64,
