@@ -11,8 +11,16 @@
 
 layout(local_size_x = 64) in;
 
-layout(std430, set = 0, binding = 0) buffer Stats { SlotStats slot_stats[]; };
-layout(std430, set = 0, binding = 1) buffer Delta { SlotDelta slot_delta[]; };
+// The totals (SlotStats) and the window's sums (SlotDelta) are written here as storage
+// buffers but read as uniform texel buffers of the same memory (two RGBA32UI texels a slot
+// each; prior_texels one): lavapipe reads a storage buffer word by word and lane by lane but
+// gathers a texel in one vector load, and a window's fold on city (128×96, 16 passes, 13.6k
+// slots) took 0.68-0.70 ms this way against 1.27-1.52 ms; writing them as texels too
+// (uimageBuffer) gained nothing more (0.67-0.74 ms; docs/results.md, sixteenth session).
+layout(std430, set = 0, binding = 0) writeonly buffer Stats { SlotStats slot_stats[]; };
+layout(std430, set = 0, binding = 1) writeonly buffer Delta { SlotDelta slot_delta[]; };
+layout(set = 0, binding = 4) uniform usamplerBuffer stat_texels;
+layout(set = 0, binding = 5) uniform usamplerBuffer delta_texels;
 // The window's touched slots as render.comp's mark_touched lists them: [0] the workgroup
 // count of this dispatch (indirect), [1], [2] 1, [3] the count, then the slots, NO_SLOT
 // after the last (the list has room for every slot, rounded up to whole workgroups).
@@ -20,7 +28,7 @@ layout(std430, set = 0, binding = 2) buffer Touched { uint touched_slots[]; };
 // Each slot's borrowed pseudo-observations (n_zero, n_nonzero, Σy, Σy²; src/learning/pooling.rs,
 // all 0 unless --pool-priors): added to the totals the posterior is computed from, never to
 // the totals themselves.
-layout(std430, set = 0, binding = 3) readonly buffer Prior { vec4 slot_prior[]; };
+layout(set = 0, binding = 3) uniform usamplerBuffer prior_texels;
 
 // mode FOLD_TOUCHED (between passes, an indirect dispatch): the listed slots, and the list
 // emptied for the next window; lavapipe runs the body for every invocation of a dispatch,
@@ -56,8 +64,16 @@ void main() {
         i += first;
     }
     if (i >= slot_count) return;
-    SlotDelta d = slot_delta[i];
-    SlotStats s = slot_stats[i];
+    uvec4 da = texelFetch(delta_texels, int(2u * i));
+    uvec4 db = texelFetch(delta_texels, int(2u * i + 1u));
+    SlotDelta d = SlotDelta(da.x, da.y, da.z, da.w, db.x, db.y, db.z, db.w);
+    vec4 sa = uintBitsToFloat(texelFetch(stat_texels, int(2u * i)));
+    SlotStats s;
+    s.n_zero = sa.x;
+    s.n_nonzero = sa.y;
+    s.sum = sa.z;
+    s.sum_sq = sa.w;
+    s.scale = uintBitsToFloat(texelFetch(stat_texels, int(2u * i + 1u)).x);
     if (!(s.scale > 0.0)) s.scale = 1.0;
     if (d.n_zero + d.n_nonzero > 0u) {
         float sum = (float(d.sum_hi) * TWO_POW_32 + float(d.sum_lo)) * (s.scale / FIX_ONE);
@@ -73,7 +89,7 @@ void main() {
     uint listed = mode == FOLD_ALL ? d.touched : 0u;
     slot_delta[i] = SlotDelta(0u, 0u, 0u, 0u, 0u, 0u, listed, 0u);
     SlotStats post = s;
-    vec4 pr = slot_prior[i];
+    vec4 pr = uintBitsToFloat(texelFetch(prior_texels, int(i)));
     post.n_zero += pr.x;
     post.n_nonzero += pr.y;
     post.sum += pr.z;

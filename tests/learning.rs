@@ -12,7 +12,7 @@ use std::process::Command;
 
 use glam::Vec3;
 use lightlearn::accel::Bvh;
-use lightlearn::gpu::layout::{SlotDelta, SlotStats};
+use lightlearn::gpu::layout::{FoldPush, SlotDelta, SlotStats};
 use lightlearn::gpu::{kernels, Buffer, ComputePipeline};
 use lightlearn::learning::stats_file::SavedStats;
 use lightlearn::learning::{
@@ -440,7 +440,6 @@ fn fold_kernel_matches_its_cpu_mirror() {
     }
     let l = LearnSettings::default();
     let sb = Buffer::texels(&ctx, "stats", &st).unwrap();
-    let lb = Buffer::from_slice(&ctx, "learn", &[l.gpu_params()]).unwrap();
     // The list of touched slots as render.comp's mark_touched leaves it (in a scrambled
     // order, as atomics would): every slot with a non-empty window, flagged.
     let mut listed: Vec<u32> = (0..n as u32)
@@ -456,7 +455,7 @@ fn fold_kernel_matches_its_cpu_mirror() {
     list[0] = (listed.len() as u32).div_ceil(64);
     list[3] = listed.len() as u32;
     list[4..4 + listed.len()].copy_from_slice(&listed);
-    let db = Buffer::from_slice(&ctx, "deltas", &de).unwrap();
+    let db = Buffer::texels(&ctx, "deltas", &de).unwrap();
     let tb = Buffer::indirect(&ctx, "touched", &list).unwrap();
     // Borrowed observations (--pool-priors) for every third slot: they must reach the
     // coefficients, never the totals.
@@ -470,13 +469,28 @@ fn fold_kernel_matches_its_cpu_mirror() {
             [z, v, v * y, v * y * y * (1.0 + r.f32())]
         })
         .collect();
-    let pb = Buffer::from_slice(&ctx, "borrowed", &priors).unwrap();
-    let k = ComputePipeline::new(&ctx, "fold", kernels::FOLD, 5, 12, &[]).unwrap();
-    k.bind(&[&sb, &db, &lb, &tb, &pb]).unwrap();
+    let pb = Buffer::texels(&ctx, "borrowed", &priors).unwrap();
+    let push = FoldPush {
+        slot_count: n as u32,
+        mode: 0,
+        first: 0,
+        learn: l.gpu_params(),
+    };
+    let k = ComputePipeline::new(
+        &ctx,
+        "fold",
+        kernels::FOLD,
+        6,
+        std::mem::size_of::<FoldPush>() as u32,
+        &[],
+    )
+    .unwrap();
+    // In the order of render::FOLD_BINDINGS (the totals and sums are written as storage
+    // buffers and read as texels).
+    k.bind(&[&sb, &db, &tb, &pb, &sb, &db]).unwrap();
     // Mode 0, as between passes: the listed slots, by an indirect dispatch; the others
     // are left alone.
-    let push = [n as u32, 0, 0];
-    ctx.submit(|cmd| k.dispatch_indirect(cmd, bytemuck::cast_slice(&push), &tb, 0))
+    ctx.submit(|cmd| k.dispatch_indirect(cmd, bytemuck::bytes_of(&push), &tb, 0))
         .unwrap();
     let got: Vec<SlotStats> = sb.read().unwrap();
     let cleared: Vec<SlotDelta> = db.read().unwrap();

@@ -155,7 +155,7 @@ mod tests {
                 .count()
         };
         assert_eq!(texel(crate::gpu::kernels::TEXELS), 9);
-        assert_eq!(texel(crate::gpu::kernels::FOLD), 0);
+        assert_eq!(texel(crate::gpu::kernels::FOLD), 3);
     }
 
     /// Fails if a storage texel buffer (`uimageBuffer`, the path queues' writes) were taken

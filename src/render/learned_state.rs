@@ -111,13 +111,13 @@ impl LearnedState {
             index: Buffer::words(ctx, "region index", &cuts.index)?,
             cuts_buf: Buffer::words(ctx, "cuts", &cuts.cuts)?,
             stats: Buffer::texels(ctx, "learned statistics", &stats)?,
-            delta: Buffer::zeroed(
+            delta: Buffer::zeroed_texels(
                 ctx,
                 "learning window sums",
                 slots as u64 * std::mem::size_of::<SlotDelta>() as u64,
             )?,
             touched: Buffer::indirect(ctx, "touched slots", &touched_list(slots))?,
-            prior: Buffer::zeroed(ctx, "borrowed observations", slots as u64 * PRIOR_BYTES)?,
+            prior: Buffer::zeroed_texels(ctx, "borrowed observations", slots as u64 * PRIOR_BYTES)?,
             sides: Buffer::zeroed(ctx, "observations by side", slots as u64 * SIDE_BYTES)?,
             borrowed: Vec::new(),
             params: Buffer::from_slice(ctx, "learning parameters", &[settings.learn.gpu_params()])?,
@@ -255,7 +255,7 @@ impl LearnedState {
             let capacity = (2 * new).min(most).max(new);
             let stats = Buffer::zeroed_texels(ctx, "learned statistics", capacity * slot)?;
             stats.copy_from(&self.stats)?;
-            let delta = Buffer::zeroed(
+            let delta = Buffer::zeroed_texels(
                 ctx,
                 "learning window sums",
                 capacity * std::mem::size_of::<SlotDelta>() as u64,
@@ -264,7 +264,8 @@ impl LearnedState {
             // and the list is empty (every slot's `touched` flag 0): a new, empty one with
             // room for every slot of the capacity.
             let touched = Buffer::indirect(ctx, "touched slots", &touched_list(capacity as u32))?;
-            let prior = Buffer::zeroed(ctx, "borrowed observations", capacity * PRIOR_BYTES)?;
+            let prior =
+                Buffer::zeroed_texels(ctx, "borrowed observations", capacity * PRIOR_BYTES)?;
             prior.copy_from(&self.prior)?;
             let sides = Buffer::zeroed(ctx, "observations by side", capacity * SIDE_BYTES)?;
             sides.copy_from(&self.sides)?;

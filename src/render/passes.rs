@@ -61,7 +61,14 @@ const LEARNED_SET: usize = 1;
 const FILM_SET: usize = 2;
 
 /// The storage blocks of `fold.comp` by binding number (set 0).
-pub const FOLD_BINDINGS: [&str; 4] = ["Stats", "Delta", "Touched", "Prior"];
+pub const FOLD_BINDINGS: [&str; 6] = [
+    "Stats",
+    "Delta",
+    "Touched",
+    "prior_texels",
+    "stat_texels",
+    "delta_texels",
+];
 
 /// fold.comp's modes (its push constant `mode`): the slots the window listed (between
 /// passes, an indirect dispatch), or every slot with its coefficients recomputed.
@@ -262,11 +269,13 @@ impl PassKernels {
         ];
         let set = in_binding_order(&learned, RENDER_BINDINGS[LEARNED_SET]);
         self.render.bind_set(LEARNED_SET, &set)?;
-        let fold: [(&str, &Buffer); 4] = [
+        let fold: [(&str, &Buffer); 6] = [
             ("Stats", &l.stats),
             ("Delta", &l.delta),
             ("Touched", &l.touched),
-            ("Prior", &l.prior),
+            ("prior_texels", &l.prior),
+            ("stat_texels", &l.stats),
+            ("delta_texels", &l.delta),
         ];
         self.fold.bind(&in_binding_order(&fold, &FOLD_BINDINGS))
     }

@@ -104,7 +104,7 @@ pub fn gpu_samples_and_pmfs(
     let index = Buffer::words(ctx, "region index", &cuts.index).unwrap();
     let cut = Buffer::words(ctx, "cuts", &cuts.cuts).unwrap();
     let sb = Buffer::texels(ctx, "stats", stats).unwrap();
-    let db = Buffer::zeroed(ctx, "deltas", (stats.len() * 32) as u64).unwrap();
+    let db = Buffer::zeroed_texels(ctx, "deltas", (stats.len() * 32) as u64).unwrap();
     let lb = Buffer::from_slice(ctx, "learn", &[params]).unwrap();
     // The fold kernel over every slot (mode 1) with empty windows writes the weight
     // coefficients.
@@ -115,16 +115,29 @@ pub fn gpu_samples_and_pmfs(
     )
     .unwrap();
     // No borrowed observations (--pool-priors): the coefficients of `stats` alone.
-    let pb = Buffer::zeroed(ctx, "borrowed", (stats.len() * 16) as u64).unwrap();
-    let fold =
-        ComputePipeline::new(ctx, "fold", lightlearn::gpu::kernels::FOLD, 5, 12, &[]).unwrap();
-    fold.bind(&[&sb, &db, &lb, &tb, &pb]).unwrap();
-    let slots = [stats.len() as u32, 1, 0];
+    let pb = Buffer::zeroed_texels(ctx, "borrowed", (stats.len() * 16) as u64).unwrap();
+    let push = lightlearn::gpu::layout::FoldPush {
+        slot_count: stats.len() as u32,
+        mode: 1,
+        first: 0,
+        learn: params,
+    };
+    let fold = ComputePipeline::new(
+        ctx,
+        "fold",
+        lightlearn::gpu::kernels::FOLD,
+        6,
+        std::mem::size_of_val(&push) as u32,
+        &[],
+    )
+    .unwrap();
+    // In the order of render::FOLD_BINDINGS.
+    fold.bind(&[&sb, &db, &tb, &pb, &sb, &db]).unwrap();
     ctx.submit(|cmd| {
         fold.dispatch(
             cmd,
-            bytemuck::cast_slice(&slots),
-            [slots[0].div_ceil(64), 1, 1],
+            bytemuck::bytes_of(&push),
+            [push.slot_count.div_ceil(64), 1, 1],
         )
     })
     .unwrap();
