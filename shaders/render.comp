@@ -88,9 +88,9 @@ layout(std430, set = 0, binding = 5) readonly buffer Alias { AliasEntry alias_ta
 // The film: each pixel's PixelAccum as two RGBA32UI texels (sum, sum_sq), read as a uniform
 // texel buffer (film_read) and written as a storage texel buffer through the same view
 // (film_write). lavapipe loads a storage buffer's words lane by lane but a texel with one
-// vector gather: a direct-light dispatch that reads and writes its pixels once cost ~0.2-0.4 ms
-// less on city at 128×96 this way (`bayes --update-every 1`, 256 dispatches: 0.94× the time,
-// the same bits; docs/results.md, sixteenth session).
+// vector gather: a lone direct-light dispatch, which reads and writes its pixels once, took
+// 2.48 against 2.62 ms on city at 128×96 this way (`bayes --update-every 1`, 256 dispatches:
+// 0.94× the time; the same bits; docs/results.md, sixteenth session).
 layout(set = 2, binding = 0) uniform usamplerBuffer accum_texels;
 layout(set = 2, binding = 6, rgba32ui) uniform writeonly uimageBuffer accum_image;
 // [0]: samples dropped because they were NaN or Inf (reported, never averaged in).

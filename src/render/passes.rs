@@ -60,7 +60,8 @@ const SCENE_SET: usize = 0;
 const LEARNED_SET: usize = 1;
 const FILM_SET: usize = 2;
 
-/// The storage blocks of `fold.comp` by binding number (set 0).
+/// The bindings of `fold.comp` by number (set 0): storage blocks by block name, texel
+/// buffers by variable name.
 pub const FOLD_BINDINGS: [&str; 6] = [
     "Stats",
     "Delta",
