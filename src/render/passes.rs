@@ -100,9 +100,9 @@ fn in_binding_order<'b>(named: &[(&str, &'b Buffer)], bindings: &[&str]) -> Vec<
         .collect()
 }
 
-/// RGBA32UI texels of one path in the wavefront's queues (render.comp PATH_TEXELS; a host
-/// that allotted fewer would make the paths past the end of the buffer lose their state:
-/// the golden renders of tests/golden_pixels.rs would change).
+/// RGBA32UI texels of one path in the wavefront's queues (shaders/shared/path_queue.glsl
+/// PATH_TEXELS; a host that allotted fewer would make the paths past the end of the buffer
+/// lose their state: the golden renders of tests/golden_pixels.rs would change).
 const PATH_TEXELS: u64 = 10;
 /// The wavefront's queue buffer holds at most this many bytes (both queues) by default: a
 /// film with more paths is started in bands of rows, one after the other, each traced to its
