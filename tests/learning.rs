@@ -13,7 +13,7 @@ use std::process::Command;
 use glam::Vec3;
 use lightlearn::accel::Bvh;
 use lightlearn::gpu::layout::{FoldPush, SlotDelta, SlotStats};
-use lightlearn::gpu::{kernels, Buffer, ComputePipeline};
+use lightlearn::gpu::Buffer;
 use lightlearn::learning::stats_file::SavedStats;
 use lightlearn::learning::{
     fold, fold_with_prior, learned_weights, predicted_means, LearnSettings, Posterior, Regression,
@@ -476,18 +476,7 @@ fn fold_kernel_matches_its_cpu_mirror() {
         first: 0,
         learn: l.gpu_params(),
     };
-    let k = ComputePipeline::new(
-        &ctx,
-        "fold",
-        kernels::FOLD,
-        6,
-        std::mem::size_of::<FoldPush>() as u32,
-        &[],
-    )
-    .unwrap();
-    // In the order of render::FOLD_BINDINGS (the totals and sums are written as storage
-    // buffers and read as texels).
-    k.bind(&[&sb, &db, &tb, &pb, &sb, &db]).unwrap();
+    let k = common::fold_pipeline(&ctx, &sb, &db, &tb, &pb);
     // Mode 0, as between passes: the listed slots, by an indirect dispatch; the others
     // are left alone.
     ctx.submit(|cmd| k.dispatch_indirect(cmd, bytemuck::bytes_of(&push), &tb, 0))

@@ -404,7 +404,6 @@ impl PassKernels {
         // workgroups in rows of at most MAX_GROUPS_X (Vulkan promises 65535 a dimension).
         let wgs = self.live_rows().div_ceil(8);
         let groups = [wgs.min(MAX_GROUPS_X), wgs.div_ceil(MAX_GROUPS_X), 1];
-        let fold_push = fold_push(learned, FOLD_TOUCHED, 0);
         let queues = self.queues.as_ref().expect("the film is bound");
         params.queue_cap = queues.cap;
         let t0 = Instant::now();
@@ -438,12 +437,7 @@ impl PassKernels {
                 i += n;
                 if fold.is_some_and(|(every, clock)| every.ends_at(clock.after(i))) {
                     // As many workgroups as the pass listed touched slots (render.comp).
-                    self.fold.dispatch_indirect(
-                        cmd,
-                        bytemuck::bytes_of(&fold_push),
-                        &learned.touched,
-                        0,
-                    );
+                    self.record_fold_listed(cmd, learned);
                     ctx.barrier(cmd);
                 }
             }

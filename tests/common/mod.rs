@@ -122,17 +122,7 @@ pub fn gpu_samples_and_pmfs(
         first: 0,
         learn: params,
     };
-    let fold = ComputePipeline::new(
-        ctx,
-        "fold",
-        lightlearn::gpu::kernels::FOLD,
-        6,
-        std::mem::size_of_val(&push) as u32,
-        &[],
-    )
-    .unwrap();
-    // In the order of render::FOLD_BINDINGS.
-    fold.bind(&[&sb, &db, &tb, &pb, &sb, &db]).unwrap();
+    let fold = fold_pipeline(ctx, &sb, &db, &tb, &pb);
     ctx.submit(|cmd| {
         fold.dispatch(
             cmd,
@@ -200,4 +190,28 @@ pub fn edit_glb(bytes: &[u8], edit: impl FnOnce(&mut serde_json::Value)) -> Vec<
     out.extend_from_slice(&text);
     out.extend_from_slice(rest);
     out
+}
+
+/// fold.comp as the session binds it (render::FOLD_BINDINGS): the totals `stats` and window
+/// sums `delta` written as storage buffers and read as texels, the touched list, the
+/// borrowed observations.
+pub fn fold_pipeline(
+    ctx: &Arc<Context>,
+    stats: &lightlearn::gpu::Buffer,
+    delta: &lightlearn::gpu::Buffer,
+    touched: &lightlearn::gpu::Buffer,
+    prior: &lightlearn::gpu::Buffer,
+) -> lightlearn::gpu::ComputePipeline {
+    let fold = lightlearn::gpu::ComputePipeline::new(
+        ctx,
+        "fold",
+        lightlearn::gpu::kernels::FOLD,
+        lightlearn::render::FOLD_BINDINGS.len() as u32,
+        std::mem::size_of::<lightlearn::gpu::layout::FoldPush>() as u32,
+        &[],
+    )
+    .unwrap();
+    fold.bind(&[stats, delta, touched, prior, stats, delta])
+        .unwrap();
+    fold
 }
