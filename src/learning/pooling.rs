@@ -24,32 +24,8 @@
 //! totals themselves: statistics files and merges hold observations only. Unbiased: the
 //! pseudo-observations only move the posterior, whose weights stay positive (fold.comp).
 
-use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
-
 use crate::abi::SlotStats;
 use crate::lights::regions::Grid;
-
-/// A multiplicative hash of the u64 keys below. With the standard SipHash and tuple keys a
-/// growth point's pooling took 2.7–4.6 ms on city (47k slots, 128×96; reading the totals
-/// and uploading the result included), with this 1.5–2.3 ms.
-#[derive(Default)]
-struct KeyHasher(u64);
-
-impl Hasher for KeyHasher {
-    fn finish(&self) -> u64 {
-        // hashbrown takes its buckets from the low bits: fold the well-mixed high half in.
-        self.0 ^ (self.0 >> 32)
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 = (self.0 ^ b as u64).wrapping_mul(0x100_0000_01b3);
-        }
-    }
-    fn write_u64(&mut self, k: u64) {
-        self.0 = (k ^ (k >> 29)).wrapping_mul(0x9e37_79b9_7f4a_7c15);
-    }
-}
 
 /// Grid cells per axis of a pooling block: 4³ = 64 fine cells. Measured against 2 and 8
 /// (budget 4, 64 spp, eight seeds): city 5.2e-4 / 4.4e-4 / 4.4e-4 (4 is the best or even),
@@ -77,39 +53,59 @@ pub fn pooled_priors(
     if budget.is_nan() || budget <= 0.0 {
         return priors;
     }
-    // Each block's totals per node, summed in region order (deterministic), in f64; the cold
-    // slots with their keys, to be served after.
-    let mut pooled: HashMap<u64, [f64; 4], BuildHasherDefault<KeyHasher>> = HashMap::default();
-    let mut cold = Vec::new();
-    // A cut that regions share (a block without lights) counts once, for its first region.
+    // Each cut once, for its first region (regions of a block without lights share one), with
+    // its key: the region's pooling block and normal bin. Grouped by key, region order kept
+    // within a group (a stable sort), so each (key, node) total sums in region order
+    // (deterministic) in f64.
     let mut seen = vec![false; cuts.len()];
+    let mut order: Vec<(u64, usize)> = Vec::new();
     for (r, &o) in index.iter().enumerate() {
-        if o == 0 || std::mem::replace(&mut seen[o as usize], true) {
-            continue;
-        }
-        let o = o as usize;
-        // A slot's key: its region's pooling block and normal bin, then its node.
-        let block = grid.block_key(r as u32, COARSE) << 32;
-        for (i, &node) in cuts.iter().enumerate().skip(o + 1).take(cuts[o] as usize) {
-            let s = &stats[i];
-            let k = block | node as u64;
-            if s.n_zero + s.n_nonzero > 0.0 {
-                let e = pooled.entry(k).or_insert([0.0; 4]);
-                e[0] += s.n_zero as f64;
-                e[1] += s.n_nonzero as f64;
-                e[2] += s.sum as f64;
-                e[3] += s.sum_sq as f64;
-            } else {
-                cold.push((i, k));
-            }
+        if o != 0 && !std::mem::replace(&mut seen[o as usize], true) {
+            order.push((grid.block_key(r as u32, COARSE), o as usize));
         }
     }
-    for (i, k) in cold {
-        // A cold slot added nothing to its block's totals: they are all the others'.
-        // Damaged or lying totals (inf, NaN) lend nothing: the coefficients must stay finite.
-        if let Some(e) = pooled.get(&k).filter(|e| e.iter().all(|v| v.is_finite())) {
-            let f = (budget as f64 / (e[0] + e[1])).min(1.0);
-            priors[i] = e.map(|v| (f * v.max(0.0)).min(f32::MAX as f64) as f32);
+    order.sort_by_key(|&(key, _)| key);
+    let slots_of = |o: usize| o + 1..o + 1 + cuts[o] as usize;
+    let nodes = order
+        .iter()
+        .flat_map(|&(_, o)| cuts[slots_of(o)].iter())
+        .max()
+        .map_or(0, |&n| n as usize + 1);
+    // A group's totals per node in dense arrays, valid where `stamp` holds the group's number:
+    // with a hash map keyed by (block, node) a growth point's pooling took 1.3-2.6 ms on
+    // city10k and cornell40 (128x96, 45-58k slots; docs/results.md, seventeenth session).
+    let mut total = vec![[0.0f64; 4]; nodes];
+    let mut stamp = vec![usize::MAX; nodes];
+    let mut cold = Vec::new();
+    for (g, group) in order.chunk_by(|a, b| a.0 == b.0).enumerate() {
+        cold.clear();
+        for &(_, o) in group {
+            for i in slots_of(o) {
+                let (s, node) = (&stats[i], cuts[i] as usize);
+                if s.n_zero + s.n_nonzero > 0.0 {
+                    let e = &mut total[node];
+                    if stamp[node] != g {
+                        stamp[node] = g;
+                        *e = [0.0; 4];
+                    }
+                    e[0] += s.n_zero as f64;
+                    e[1] += s.n_nonzero as f64;
+                    e[2] += s.sum as f64;
+                    e[3] += s.sum_sq as f64;
+                } else {
+                    cold.push((i, node));
+                }
+            }
+        }
+        for &(i, node) in &cold {
+            // A cold slot added nothing to its group's totals: they are all the others'.
+            // Damaged or lying totals (inf, NaN) lend nothing: the coefficients must stay
+            // finite.
+            let e = &total[node];
+            if stamp[node] == g && e.iter().all(|v| v.is_finite()) {
+                let f = (budget as f64 / (e[0] + e[1])).min(1.0);
+                priors[i] = e.map(|v| (f * v.max(0.0)).min(f32::MAX as f64) as f32);
+            }
         }
     }
     priors
@@ -207,5 +203,94 @@ mod tests {
             "node 9: {:?}",
             p[e + 2]
         );
+    }
+
+    /// The pooling as first written (one hash map keyed by block and node over every cut
+    /// in region order): what the grouped, dense version must give bit for bit.
+    fn pooled_priors_by_map(
+        grid: &Grid,
+        index: &[u32],
+        cuts: &[u32],
+        stats: &[SlotStats],
+        budget: f32,
+    ) -> Vec<SlotPrior> {
+        let mut priors = vec![[0.0; 4]; stats.len()];
+        let mut pooled = std::collections::HashMap::<u64, [f64; 4]>::new();
+        let mut cold = Vec::new();
+        let mut seen = vec![false; cuts.len()];
+        for (r, &o) in index.iter().enumerate() {
+            if o == 0 || std::mem::replace(&mut seen[o as usize], true) {
+                continue;
+            }
+            let block = grid.block_key(r as u32, COARSE) << 32;
+            for i in o as usize + 1..o as usize + 1 + cuts[o as usize] as usize {
+                let (s, k) = (&stats[i], block | cuts[i] as u64);
+                if s.n_zero + s.n_nonzero > 0.0 {
+                    let e = pooled.entry(k).or_insert([0.0; 4]);
+                    for (e, v) in e.iter_mut().zip([s.n_zero, s.n_nonzero, s.sum, s.sum_sq]) {
+                        *e += v as f64;
+                    }
+                } else {
+                    cold.push((i, k));
+                }
+            }
+        }
+        for (i, k) in cold {
+            if let Some(e) = pooled.get(&k).filter(|e| e.iter().all(|v| v.is_finite())) {
+                let f = (budget as f64 / (e[0] + e[1])).min(1.0);
+                priors[i] = e.map(|v| (f * v.max(0.0)).min(f32::MAX as f64) as f32);
+            }
+        }
+        priors
+    }
+
+    /// Many random cuts (some shared by several regions, as blocks without lights share
+    /// one) over the 8×4×4×6 grid, a third of the slots cold: the same priors, bit for bit,
+    /// as the hash map's. Fails if a group's totals are not cleared for the next group, or
+    /// a shared cut counts once per region (checked by mutation, seventeenth session).
+    #[test]
+    fn grouped_pooling_is_the_hash_maps_bit_for_bit() {
+        let g = grid();
+        let mut rng = crate::rng::SplitMix64(17);
+        let mut below = |n: u64| (rng.next_u64() % n) as u32;
+        for round in 0..4 {
+            let regions = 8 * 4 * 4 * 6;
+            let mut index = vec![0u32; regions];
+            let mut cuts = vec![1u32, 0];
+            for r in 0..regions {
+                match below(4) {
+                    0 => {}
+                    // Share an earlier region's cut.
+                    1 if r > 0 && index[r - 1] != 0 => index[r] = index[r - 1],
+                    _ => {
+                        index[r] = cuts.len() as u32;
+                        let n = 1 + below(6);
+                        cuts.push(n);
+                        for _ in 0..n {
+                            cuts.push(below(12));
+                        }
+                    }
+                }
+            }
+            let mut stats = vec![SlotStats::default(); cuts.len()];
+            for s in stats.iter_mut().skip(2) {
+                if below(3) != 0 {
+                    let (z, v) = (below(50) as f32, below(50) as f32 + 0.5);
+                    let y = below(1000) as f32 * 0.37;
+                    *s = seen(z, v, y, y * y * 1.3 + 0.1);
+                }
+            }
+            let budget = [4.0, 0.5, 1e6, 2.0][round];
+            let got = pooled_priors(&g, &index, &cuts, &stats, budget);
+            let want = pooled_priors_by_map(&g, &index, &cuts, &stats, budget);
+            let lent = want.iter().filter(|p| **p != [0.0; 4]).count();
+            assert!(lent > 20, "round {round}: only {lent} slots borrow");
+            for (i, (a, b)) in got.iter().zip(&want).enumerate() {
+                assert!(
+                    a.map(f32::to_bits) == b.map(f32::to_bits),
+                    "round {round}, slot {i}: {a:?} against {b:?}"
+                );
+            }
+        }
     }
 }

@@ -101,6 +101,12 @@ impl LearnedState {
             (_, false) => vec![SlotStats::default()],
         };
         let slots = stats.len() as u32;
+        // Room for growth from the start: the first growth point's reallocation, with its
+        // copies, was 6.2 ms of a 64-spp render's 0.18-0.22 s on city10k (128x96: 40.7k
+        // slots at the start, 58.3k after 64 passes; docs/results.md, seventeenth session).
+        let capacity = slot_capacity(ctx, slots as u64);
+        let mut padded = stats;
+        padded.resize(capacity as usize, SlotStats::default());
         let words = 1 + cuts.index.len().div_ceil(32);
         Ok(LearnedState {
             missing: Buffer::zeroed(ctx, "missing regions", 4 * words as u64)?,
@@ -110,20 +116,20 @@ impl LearnedState {
             grid: Buffer::texels(ctx, "region grid", &[cuts.grid.params])?,
             index: Buffer::words(ctx, "region index", &cuts.index)?,
             cuts_buf: Buffer::words(ctx, "cuts", &cuts.cuts)?,
-            stats: Buffer::texels(ctx, "learned statistics", &stats)?,
+            stats: Buffer::texels(ctx, "learned statistics", &padded)?,
             delta: Buffer::zeroed_texels(
                 ctx,
                 "learning window sums",
-                slots as u64 * std::mem::size_of::<SlotDelta>() as u64,
+                capacity * std::mem::size_of::<SlotDelta>() as u64,
             )?,
-            touched: Buffer::indirect(ctx, "touched slots", &touched_list(slots))?,
-            prior: Buffer::zeroed_texels(ctx, "borrowed observations", slots as u64 * PRIOR_BYTES)?,
-            sides: Buffer::zeroed(ctx, "observations by side", slots as u64 * SIDE_BYTES)?,
+            touched: Buffer::indirect(ctx, "touched slots", &touched_list(capacity as u32))?,
+            prior: Buffer::zeroed_texels(ctx, "borrowed observations", capacity * PRIOR_BYTES)?,
+            sides: Buffer::zeroed(ctx, "observations by side", capacity * SIDE_BYTES)?,
             borrowed: Vec::new(),
             params: Buffer::from_slice(ctx, "learning parameters", &[settings.learn.gpu_params()])?,
             learn: settings.learn.gpu_params(),
             slots,
-            capacity: slots,
+            capacity: capacity as u32,
             passes: settings
                 .resume
                 .as_ref()
@@ -248,11 +254,7 @@ impl LearnedState {
         let (old, new) = (self.slots as u64, self.slots as u64 + tail.len() as u64);
         let slot = std::mem::size_of::<SlotStats>() as u64;
         if new > self.capacity as u64 {
-            let limits = &ctx.properties.limits;
-            // Two texels a slot (learned_texels.glsl).
-            let most = (limits.max_storage_buffer_range as u64 / slot)
-                .min(limits.max_texel_buffer_elements as u64 / 2);
-            let capacity = (2 * new).min(most).max(new);
+            let capacity = slot_capacity(ctx, new);
             let stats = Buffer::zeroed_texels(ctx, "learned statistics", capacity * slot)?;
             stats.copy_from(&self.stats)?;
             let delta = Buffer::zeroed_texels(
@@ -466,6 +468,17 @@ const SIDE_BYTES: u64 = 24;
 /// The empty list of touched slots (render.comp `mark_touched`, fold.comp) for `slots`
 /// slots: the fold's indirect workgroup counts (0, 1, 1), the count 0, then room for every
 /// slot rounded up to whole 64-wide workgroups, all NO_SLOT.
+/// The slots to make room for when `want` are in use: twice as many, as far as the device
+/// allows (one statistics buffer, two texels a slot: learned_texels.glsl), never fewer than
+/// `want` (growth stops before that would not fit, [`LearnedState::grow`]).
+fn slot_capacity(ctx: &Context, want: u64) -> u64 {
+    let limits = &ctx.properties.limits;
+    let slot = std::mem::size_of::<SlotStats>() as u64;
+    let most = (limits.max_storage_buffer_range as u64 / slot)
+        .min(limits.max_texel_buffer_elements as u64 / 2);
+    (2 * want).min(most).max(want)
+}
+
 pub fn touched_list(slots: u32) -> Vec<u32> {
     let mut list = vec![0, 1, 1, 0];
     list.resize(4 + slots.div_ceil(64) as usize * 64, u32::MAX);
