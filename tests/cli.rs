@@ -397,7 +397,8 @@ fn the_same_command_writes_the_same_files() {
 }
 
 /// `profile` times a pass with each stage knocked out (src/bench/stages.rs): every variant's
-/// pipeline must be valid (the validation layer is on) and every row of the table there. The
+/// pipeline must be valid (the validation layer is on) and every row of the table there; with
+/// `--timeline` also the table of what happens between passes (src/render/timeline.rs). The
 /// timings themselves vary with the machine, so only their form is checked.
 #[test]
 fn profile_times_every_stage_of_a_learning_path_tracer() {
@@ -418,11 +419,27 @@ fn profile_times_every_stage_of_a_learning_path_tracer() {
             "--max-depth",
             "3",
             "--validation",
+            "--timeline",
         ],
         dir.path(),
     );
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{}{text}", stderr(&out));
+    // --timeline: the two passes each alone with its fold, the growth points after passes 1
+    // and 2 by part, each with a positive time in all (the last column).
+    for row in [
+        "passes in submissions of 1 | 2 |",
+        "folds after windows of 1 | 2 |",
+        "growth points (",
+        "the steps together",
+    ] {
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(&format!("| {row}")))
+            .unwrap_or_else(|| panic!("no timeline row '{row}' in:\n{text}"));
+        let ms: f64 = line.split('|').nth(4).unwrap().trim().parse().unwrap();
+        assert!(ms > 0.0 && ms.is_finite(), "{line}");
+    }
     for row in [
         "nothing (the real kernel)",
         "light selection",

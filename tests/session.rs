@@ -369,6 +369,93 @@ fn direct_passes_in_one_dispatch_give_the_same_image() {
     );
 }
 
+/// `profile --timeline`: a session that times each dispatch, fold and growth point on its own
+/// renders the same image, and its events are the schedule's: `auto` windows of 1 up to
+/// pass 16, of 2 up to 32, then 4, each followed by its fold, and growth points after
+/// passes 1, 2, 4, 8, 16 and 32; `wang` folds nothing; paths take a pass a step.
+#[test]
+fn a_timed_session_renders_the_same_image_and_times_every_step() {
+    use lightlearn::render::timeline::Event;
+    let ctx = common::ctx();
+    let s = scene("rooms16.glb");
+    let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
+    for (sampler, depth, passes) in [
+        (LightSampler::Bayes, 1, 40),
+        (LightSampler::Wang, 1, 40),
+        (LightSampler::Bayes, 3, 6),
+    ] {
+        let mut set = settings(sampler, 5);
+        set.max_depth = depth;
+        let mut plain = Session::new(&ctx, &s, &gpu, &set).unwrap();
+        plain.run_passes(passes).unwrap();
+        let mut timed = Session::new(&ctx, &s, &gpu, &set).unwrap();
+        timed.record_timeline();
+        timed.run_passes(passes / 2).unwrap();
+        timed.run_passes(passes - passes / 2).unwrap();
+        assert!(plain.timeline().is_none());
+        assert!(
+            plain.image().unwrap() == timed.image().unwrap(),
+            "{sampler:?}, depth {depth}: timing each step changed the image"
+        );
+        let events = timed.timeline().unwrap();
+        let mut windows = Vec::new();
+        let mut growths = 0;
+        for e in events {
+            match e {
+                Event::Passes {
+                    passes,
+                    render,
+                    fold,
+                } => {
+                    assert!(render.is_finite() && *render > 0.0, "{e:?}");
+                    assert!(fold.is_none_or(|f| f.is_finite() && f > 0.0), "{e:?}");
+                    windows.push((*passes, fold.is_some()));
+                }
+                Event::Growth {
+                    read,
+                    cuts,
+                    pool,
+                    submit,
+                    ..
+                } => {
+                    assert!(
+                        [read, cuts, pool, submit]
+                            .iter()
+                            .all(|t| t.is_finite() && **t >= 0.0),
+                        "{e:?}"
+                    );
+                    growths += 1;
+                }
+            }
+        }
+        assert_eq!(
+            windows.iter().map(|w| w.0).sum::<u32>(),
+            passes,
+            "{sampler:?}, depth {depth}: {windows:?}"
+        );
+        match (sampler, depth) {
+            (LightSampler::Bayes, 1) => {
+                let want: Vec<(u32, bool)> =
+                    [[(1, true); 16].as_slice(), &[(2, true); 8], &[(4, true); 2]].concat();
+                assert_eq!(windows, want);
+                assert_eq!(growths, 6, "growth points after passes 1, 2, 4, 8, 16, 32");
+            }
+            (LightSampler::Wang, _) => {
+                assert!(
+                    windows.iter().all(|w| !w.1),
+                    "wang folds nothing: {windows:?}"
+                );
+                assert_eq!(growths, 6);
+            }
+            _ => assert_eq!(
+                windows,
+                vec![(1, true); 6],
+                "paths: a pass a step, each a window"
+            ),
+        }
+    }
+}
+
 /// With `--update-every` above 1 the cuts still grow, at the first fold boundary after each
 /// growth point (before, growth was skipped unless the two coincided: with 3, not before
 /// pass 192).

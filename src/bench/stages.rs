@@ -11,6 +11,7 @@ use anyhow::Result;
 
 use crate::gpu::Context;
 use crate::learning::{LearnDiagnostics, UpdateEvery};
+use crate::render::timeline::Event;
 use crate::render::{GpuScene, RenderSettings, Session};
 use crate::scene::Scene;
 
@@ -119,6 +120,22 @@ pub fn profile(
         .map(|(&(name, _, _), seconds)| StageTime { name, seconds })
         .collect();
     Ok((out, learned))
+}
+
+/// `profile --timeline`: one more render of `passes` passes of the real kernel on a fresh
+/// session, each dispatch, fold and growth point submitted and timed on its own
+/// (src/render/timeline.rs).
+pub fn timeline(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    gpu: &GpuScene,
+    settings: &RenderSettings,
+    passes: u32,
+) -> Result<Vec<Event>> {
+    let mut session = Session::new(ctx, scene, gpu, settings)?;
+    session.record_timeline();
+    session.run_passes(passes)?;
+    Ok(session.timeline().unwrap_or_default().to_vec())
 }
 
 /// A markdown table: each variant, its time, and what leaving the stage out saved.

@@ -32,6 +32,11 @@ pub struct ProfileArgs {
     /// (docs/results.md, thirteenth session).
     #[arg(long, default_value_t = 5)]
     pub repeats: u32,
+    /// Also render once more with each dispatch, learning window's fold and growth point
+    /// submitted and timed on its own, and print them by kind: where a learned sampler's time
+    /// between its passes goes.
+    #[arg(long)]
+    pub timeline: bool,
     #[command(flatten)]
     pub regions: RegionArgs,
     #[command(flatten)]
@@ -74,8 +79,19 @@ impl ProfileArgs {
             &mut |l| ui.message(l),
         )?;
         let paths = self.spp as f64 * self.width as f64 * self.height as f64;
+        let timeline = if self.timeline {
+            ui.message("timeline: one more render, each step on its own");
+            let events =
+                lightlearn::bench::stages::timeline(&ctx, &scene, &gpu, &settings, self.spp)?;
+            format!(
+                "\n\none render, each dispatch, fold and growth point submitted alone (each with one submission's wait):\n\n{}",
+                lightlearn::render::timeline::table(&events)
+            )
+        } else {
+            String::new()
+        };
         Ok(format!(
-            "{}: {} triangles, {} lights; {} on {}; {}×{}, {} spp, depth {}: {:.3} M paths/s{}\n\n{}",
+            "{}: {} triangles, {} lights; {} on {}; {}×{}, {} spp, depth {}: {:.3} M paths/s{}\n\n{}{}",
             scene.source,
             scene.triangles.len(),
             scene.lights.len(),
@@ -94,7 +110,8 @@ impl ProfileArgs {
                 d.observations,
                 d.observations / d.slots.max(1) as f64
             )),
-            lightlearn::bench::stages::table(&times)
+            lightlearn::bench::stages::table(&times),
+            timeline
         ))
     }
 }

@@ -22,6 +22,7 @@ mod passes;
 pub mod refine;
 mod result;
 mod session;
+pub mod timeline;
 
 pub use cuts::{
     build_cuts, check_region_index_fits, check_resume, initial_stats, stats_header, BOUNCE_RAYS,

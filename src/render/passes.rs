@@ -9,6 +9,7 @@ use std::time::Instant;
 use anyhow::Result;
 
 use super::learned_state::LearnedState;
+use super::timeline::Event;
 use super::{GpuScene, LightPoint, RenderSettings};
 use crate::gpu::layout::{FoldPush, RenderParams};
 use crate::gpu::{kernels, Buffer, ComputePipeline, Context, Transfers};
@@ -389,7 +390,9 @@ impl PassKernels {
     /// `k` passes of a `width`×`height` film in one submission, from learning pass
     /// `params.sample_index` on; with `fold` (the learned samplers' --update-every and their
     /// clock before the first pass) the touched slots of `learned` are folded after every
-    /// pass that ends a learning window.
+    /// pass that ends a learning window. With `timeline` each dispatch (paths: each pass) and
+    /// each fold is a submission of its own, timed into it (`profile --timeline`; the same
+    /// commands, so the same image).
     /// Returns their seconds.
     pub(super) fn submit(
         &self,
@@ -398,6 +401,7 @@ impl PassKernels {
         k: u32,
         fold: Option<(UpdateEvery, LearningClock)>,
         learned: &LearnedState,
+        timeline: Option<&mut Vec<Event>>,
     ) -> Result<f64> {
         let first = params.sample_index;
         // Direct light: a workgroup takes 8 of the rows of 8 pixels that see the scene, the
@@ -406,42 +410,72 @@ impl PassKernels {
         let groups = [wgs.min(MAX_GROUPS_X), wgs.div_ceil(MAX_GROUPS_X), 1];
         let queues = self.queues.as_ref().expect("the film is bound");
         params.queue_cap = queues.cap;
-        let t0 = Instant::now();
-        ctx.submit(|cmd| {
-            let mut i = 0;
-            while i < k {
-                params.sample_index = first + i;
-                // Passes this dispatch takes: direct light (render.comp main) up to about
-                // 2^20 samples, so that no dispatch runs long enough for a desktop GPU's
-                // watchdog, and for a learned sampler not past the end of its learning window
-                // (the fold comes after); paths: one (a dispatch per bounce).
-                let n = if !self.wavefront {
-                    let pixels = params.width * params.height;
-                    let n = (k - i).min((DIRECT_SAMPLES_PER_DISPATCH / pixels).max(1));
-                    // A learning window's passes (the statistics frozen) in one dispatch.
-                    match fold {
-                        Some((every, clock)) => n.min(every.to_window_end(clock.after(i))),
-                        None => n,
-                    }
-                } else {
-                    1
-                };
-                params.passes = n;
-                if self.wavefront {
-                    self.record_wavefront(ctx, cmd, params, queues);
-                } else if groups[0] > 0 {
-                    self.render
-                        .dispatch(cmd, bytemuck::bytes_of(&params), groups);
-                    ctx.barrier(cmd);
+        // The steps: (first pass, passes, whether a learning window ends after them).
+        let mut steps = Vec::new();
+        let mut i = 0;
+        while i < k {
+            // Passes this dispatch takes: direct light (render.comp main) up to about
+            // 2^20 samples, so that no dispatch runs long enough for a desktop GPU's
+            // watchdog, and for a learned sampler not past the end of its learning window
+            // (the fold comes after); paths: one (a dispatch per bounce).
+            let n = if !self.wavefront {
+                let pixels = params.width * params.height;
+                let n = (k - i).min((DIRECT_SAMPLES_PER_DISPATCH / pixels).max(1));
+                // A learning window's passes (the statistics frozen) in one dispatch.
+                match fold {
+                    Some((every, clock)) => n.min(every.to_window_end(clock.after(i))),
+                    None => n,
                 }
-                i += n;
-                if fold.is_some_and(|(every, clock)| every.ends_at(clock.after(i))) {
-                    // As many workgroups as the pass listed touched slots (render.comp).
-                    self.record_fold_listed(cmd, learned);
-                    ctx.barrier(cmd);
+            } else {
+                1
+            };
+            let ends = fold.is_some_and(|(every, clock)| every.ends_at(clock.after(i + n)));
+            steps.push((i, n, ends));
+            i += n;
+        }
+        let record_passes = |cmd, at: u32, n: u32| {
+            let mut p = params;
+            p.sample_index = first + at;
+            p.passes = n;
+            if self.wavefront {
+                self.record_wavefront(ctx, cmd, p, queues);
+            } else if groups[0] > 0 {
+                self.render.dispatch(cmd, bytemuck::bytes_of(&p), groups);
+                ctx.barrier(cmd);
+            }
+        };
+        let t0 = Instant::now();
+        match timeline {
+            None => ctx.submit(|cmd| {
+                for &(at, n, ends) in &steps {
+                    record_passes(cmd, at, n);
+                    if ends {
+                        // As many workgroups as the pass listed touched slots (render.comp).
+                        self.record_fold_listed(cmd, learned);
+                        ctx.barrier(cmd);
+                    }
+                }
+            })?,
+            Some(events) => {
+                for &(at, n, ends) in &steps {
+                    let t = Instant::now();
+                    ctx.submit(|cmd| record_passes(cmd, at, n))?;
+                    let render = t.elapsed().as_secs_f64();
+                    let t = Instant::now();
+                    let fold = if ends {
+                        ctx.submit(|cmd| self.record_fold_listed(cmd, learned))?;
+                        Some(t.elapsed().as_secs_f64())
+                    } else {
+                        None
+                    };
+                    events.push(Event::Passes {
+                        passes: n,
+                        render,
+                        fold,
+                    });
                 }
             }
-        })?;
+        }
         Ok(t0.elapsed().as_secs_f64())
     }
 }

@@ -1,6 +1,7 @@
 //! What a render session holds, read out for the commands, tests and diagnostics: the
 //! film and its image, the learned state (statistics, borrowed priors, side sums, the open
-//! window, cuts) and the settings. Nothing here changes the session.
+//! window, cuts) and the settings, and the timeline of what a render did between its passes.
+//! Nothing here changes what the session renders or learns.
 
 use anyhow::Result;
 
@@ -9,10 +10,23 @@ use crate::gpu::layout::{PixelAccum, SlotDelta, SlotStats};
 use crate::gpu::Buffer;
 use crate::render::learned_state::HostReduction;
 use crate::render::result::mean_of;
+use crate::render::timeline::Event;
 use crate::render::RenderSettings;
 use crate::scene::Camera;
 
 impl Session<'_> {
+    /// From now on, each dispatch (paths: each pass), fold and growth point is submitted and
+    /// timed on its own, into [`Session::timeline`] (`profile --timeline`): the same commands
+    /// and so the same image, each step plus one submission's wait.
+    pub fn record_timeline(&mut self) {
+        self.timeline.get_or_insert_with(Vec::new);
+    }
+
+    /// What [`Session::record_timeline`] has timed so far.
+    pub fn timeline(&self) -> Option<&[Event]> {
+        self.timeline.as_deref()
+    }
+
     /// What reducing the statistics on the host between frames would cost now
     /// ([`crate::render::learned_state::LearnedState::measure_host_reduction`]).
     pub fn measure_host_reduction(&self) -> Result<HostReduction> {

@@ -28,6 +28,7 @@ use super::coverage;
 use super::cuts::{check_region_index_fits, stats_header};
 use super::learned_state::LearnedState;
 use super::passes::PassKernels;
+use super::timeline::Event;
 use super::{
     camera_vectors, GpuScene, Learned, LightSampler, RegionStats, RenderResult, RenderSettings,
 };
@@ -108,6 +109,8 @@ pub struct Session<'a> {
     growth_paused: bool,
     /// Direct light covers only the pixels that can see the scene ([`Session::set_pixel_culling`]).
     cull_pixels: bool,
+    /// Each dispatch, fold and growth point timed on its own ([`Session::record_timeline`]).
+    pub(super) timeline: Option<Vec<Event>>,
 }
 
 impl<'a> Session<'a> {
@@ -152,6 +155,7 @@ impl<'a> Session<'a> {
             growth_paused: false,
             skipped: 0,
             cull_pixels: true,
+            timeline: None,
         };
         session.bind_scene()?;
         session.bind_learned()?;
@@ -315,9 +319,14 @@ impl<'a> Session<'a> {
         let fold = self
             .is_learning()
             .then_some((self.settings.learn.update_every, self.clock()));
-        let dt = self
-            .kernels
-            .submit(&self.ctx, self.pass_params(), k, fold, &self.learned)?;
+        let dt = self.kernels.submit(
+            &self.ctx,
+            self.pass_params(),
+            k,
+            fold,
+            &self.learned,
+            self.timeline.as_mut(),
+        )?;
         self.learned.passes += k;
         self.film.spp += k;
         self.window_open = fold.is_some_and(|(every, _)| !every.ends_at(self.clock()));
@@ -369,6 +378,7 @@ impl<'a> Session<'a> {
         // totals when pooling), then the uploads with the folds after them
         // (src/gpu/transfer.rs says why). --refine-cuts reads and writes on its own.
         let before = self.learned.slots;
+        let t0 = Instant::now();
         let pools = self.pools_now();
         // Past the young age the borrowed observations are dropped, once.
         let drops = !pools && self.pools_priors() && self.learned.borrowing();
@@ -376,10 +386,12 @@ impl<'a> Session<'a> {
         let (words, stats) = self
             .learned
             .read_growth_inputs(&self.ctx, pools && !refining)?;
+        let t_read = t0.elapsed().as_secs_f64();
         let mut up = Transfers::new();
         let added =
             self.learned
                 .grow(&self.ctx, &self.gpu.tree, &self.settings, &words, &mut up)?;
+        let t_cuts = t0.elapsed().as_secs_f64();
         let mut refined = 0;
         if refining {
             std::mem::take(&mut up).submit(&self.ctx, |_| {})?;
@@ -414,9 +426,19 @@ impl<'a> Session<'a> {
         // The new slots' coefficients (the others' totals did not change): over all slots
         // this fold was 4-5 ms of a growth's 6-9 ms (city, 128x96).
         let fold_new = (added + refined > 0 && self.is_learning()).then_some(before);
+        let t_pool = t0.elapsed().as_secs_f64();
         if !up.is_empty() || listed > 0 || fold_new.is_some() {
             self.kernels
                 .submit_growth(&self.ctx, up, listed > 0, fold_new, &self.learned)?;
+        }
+        if let Some(events) = &mut self.timeline {
+            events.push(Event::Growth {
+                added,
+                read: t_read,
+                cuts: t_cuts - t_read,
+                pool: t_pool - t_cuts,
+                submit: t0.elapsed().as_secs_f64() - t_pool,
+            });
         }
         Ok(added)
     }
