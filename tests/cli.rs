@@ -427,18 +427,22 @@ fn profile_times_every_stage_of_a_learning_path_tracer() {
     assert!(out.status.success(), "{}{text}", stderr(&out));
     // --timeline: the two passes each alone with its fold, the growth points after passes 1
     // and 2 by part, each with a positive time in all (the last column).
+    // The number in column `col` of the first table row that starts with `row`: positive.
+    let positive = |row: &str, col: usize| {
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(&format!("| {row}")))
+            .unwrap_or_else(|| panic!("no row '{row}' in:\n{text}"));
+        let v: f64 = line.split('|').nth(col).unwrap().trim().parse().unwrap();
+        assert!(v > 0.0 && v.is_finite(), "{line}");
+    };
     for row in [
         "passes in submissions of 1 | 2 |",
         "folds after windows of 1 | 2 |",
         "growth points (",
         "the steps together",
     ] {
-        let line = text
-            .lines()
-            .find(|l| l.starts_with(&format!("| {row}")))
-            .unwrap_or_else(|| panic!("no timeline row '{row}' in:\n{text}"));
-        let ms: f64 = line.split('|').nth(4).unwrap().trim().parse().unwrap();
-        assert!(ms > 0.0 && ms.is_finite(), "{line}");
+        positive(row, 4);
     }
     for row in [
         "nothing (the real kernel)",
@@ -451,12 +455,7 @@ fn profile_times_every_stage_of_a_learning_path_tracer() {
         "all of the above",
         "everything but the camera rays",
     ] {
-        let line = text
-            .lines()
-            .find(|l| l.starts_with(&format!("| {row}")))
-            .unwrap_or_else(|| panic!("no row '{row}' in:\n{text}"));
-        let seconds: f64 = line.split('|').nth(2).unwrap().trim().parse().unwrap();
-        assert!(seconds > 0.0 && seconds.is_finite(), "{line}");
+        positive(row, 2);
     }
     // The learned state the real kernel left: what the atomics and folds scale with.
     let state = text

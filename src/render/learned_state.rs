@@ -102,8 +102,9 @@ impl LearnedState {
         };
         let slots = stats.len() as u32;
         // Room for growth from the start: the first growth point's reallocation, with its
-        // copies, was 6.2 ms of a 64-spp render's 0.18-0.22 s on city10k (128x96: 40.7k
-        // slots at the start, 58.3k after 64 passes; docs/results.md, seventeenth session).
+        // copies, was 6.1-6.2 ms of a 64-spp render's 0.18-0.22 s on city10k and cornell40
+        // (128x96; city10k had 46.7k slots after it, 58.3k after 64 passes;
+        // docs/results.md, seventeenth session).
         let capacity = slot_capacity(ctx, slots as u64);
         let mut padded = stats;
         padded.resize(capacity as usize, SlotStats::default());
@@ -465,9 +466,6 @@ const PRIOR_BYTES: u64 = std::mem::size_of::<SlotPrior>() as u64;
 /// One slot's `side_counts` (render.comp): six words.
 const SIDE_BYTES: u64 = 24;
 
-/// The empty list of touched slots (render.comp `mark_touched`, fold.comp) for `slots`
-/// slots: the fold's indirect workgroup counts (0, 1, 1), the count 0, then room for every
-/// slot rounded up to whole 64-wide workgroups, all NO_SLOT.
 /// The slots to make room for when `want` are in use: twice as many, as far as the device
 /// allows (one statistics buffer, two texels a slot: learned_texels.glsl), never fewer than
 /// `want` (growth stops before that would not fit, [`LearnedState::grow`]).
@@ -479,6 +477,9 @@ fn slot_capacity(ctx: &Context, want: u64) -> u64 {
     (2 * want).min(most).max(want)
 }
 
+/// The empty list of touched slots (render.comp `mark_touched`, fold.comp) for `slots`
+/// slots: the fold's indirect workgroup counts (0, 1, 1), the count 0, then room for every
+/// slot rounded up to whole 64-wide workgroups, all NO_SLOT.
 pub fn touched_list(slots: u32) -> Vec<u32> {
     let mut list = vec![0, 1, 1, 0];
     list.resize(4 + slots.div_ceil(64) as usize * 64, u32::MAX);
