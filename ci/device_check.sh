@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The check a session with a real GPU lent (the `device` tool) runs as is, and that runs here on
-# lavapipe too: the test suite on that device, bench-rays, the README's default render and a
-# short wang/bayes compare, with a summary in $OUT/summary.md.
+# lavapipe too: the test suite on that device, bench-rays, the README's default render, what
+# bayes spends between its passes (profile --timeline) and a short wang/bayes compare, with a
+# summary in $OUT/summary.md.
 #
 #   ci/device_check.sh prepare   here, before the device call: builds the release binary and
 #                                the test binaries (stripped, xz-packed) into .device/, and
@@ -248,6 +249,28 @@ for run in "uniform 1" "wang 1" "bayes 1" "bayes 8"; do
   fi
 done
 rm -rf "$out/tp"
+
+# --- What bayes spends between its passes (profile --timeline) ---------------------------------
+# Each dispatch, learning window's fold and growth point timed alone: on a discrete GPU a
+# submission's wait (~0.55 ms on the H200) is where the learned sampler's extra time went
+# (2026-12-04), on lavapipe the folds and growth points (docs/results.md, seventeenth session).
+tl_args=(--width 128 --height 96 --spp 64)
+[ "$on_gpu" = 1 ] && tl_args=(--width 512 --height 384 --spp 256)
+: >"$log.step"
+if step timeline "$ll" profile scenes/city.glb --sampler bayes --max-depth 1 "${tl_args[@]}" \
+  --repeats 1 --timeline; then
+  tl=$(python3 -c '
+import sys
+rows = [l.split("|") for l in open(sys.argv[1]) if l.startswith("| ")]
+ms = lambda key: sum(float(r[4]) for r in rows if len(r) > 5 and r[1].strip().startswith(key))
+parts = [("passes", "passes in"), ("folds", "folds after"), ("growth points", "growth points"), ("in all", "the steps together")]
+print(", ".join("%s %.1f ms" % (name, ms(key)) for name, key in parts))
+' "$log.step" 2>>"$log")
+  row "timeline city ${tl_args[*]}, bayes, direct" pass "$step_seconds" "$tl"
+else
+  row "timeline city ${tl_args[*]}, bayes, direct" FAIL "$step_seconds" "see log.txt"
+fi
+cp "$log.step" "$out/timeline.txt"
 
 # --- A short compare of wang and bayes -----------------------------------------------------------
 : >"$log.step"
