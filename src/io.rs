@@ -92,6 +92,21 @@ pub fn check_writable(p: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Refuses outputs that are one of the command's inputs (`what`, path): a scene named like
+/// a report (`s.json`) was replaced by the report, with exit 0.
+pub fn check_outputs_spare_inputs(outputs: &[&Path], inputs: &[(&str, &Path)]) -> Result<()> {
+    for o in outputs {
+        if let Some((what, i)) = inputs.iter().find(|(_, i)| same_path(o, i)) {
+            anyhow::bail!(
+                "--out would write '{}', which is {what} '{}' this command reads; name another --out",
+                o.display(),
+                i.display()
+            );
+        }
+    }
+    Ok(())
+}
+
 /// Whether `a` and `b` name the same file (also when neither exists yet: their folders and
 /// names are compared).
 pub fn same_path(a: &Path, b: &Path) -> bool {

@@ -59,7 +59,7 @@ fn main() -> ExitCode {
             )
         }),
         Command::MergeStats(a) => {
-            commands::merge::stats(&a.parts, a.base.as_deref(), &a.out).map(|m| {
+            commands::merge::stats(&a.parts, a.base.as_deref(), &a.out, a.force).map(|m| {
                 eprintln!(
                     "wrote {}: {} files, {} passes learned, {} regions with cuts",
                     a.out.display(),

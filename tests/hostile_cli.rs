@@ -9,6 +9,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use common::{files, refused, stderr};
+
 fn scene(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("scenes")
@@ -16,37 +18,7 @@ fn scene(name: &str) -> PathBuf {
 }
 
 fn run(args: &[&str], dir: &Path, env: &[(&str, &str)]) -> Output {
-    Command::new(common::exe())
-        .args(args)
-        .current_dir(dir)
-        .envs(env.iter().copied())
-        .output()
-        .expect("run lightlearn")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// The run failed with exit 1 and one `error:` line holding every piece of `wants`.
-fn refused(o: &Output, wants: &[&str]) {
-    let err = stderr(o);
-    assert_eq!(o.status.code(), Some(1), "should fail with exit 1: {err}");
-    assert!(!err.contains("panicked"), "panicked: {err}");
-    let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
-    assert_eq!(errors.len(), 1, "one error line expected: {err}");
-    for w in wants {
-        assert!(errors[0].contains(w), "'{w}' missing from: {err}");
-    }
-}
-
-fn files(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
+    common::run_in(args, dir, env)
 }
 
 const TINY: &[&str] = &[

@@ -126,6 +126,10 @@ pub struct MergeStatsArgs {
     /// not once per part.
     #[arg(long, value_name = "FILE")]
     pub base: Option<PathBuf>,
+    /// Replace --out even where it is not a statistics file (without it such a file is
+    /// refused, as `render --save-stats` refuses it).
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(Args)]

@@ -104,8 +104,10 @@ pub fn frame_seed(seed: u32, k: u32) -> u32 {
 
 /// The frame rate and the forgetting factor of a sequence (`animate`, `farm`).
 pub fn check_timing(fps: f64, forget: f32) -> Result<()> {
-    if !(fps.is_finite() && fps > 0.0 && fps <= 1000.0) {
-        bail!("--fps must be a number of frames per second in (0, 1000]");
+    // A frame's time k / fps is an f32 in the scene: below 0.001 fps (a frame each 17
+    // minutes) frame 1's time became infinite and was "not moved" from frame 0.
+    if !(fps.is_finite() && (0.001..=1000.0).contains(&fps)) {
+        bail!("--fps must be a number of frames per second in [0.001, 1000]");
     }
     if !(forget > 0.0 && forget <= 1.0) {
         bail!("--forget must be in (0, 1]: the weight old statistics keep when lights or geometry move (1 keeps all)");
@@ -149,6 +151,12 @@ pub fn check(req: &AnimateRequest) -> Result<()> {
 /// sampler with --carry on), DIR/animation.json after every frame, and DIR/animation.mp4
 /// at the end when asked for and ffmpeg is present.
 pub fn run(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
+    // A refused or failed run leaves no empty output folder behind (the frames written
+    // before a failure stay, with the folder).
+    crate::io::removing_created_folders_on_error(Some(&req.out), || run_checked(req, ui))
+}
+
+fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
     check(req)?;
     let started = Instant::now();
     if req.out.exists() && !req.out.is_dir() {

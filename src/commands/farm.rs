@@ -59,17 +59,20 @@ pub struct FarmOutcome {
 /// Most steps a job may have (two or three per frame); OpenJD's own limit is far above.
 const MAX_FRAMES: u32 = 2000;
 
-/// Copies the scene (a .glb, or a .gltf with the buffers and images it names by relative
-/// URI) into JOBDIR/scene/, and returns its path relative to the job folder: OpenJD takes a
-/// PATH parameter's default relative to the template and never outside it, and a farm
-/// sends the bundle's files to its workers.
-fn bundle_scene(scene: &Path, job_dir: &Path) -> Result<String> {
+/// A job bundle's files: (path relative to the job folder, bytes).
+type Bundle = Vec<(PathBuf, Vec<u8>)>;
+
+/// The files of the scene's bundle (a .glb, or a .gltf with the buffers and images it names
+/// by relative URI), read before anything is written, and the scene's path relative to the
+/// job folder: JOBDIR/scene/NAME. OpenJD takes a PATH parameter's default relative to the
+/// template and never outside it, and a farm sends the bundle's files to its workers. A file
+/// that cannot be read fails the job before any file of it is written (a failing farm run
+/// had replaced an existing job's scene and left the new one half-copied).
+fn bundle_files(scene: &Path) -> Result<(String, Bundle)> {
     let name = scene
         .file_name()
         .ok_or_else(|| anyhow::anyhow!("'{}' names no file", scene.display()))?;
-    let dir = job_dir.join("scene");
-    std::fs::create_dir_all(&dir)?;
-    let mut files = vec![PathBuf::from(name)];
+    let mut files = vec![(PathBuf::from(name), PathBuf::from(name))];
     let is_gltf = scene
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("gltf"));
@@ -84,7 +87,9 @@ fn bundle_scene(scene: &Path, job_dir: &Path) -> Result<String> {
                 if uri.starts_with("data:") {
                     continue;
                 }
-                let rel = PathBuf::from(uri);
+                // The file the loader reads (it decodes %XX), kept under the URI's own
+                // decoded name, where the loader looks for it in the bundle.
+                let rel = PathBuf::from(crate::scene::percent_decode(uri));
                 if rel.is_absolute()
                     || rel
                         .components()
@@ -92,25 +97,25 @@ fn bundle_scene(scene: &Path, job_dir: &Path) -> Result<String> {
                 {
                     bail!("'{}' refers to '{uri}' outside its folder; a job bundle holds only files beside the scene (embed the data or move the file next to it)", scene.display());
                 }
-                files.push(rel);
+                if !files.iter().any(|(f, _)| *f == rel) {
+                    files.push((rel.clone(), rel));
+                }
             }
         }
     }
     let from = scene.parent().unwrap_or(Path::new("."));
-    for f in &files {
-        let target = dir.join(f);
-        if let Some(parent) = target.parent() {
-            std::fs::create_dir_all(parent)?;
-        }
-        let bytes = std::fs::read(from.join(f)).with_context(|| {
+    let scene_dir = Path::new("scene");
+    let mut read = Vec::new();
+    for (source, target) in files {
+        let bytes = std::fs::read(from.join(&source)).with_context(|| {
             format!(
                 "cannot read '{}' for the job bundle",
-                from.join(f).display()
+                from.join(&source).display()
             )
         })?;
-        crate::io::write_atomic(&target, &bytes)?;
+        read.push((scene_dir.join(target), bytes));
     }
-    path(&Path::new("scene").join(name))
+    Ok((path(&scene_dir.join(name))?, read))
 }
 
 fn path(p: &Path) -> Result<String> {
@@ -169,6 +174,11 @@ fn run_action(arguments: Vec<String>) -> Value {
 
 /// Writes JOBDIR/template.yaml.
 pub fn write(req: &FarmRequest) -> Result<FarmOutcome> {
+    // A refused job leaves no empty job folder behind.
+    crate::io::removing_created_folders_on_error(Some(&req.job_dir), || write_checked(req))
+}
+
+fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
     if !(2..=10_000).contains(&req.chunks) {
         bail!("--chunks must be 2..=10000 (for one chunk, run `lightlearn render` or `animate` directly)");
     }
@@ -214,7 +224,7 @@ pub fn write(req: &FarmRequest) -> Result<FarmOutcome> {
             req.job_dir.display()
         );
     }
-    let bundled = bundle_scene(&scene, &req.job_dir)?;
+    let (bundled, bundle) = bundle_files(&scene)?;
     let samplers: Vec<&str> = LightSampler::ALL.iter().map(|s| s.name()).collect();
     let parameters = json!([
         {"name": "SceneFile", "type": "PATH", "objectType": "FILE", "dataFlow": "IN",
@@ -348,7 +358,17 @@ pub fn write(req: &FarmRequest) -> Result<FarmOutcome> {
         template_path.display(),
         serde_json::to_string_pretty(&template)?
     );
-    crate::io::write_atomic(&template_path, text.as_bytes())?;
+    // The bundle and the template together: all or none (io::commit_all).
+    let mut set = crate::io::FileSet::default();
+    for (rel, bytes) in &bundle {
+        let target = req.job_dir.join(rel);
+        if let Some(parent) = target.parent() {
+            std::fs::create_dir_all(parent)?;
+        }
+        set.add(&target, bytes)?;
+    }
+    set.add(&template_path, text.as_bytes())?;
+    set.commit()?;
     Ok(FarmOutcome {
         template: template_path,
         steps: steps.len(),

@@ -99,14 +99,17 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
             );
         }
     }
+    // Each part's samples [first, first + spp): a report edited to a count past the random
+    // streams made the weights' sum wrap and the merged image +inf, written with exit 0.
+    let ranges: Vec<(u64, u64)> = reports
+        .iter()
+        .zip(parts)
+        .map(|(r, p)| sample_range(r, p))
+        .collect::<Result<_>>()?;
     // The same seed and sample range would be the same samples twice.
     for (i, (a, pa)) in reports.iter().zip(parts).enumerate() {
-        for (b, pb) in reports.iter().zip(parts).skip(i + 1) {
-            let range = |r: &Value| {
-                let s = r["first_sample_index"].as_u64().unwrap_or(0);
-                (s, s + r["spp"].as_u64().unwrap_or(0))
-            };
-            let ((a0, a1), (b0, b1)) = (range(a), range(b));
+        for (j, (b, pb)) in reports.iter().zip(parts).enumerate().skip(i + 1) {
+            let ((a0, a1), (b0, b1)) = (ranges[i], ranges[j]);
             if a["seed"] == b["seed"] && a0 < b1 && b0 < a1 {
                 bail!(
                     "parts '{}' and '{}' share seed {} and samples {}..{}: they hold the same samples; render the chunks with different --seed",
@@ -120,9 +123,16 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
         }
     }
     let (w, h) = (
-        first["width"].as_u64().unwrap_or(0) as u32,
-        first["height"].as_u64().unwrap_or(0) as u32,
+        first["width"].as_u64().unwrap_or(0),
+        first["height"].as_u64().unwrap_or(0),
     );
+    if !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
+        bail!(
+            "the report of part '{}' gives the size {w}×{h}, which no render writes; render it again",
+            parts[0].display()
+        );
+    }
+    let (w, h) = (w as u32, h as u32);
     let mut sum = vec![[0f64; 3]; (w * h) as usize];
     let mut total = 0u64;
     let mut listed = Vec::new();
@@ -134,9 +144,8 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
                 p.display()
             );
         }
-        let spp = r["spp"].as_u64().filter(|&n| n > 0).ok_or_else(|| {
-            anyhow::anyhow!("the report of part '{}' has no sample count", p.display())
-        })?;
+        let (first_sample, end) = sample_range(r, p)?;
+        let spp = end - first_sample;
         if let Some(i) = px.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
             bail!(
                 "part '{}' has a NaN or Inf at pixel {i}; render it again",
@@ -173,12 +182,50 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
     })
 }
 
+/// The samples [first, end) of a part's report, each within the 2^31 passes of the random
+/// streams (so sums of counts cannot wrap); a report without a positive count is refused.
+fn sample_range(r: &Value, p: &Path) -> Result<(u64, u64)> {
+    let max = crate::render::MAX_PASSES as u64;
+    let spp = r["spp"].as_u64().filter(|&n| n > 0).ok_or_else(|| {
+        anyhow::anyhow!("the report of part '{}' has no sample count", p.display())
+    })?;
+    let first = r["first_sample_index"].as_u64().unwrap_or(0);
+    if spp > max || first > max {
+        bail!(
+            "the report of part '{}' gives {spp} samples from sample {first}, past the {max} passes a render can take; render it again",
+            p.display()
+        );
+    }
+    Ok((first, first + spp))
+}
+
 /// Sums the statistics files `parts` ([`SavedStats::merge`], or with `base` the chunks
 /// that all started from it, [`SavedStats::merge_onto`]) into `out`, written atomically;
-/// `out` may not be one of the parts.
-pub fn stats(parts: &[PathBuf], base: Option<&Path>, out: &Path) -> Result<SavedStats> {
+/// `out` may not be one of the parts, and an existing `out` that is not a statistics file is
+/// replaced only with `force` (a scene or a report was overwritten before).
+pub fn stats(
+    parts: &[PathBuf],
+    base: Option<&Path>,
+    out: &Path,
+    force: bool,
+) -> Result<SavedStats> {
     if parts.is_empty() {
         bail!("merge-stats needs at least one statistics file");
+    }
+    for (i, a) in parts.iter().enumerate() {
+        if let Some(b) = parts[i + 1..].iter().find(|b| crate::io::same_path(a, b)) {
+            bail!(
+                "'{}' and '{}' are the same file: its samples would count twice; give each part once",
+                a.display(),
+                b.display()
+            );
+        }
+    }
+    if out.exists() && !out.is_dir() && !crate::learning::stats_file::is_stats_file(out) && !force {
+        bail!(
+            "--out '{}' exists and is not a lightlearn statistics file; name another file, or add --force to replace it",
+            out.display()
+        );
     }
     if let Some(p) = parts.iter().find(|p| crate::io::same_path(p, out)) {
         bail!(

@@ -65,6 +65,15 @@ pub struct RenderOutcome {
 /// Checks the request, renders and writes the outputs. An interrupted render (Ctrl-C)
 /// writes what it has and says so in the outcome.
 pub fn run(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
+    // --mkdir: a refused or failed render leaves no empty folder behind.
+    let made = req
+        .out
+        .parent()
+        .filter(|d| req.mkdir && !d.as_os_str().is_empty());
+    crate::io::removing_created_folders_on_error(made, || run_checked(req, ui))
+}
+
+fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
     let started = Instant::now();
     if let Some(n) = req.spp {
         super::check_spp("--spp", n)?;
@@ -102,6 +111,14 @@ pub fn run(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
             .map_err(|e| anyhow::anyhow!("cannot create the folder '{}': {e}", dir.display()))?;
     }
     let paths = OutputPaths::new(&req.out)?;
+    let mut inputs: Vec<(&str, &std::path::Path)> = Vec::new();
+    if let Some(s) = &req.scene {
+        inputs.push(("the scene", s));
+    }
+    if let Some(s) = &req.load_stats {
+        inputs.push(("the --load-stats file", s));
+    }
+    crate::io::check_outputs_spare_inputs(&paths.all(), &inputs)?;
     if let Some(p) = &req.save_stats {
         let inputs: Vec<&std::path::Path> = req.scene.iter().map(PathBuf::as_path).collect();
         stats_file::check_save_target(p, &inputs, &paths.all(), req.force)?;

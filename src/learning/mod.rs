@@ -135,37 +135,53 @@ impl Default for LearnSettings {
     }
 }
 
+/// The largest prior pseudo-count (`--prior-zero`, `--prior-nonzero`, `--prior-n`,
+/// `--prior-alpha`, `--pool-priors`) that [`LearnSettings::check`] accepts.
+pub const MAX_PRIOR_COUNT: f32 = 1e6;
+/// The largest `--prior-cv`.
+pub const MAX_PRIOR_CV: f32 = 1e3;
+
 impl LearnSettings {
     pub fn check(&self) -> Result<()> {
         if self.update_every == UpdateEvery::Passes(0) {
             bail!("--update-every must be at least 1 (pass)");
         }
-        for (name, v) in [
-            ("--prior-zero", self.prior_zero),
-            ("--prior-nonzero", self.prior_nonzero),
-            ("--prior-n", self.prior_n),
-            ("--prior-cv", self.prior_cv),
+        // Upper bounds keep the weights' f32 arithmetic finite (a t² with t up to 1e15 in
+        // posterior.glsl): --prior-cv 1e20 overflowed h² = α cv² / (α − ½) and every learned
+        // sample was dropped as NaN, a black image with exit 0. Pseudo-counts past 1e6
+        // observations, or a prior spread of 1000 times its mean, are no longer priors.
+        for (name, v, max) in [
+            ("--prior-zero", self.prior_zero, MAX_PRIOR_COUNT),
+            ("--prior-nonzero", self.prior_nonzero, MAX_PRIOR_COUNT),
+            ("--prior-n", self.prior_n, MAX_PRIOR_COUNT),
+            ("--prior-cv", self.prior_cv, MAX_PRIOR_CV),
         ] {
-            if !(v.is_finite() && v > 0.0) {
-                bail!("{name} {v} must be a positive number (use --priors off for no priors)");
+            if !(v.is_finite() && v > 0.0 && v <= max) {
+                bail!("{name} {v} is out of range: use a positive number up to {max} (--priors off for no priors)");
             }
         }
         // ĥ = β'/(α' − ½) must be finite before any data.
-        if !(self.prior_alpha.is_finite() && self.prior_alpha > 0.5) {
+        if !(self.prior_alpha.is_finite()
+            && self.prior_alpha > 0.5
+            && self.prior_alpha <= MAX_PRIOR_COUNT)
+        {
             bail!(
-                "--prior-alpha {} must be greater than 0.5 (the variance estimate is β/(α − ½))",
+                "--prior-alpha {} is out of range: use a number above 0.5 (the variance estimate is β/(α − ½)) up to {MAX_PRIOR_COUNT}",
                 self.prior_alpha
             );
         }
-        if !(self.pool_priors.is_finite() && self.pool_priors >= 0.0) {
+        if !(self.pool_priors.is_finite()
+            && self.pool_priors >= 0.0
+            && self.pool_priors <= MAX_PRIOR_COUNT)
+        {
             bail!(
-                "--pool-priors {} must be a number of observations ≥ 0 (0: off)",
+                "--pool-priors {} is out of range: use a number of observations from 0 (off) to {MAX_PRIOR_COUNT}",
                 self.pool_priors
             );
         }
-        if !(self.prior_scale.is_finite() && self.prior_scale > 0.0) {
+        if !(self.prior_scale.is_finite() && self.prior_scale > 0.0 && self.prior_scale <= 1e6) {
             bail!(
-                "--prior-scale {} must be a positive number",
+                "--prior-scale {} is out of range: use a positive number up to 1e6",
                 self.prior_scale
             );
         }

@@ -44,7 +44,7 @@ impl Images<'_> {
                         .map_err(|e| anyhow!("image {}: bad base64 data ({e})", image.index()))?
                 } else {
                     let path = self.base.join(percent_decode(uri));
-                    std::fs::read(&path).map_err(|e| {
+                    read_regular_file(&path, MAX_IMAGE_FILE_BYTES).map_err(|e| {
                         anyhow!(
                             "cannot read image '{}' ({e}); keep it next to '{}'",
                             path.display(),
@@ -65,6 +65,15 @@ impl Images<'_> {
         let mut reader = decoder
             .read_info()
             .map_err(|e| anyhow!("image {}: {e}", image.index()))?;
+        // The header's size decides the allocation below: a 5-KB PNG that claims
+        // 100000×100000 asked for 30 GB and aborted the process.
+        let (w, h) = (reader.info().width as u64, reader.info().height as u64);
+        if w * h > MAX_TEXELS || reader.output_buffer_size() as u64 > 8 * MAX_TEXELS {
+            bail!(
+                "image {} is {w}×{h} texels; lightlearn reads textures of at most {MAX_TEXELS} texels (8192×8192): scale it down",
+                image.index()
+            );
+        }
         let mut buf = vec![0u8; reader.output_buffer_size()];
         let frame = reader
             .next_frame(&mut buf)
@@ -105,6 +114,29 @@ impl Images<'_> {
     }
 }
 
+/// The most texels of one texture (8192², 256 MiB as RGBA8).
+const MAX_TEXELS: u64 = 1 << 26;
+/// The largest image file read (a PNG of MAX_TEXELS compresses far below this).
+const MAX_IMAGE_FILE_BYTES: u64 = 1 << 30;
+
+/// The first `max` bytes of the regular file at `path`: anything else (a folder, a FIFO that
+/// would block, a device such as /dev/zero that never ends) is refused before it is opened.
+pub(super) fn read_regular_file(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let meta = std::fs::metadata(path)?;
+    if !meta.is_file() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file",
+        ));
+    }
+    let mut bytes = Vec::with_capacity(meta.len().min(max) as usize);
+    std::fs::File::open(path)?
+        .take(max)
+        .read_to_end(&mut bytes)?;
+    Ok(bytes)
+}
+
 pub(super) fn load_buffers(gltf: &gltf::Gltf, name: &str, base: &Path) -> Result<Vec<Vec<u8>>> {
     let mut out = Vec::new();
     for buffer in gltf.document.buffers() {
@@ -130,7 +162,9 @@ pub(super) fn load_buffers(gltf: &gltf::Gltf, name: &str, base: &Path) -> Result
                         })?
                 } else {
                     let path: PathBuf = base.join(percent_decode(uri));
-                    std::fs::read(&path).with_context(|| {
+                    // At most the declared length: a longer file's tail is not the buffer
+                    // (and /dev/zero as a URI read until memory ran out).
+                    read_regular_file(&path, buffer.length() as u64).with_context(|| {
                         format!(
                             "'{name}': cannot read buffer {} from '{}'; keep the .bin file next to the .gltf",
                             buffer.index(),
@@ -153,7 +187,8 @@ pub(super) fn load_buffers(gltf: &gltf::Gltf, name: &str, base: &Path) -> Result
     Ok(out)
 }
 
-fn percent_decode(s: &str) -> String {
+/// A relative URI's `%XX` escapes decoded (glTF URIs are percent-encoded: `my%20data.bin`).
+pub fn percent_decode(s: &str) -> String {
     let b = s.as_bytes();
     let mut out = Vec::with_capacity(b.len());
     let mut i = 0;

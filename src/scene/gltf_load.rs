@@ -48,7 +48,9 @@ pub fn load_bytes(
 
 /// Reads and parses a glTF/GLB file (and its buffers and animations).
 pub fn open(path: &Path, warn: &mut dyn FnMut(String)) -> Result<Document> {
-    let bytes = std::fs::read(path).map_err(|e| {
+    // A scene file larger than this is not a scene (the largest generated, 10^6 lights, is
+    // ~0.2 GB); a FIFO or device is refused before it is opened (reading one blocked).
+    let bytes = super::gltf_data::read_regular_file(path, 1 << 34).map_err(|e| {
         anyhow!(
             "cannot read scene file '{}': {e}. Check the path (run `lightlearn render --help` for usage).",
             path.display()
@@ -330,6 +332,23 @@ impl Document {
                     ));
                     continue;
                 }
+                // glTF 2.0 §3.7.2.1: POSITION is VEC3 of FLOAT (the reader assumes it, and a
+                // VEC2 or normalized SHORT accessor rendered as garbage without a word).
+                if let Some(acc) = prim.get(&gltf::Semantic::Positions) {
+                    use gltf::accessor::{DataType, Dimensions};
+                    if acc.dimensions() != Dimensions::Vec3
+                        || acc.data_type() != DataType::F32
+                        || acc.normalized()
+                    {
+                        bail!(
+                            "'{name}': {mesh_label}: its POSITION accessor {} is {:?} of {:?}{}, but glTF requires VEC3 of FLOAT; export the mesh again",
+                            acc.index(),
+                            acc.dimensions(),
+                            acc.data_type(),
+                            if acc.normalized() { " (normalized)" } else { "" }
+                        );
+                    }
+                }
                 let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
                 let positions: Vec<[f32; 3]> = reader
                     .read_positions()
@@ -546,12 +565,26 @@ impl Document {
         // material and texture coordinates.
         let uv_kept = !scene.triangle_uv.is_empty();
         let (mut kept_material, mut kept_uv) = (Vec::new(), Vec::new());
+        // Triangles with an area that 32-bit floats lose about the scene's frame: an object
+        // far out of scale with the rest (a node scaled by 1e30 left 2 of 36 triangles and a
+        // black image, without a word).
+        // Counted only where the whole triangle is below f32's resolution at the scene's
+        // extent: a sliver (a sphere's pole) also rounds to zero area, and is no news.
+        let mut collapsed = 0usize;
+        let tiny = (hi0 - lo0).max_element() * 1e-6;
         for (i, t) in triangles.iter().enumerate() {
             let tri = t.map(to_f32);
             if !tri.iter().all(|v| v.is_finite()) {
                 bail!("'{name}': triangle {i} lies beyond the range of 32-bit floats ({:?}); scale the scene down", t[0]);
             }
             if (tri[1] - tri[0]).cross(tri[2] - tri[0]).length_squared() == 0.0 {
+                let longest = [t[1] - t[0], t[2] - t[1], t[0] - t[2]]
+                    .iter()
+                    .map(|e| e.length())
+                    .fold(0.0, f64::max);
+                if longest > 0.0 && longest < tiny {
+                    collapsed += 1;
+                }
                 continue;
             }
             scene.triangles.push(tri);
@@ -562,6 +595,25 @@ impl Document {
         }
         scene.triangle_material = kept_material;
         scene.triangle_uv = kept_uv;
+        let collapse_note = (collapsed > 0).then(|| {
+            let extent = (hi0 - lo0).max_element();
+            format!(
+                "{collapsed} of {} triangles are too small to keep in 32-bit floats beside the scene's extent of {extent:.3e} units (an object or light far out of scale with the rest?)",
+                triangles.len()
+            )
+        });
+        let out_of_scale = |what: &str| {
+            match &collapse_note {
+            Some(note) => anyhow!("'{name}' has no {what} left: {note}; bring every node's scale and position within a few orders of magnitude"),
+            None => anyhow!("'{name}' has no {what}"),
+        }
+        };
+        if let Some(note) = &collapse_note {
+            if scene.triangles.is_empty() {
+                return Err(out_of_scale("triangles"));
+            }
+            warn(format!("'{name}': {note}; they are left out"));
+        }
         if scene.triangles.is_empty() {
             let extra = if skipped_primitives > 0 {
                 format!(" ({skipped_primitives} point/line primitives were skipped)")
@@ -586,6 +638,9 @@ impl Document {
                 .resize(scene.triangles.len(), [[0.0; 2]; 3]);
         }
         if scene.lights.is_empty() {
+            if collapse_note.is_some() {
+                return Err(out_of_scale("lights"));
+            }
             bail!(
             "'{name}' has no lights: add KHR_lights_punctual point/spot lights or give a material a non-zero emissiveFactor"
         );

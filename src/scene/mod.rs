@@ -10,6 +10,7 @@ pub mod families;
 pub mod frame;
 pub mod gltf_check;
 mod gltf_data;
+pub use gltf_data::percent_decode;
 pub mod gltf_load;
 mod gltf_material;
 pub mod gltf_write;

@@ -37,6 +37,42 @@ pub fn exe() -> &'static str {
     env!("CARGO_BIN_EXE_lightlearn")
 }
 
+/// Runs the binary with `args` in `dir` (with `env` added) and waits for it.
+pub fn run_in(args: &[&str], dir: &Path, env: &[(&str, &str)]) -> std::process::Output {
+    std::process::Command::new(exe())
+        .args(args)
+        .current_dir(dir)
+        .envs(env.iter().copied())
+        .output()
+        .expect("run lightlearn")
+}
+
+pub fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The run failed with exit 1 and one `error:` line holding every piece of `wants`.
+pub fn refused(o: &std::process::Output, wants: &[&str]) {
+    let err = stderr(o);
+    assert_eq!(o.status.code(), Some(1), "should fail with exit 1: {err}");
+    assert!(!err.contains("panicked"), "panicked: {err}");
+    let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "one error line expected: {err}");
+    for w in wants {
+        assert!(errors[0].contains(w), "'{w}' missing from: {err}");
+    }
+}
+
+/// The names in `dir`, sorted.
+pub fn files(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
 /// Runs `light_sample.comp` (sampler 2 = lightbvh, 3 = wang) on (p, n, u) queries.
 pub fn gpu_light_samples(
     ctx: &Arc<Context>,

@@ -1,0 +1,521 @@
+//! Input files that are not what they claim and outputs that would land on inputs, through
+//! the command line (found by a hostile-input audit, eighteenth session): each test is one way
+//! a run aborted, hung, replaced a user's file or wrote a wrong image with exit 0 before.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use common::{files, refused, stderr};
+use serde_json::Value;
+
+const TINY: &[&str] = &["--width", "8", "--height", "8", "--spp", "2", "-q"];
+
+fn run(args: &[&str], dir: &Path) -> Output {
+    common::run_in(args, dir, &[])
+}
+
+/// `lightlearn render SCENE TINY… extra…` in `dir`.
+fn render(scene: &str, extra: &[&str], dir: &Path) -> Output {
+    let mut args = vec!["render", scene];
+    args.extend_from_slice(TINY);
+    args.extend_from_slice(extra);
+    run(&args, dir)
+}
+
+/// A small Cornell box as a .gltf with embedded data, and its JSON.
+fn cornell(dir: &Path) -> Value {
+    let o = run(
+        &["scene", "cornell", "--lights", "2", "--out", "c.gltf"],
+        dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    serde_json::from_slice(&std::fs::read(dir.join("c.gltf")).unwrap()).unwrap()
+}
+
+fn write_json(path: &Path, v: &Value) {
+    std::fs::write(path, serde_json::to_vec(v).unwrap()).unwrap();
+}
+
+/// The first material textured with the image `uri`.
+fn textured(doc: &Value, uri: &str) -> Value {
+    let mut d = doc.clone();
+    d["images"] = serde_json::json!([{ "uri": uri }]);
+    d["textures"] = serde_json::json!([{ "source": 0 }]);
+    d["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = serde_json::json!({"index": 0});
+    d
+}
+
+/// Runs `args` in `dir`, killing it after `limit`: Err(stderr) if it had to be killed.
+fn run_within(args: &[&str], dir: &Path, limit: Duration) -> Result<Output, String> {
+    let mut child = Command::new(common::exe())
+        .args(args)
+        .current_dir(dir)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t = Instant::now();
+    while t.elapsed() < limit {
+        if child.try_wait().unwrap().is_some() {
+            return Ok(child.wait_with_output().unwrap());
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let _ = child.kill();
+    let o = child.wait_with_output().unwrap();
+    Err(format!("still running after {limit:?}: {}", stderr(&o)))
+}
+
+/// A 5-KB PNG whose header claims 100000×100000 texels asked for 30 GB and aborted the
+/// process (exit 134); a buffer or image URI naming /dev/zero was read until memory ran out;
+/// a FIFO as the scene blocked forever. Now: the texture is refused with a warning naming
+/// its size (the material keeps its colour), the others with one error line, at once.
+#[test]
+fn oversized_endless_or_special_files_are_refused_not_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let doc = cornell(d);
+
+    let chunk = |kind: &[u8], data: &[u8]| {
+        let mut c = (data.len() as u32).to_be_bytes().to_vec();
+        c.extend_from_slice(kind);
+        c.extend_from_slice(data);
+        let crc = crc32(&c[4..]);
+        c.extend_from_slice(&crc.to_be_bytes());
+        c
+    };
+    let mut ihdr = 100_000u32.to_be_bytes().to_vec();
+    ihdr.extend_from_slice(&100_000u32.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    png.extend(chunk(b"IHDR", &ihdr));
+    png.extend(chunk(
+        b"IDAT",
+        &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01],
+    ));
+    png.extend(chunk(b"IEND", &[]));
+    std::fs::write(d.join("huge.png"), &png).unwrap();
+    write_json(&d.join("tex.gltf"), &textured(&doc, "huge.png"));
+    let o = render("tex.gltf", &["--out", "tex.exr"], d);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("100000×100000") && err.contains("using baseColorFactor alone"),
+        "{err}"
+    );
+
+    let mut zero_buffer = doc.clone();
+    zero_buffer["buffers"][0]["uri"] = "/dev/zero".into();
+    write_json(&d.join("zb.gltf"), &zero_buffer);
+    let o = run_within(
+        &["render", "zb.gltf", "--out", "zb.exr", "-q"],
+        d,
+        Duration::from_secs(60),
+    )
+    .unwrap();
+    refused(&o, &["buffer 0", "/dev/zero", "not a regular file"]);
+
+    write_json(&d.join("zi.gltf"), &textured(&doc, "/dev/zero"));
+    let o = run_within(
+        &[
+            "render", "zi.gltf", "--out", "zi.exr", "-q", "--width", "8", "--height", "8", "--spp",
+            "1",
+        ],
+        d,
+        Duration::from_secs(60),
+    )
+    .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("not a regular file"), "{}", stderr(&o));
+
+    let fifo = d.join("pipe.gltf");
+    let made = Command::new("mkfifo").arg(&fifo).status();
+    if made.is_ok_and(|s| s.success()) {
+        let o = run_within(
+            &["render", "pipe.gltf", "--out", "p.exr", "-q"],
+            d,
+            Duration::from_secs(60),
+        )
+        .unwrap();
+        refused(&o, &["pipe.gltf", "not a regular file"]);
+    } else {
+        eprintln!("skipped the FIFO case: mkfifo is not available");
+    }
+    // POSITION must be VEC3 of FLOAT: a VEC2 accessor was read as if it were.
+    let mut vec2 = doc.clone();
+    let a = vec2["meshes"][0]["primitives"][0]["attributes"]["POSITION"]
+        .as_u64()
+        .unwrap() as usize;
+    vec2["accessors"][a]["type"] = "VEC2".into();
+    write_json(&d.join("v2.gltf"), &vec2);
+    refused(
+        &render("v2.gltf", &["--out", "v2.exr"], d),
+        &["POSITION accessor", "VEC3 of FLOAT"],
+    );
+    for f in ["zb", "zi", "p", "v2"] {
+        assert!(
+            !d.join(format!("{f}.exr")).exists() || f == "zi",
+            "{f}.exr written"
+        );
+    }
+}
+
+/// CRC-32 (PNG's, ISO 3309) of `bytes`.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut c = !0u32;
+    for &b in bytes {
+        c ^= b as u32;
+        for _ in 0..8 {
+            c = if c & 1 != 0 {
+                0xEDB8_8320 ^ (c >> 1)
+            } else {
+                c >> 1
+            };
+        }
+    }
+    !c
+}
+
+/// A scene named like a report (`s.json`) was replaced by the render's report, and
+/// `merge-stats --out` replaced any file (a scene, a report) with exit 0; `merge-stats a a`
+/// counted one file's samples twice. Now each is refused by name and the file kept;
+/// `merge-stats --force` still replaces a foreign file, as `render --save-stats --force` does.
+#[test]
+fn outputs_never_replace_the_files_a_command_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    cornell(d);
+    std::fs::copy(d.join("c.gltf"), d.join("s.json")).unwrap();
+    let scene = std::fs::read(d.join("s.json")).unwrap();
+    refused(
+        &render("s.json", &["--out", "s.exr"], d),
+        &["s.json", "the scene", "name another --out"],
+    );
+    refused(
+        &run(
+            &[
+                "reference",
+                "s.json",
+                "--out",
+                "s.exr",
+                "--spp",
+                "4",
+                "--width",
+                "8",
+                "--height",
+                "8",
+            ],
+            d,
+        ),
+        &["s.json", "the scene"],
+    );
+    assert_eq!(std::fs::read(d.join("s.json")).unwrap(), scene);
+
+    for (seed, name) in [("1", "a"), ("2", "b")] {
+        let stats = format!("{name}.stats");
+        let exr = format!("{name}.exr");
+        let o = render(
+            "c.gltf",
+            &["--seed", seed, "--out", &exr, "--save-stats", &stats],
+            d,
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    // --load-stats named like this render's report.
+    std::fs::copy(d.join("a.stats"), d.join("l.json")).unwrap();
+    refused(
+        &render("c.gltf", &["--load-stats", "l.json", "--out", "l.exr"], d),
+        &["l.json", "the --load-stats file"],
+    );
+    let report = std::fs::read(d.join("a.json")).unwrap();
+    for out in ["c.gltf", "a.json"] {
+        refused(
+            &run(&["merge-stats", "a.stats", "b.stats", "--out", out], d),
+            &[out, "not a lightlearn statistics file", "--force"],
+        );
+    }
+    assert_eq!(std::fs::read(d.join("a.json")).unwrap(), report);
+    refused(
+        &run(
+            &["merge-stats", "a.stats", "./a.stats", "--out", "m.stats"],
+            d,
+        ),
+        &["a.stats", "the same file", "count twice"],
+    );
+    assert!(!d.join("m.stats").exists());
+    let o = run(
+        &["merge-stats", "a.stats", "b.stats", "--out", "m.stats"],
+        d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::write(d.join("notes.txt"), "my notes").unwrap();
+    let o = run(
+        &[
+            "merge-stats",
+            "a.stats",
+            "b.stats",
+            "--out",
+            "notes.txt",
+            "--force",
+        ],
+        d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::read(d.join("notes.txt"))
+        .unwrap()
+        .starts_with(b"LLSTATS"));
+}
+
+/// A part's report edited to 2^64 − 1 samples made the weights' sum wrap: `merge` wrote an
+/// image of +inf with exit 0. A report with a sample count or size no render writes is
+/// refused, nothing written.
+#[test]
+fn a_merge_refuses_counts_and_sizes_no_render_writes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    cornell(d);
+    for (seed, name) in [("1", "p1"), ("2", "p2")] {
+        let exr = format!("{name}.exr");
+        let o = render(
+            "c.gltf",
+            &["--seed", seed, "--out", &exr, "--max-depth", "1"],
+            d,
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let path = d.join("p1.json");
+    let original: Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    for (field, value, wants) in [
+        (
+            "spp",
+            serde_json::json!(u64::MAX),
+            vec!["p1.exr", "past the"],
+        ),
+        (
+            "first_sample_index",
+            serde_json::json!(1u64 << 40),
+            vec!["p1.exr", "past the"],
+        ),
+    ] {
+        let mut r = original.clone();
+        r[field] = value;
+        write_json(&path, &r);
+        refused(
+            &run(&["merge", "p1.exr", "p2.exr", "--out", "m.exr"], d),
+            &wants,
+        );
+    }
+    let mut r = original.clone();
+    r["width"] = serde_json::json!(100_000u64);
+    write_json(&path, &r);
+    write_json(&d.join("p2.json"), &{
+        let mut r2: Value =
+            serde_json::from_slice(&std::fs::read(d.join("p2.json")).unwrap()).unwrap();
+        r2["width"] = serde_json::json!(100_000u64);
+        r2
+    });
+    refused(
+        &run(&["merge", "p1.exr", "p2.exr", "--out", "m.exr"], d),
+        &["100000×8", "no render writes"],
+    );
+    assert!(!d.join("m.exr").exists() && !d.join("m.json").exists());
+}
+
+/// `--prior-cv 1e20` overflowed the learned weights: every learned sample was dropped as
+/// NaN and the image was black, with exit 0 and a warning that blamed the scene. Priors
+/// past their range are refused by name; at the bounds nothing is dropped.
+#[test]
+fn priors_out_of_range_are_refused_and_in_range_render_finite() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    cornell(d);
+    for (flag, value) in [
+        ("--prior-cv", "1e20"),
+        ("--prior-n", "3e38"),
+        ("--prior-alpha", "1e7"),
+        ("--prior-zero", "1e7"),
+        ("--pool-priors", "1e9"),
+        ("--prior-scale", "1e30"),
+    ] {
+        refused(
+            &render("c.gltf", &[flag, value, "--out", "p.exr"], d),
+            &[flag, "out of range"],
+        );
+    }
+    let o = render(
+        "c.gltf",
+        &[
+            "--prior-cv",
+            "1000",
+            "--prior-alpha",
+            "0.5000001",
+            "--prior-n",
+            "1e6",
+            "--prior-scale",
+            "1e6",
+            "--out",
+            "p.exr",
+        ],
+        d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: Value = serde_json::from_slice(&std::fs::read(d.join("p.json")).unwrap()).unwrap();
+    assert_eq!(report["invalid_samples_dropped"], 0, "{report}");
+}
+
+/// A node scaled by 1e30 left 2 of 36 triangles (the rest rounded to zero area in the f32
+/// frame) and a black image, with no word; a scene left with none said it "has no
+/// triangles". Now the count is in a warning, or the refusal says why.
+#[test]
+fn triangles_lost_to_an_object_out_of_scale_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let doc = cornell(d);
+    let meshes: Vec<usize> = doc["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .enumerate()
+        .filter(|(_, n)| n.get("mesh").is_some())
+        .map(|(i, _)| i)
+        .collect();
+    // A mesh that emits nothing (scaling a light's away would leave no lights instead).
+    let dark = |node: usize| {
+        let mesh = doc["nodes"][node]["mesh"].as_u64().unwrap() as usize;
+        let m = doc["meshes"][mesh]["primitives"][0]["material"]
+            .as_u64()
+            .unwrap() as usize;
+        let e = &doc["materials"][m]["emissiveFactor"];
+        e.is_null()
+            || e.as_array()
+                .unwrap()
+                .iter()
+                .all(|c| c.as_f64() == Some(0.0))
+    };
+    let walls = *meshes
+        .iter()
+        .find(|&&m| dark(m))
+        .expect("a mesh without emission");
+    // One more node: the walls' mesh with `scale` and `translation`, added to the scene.
+    let with_copy = |scale: f64, translation: f64| {
+        let mut v = doc.clone();
+        let n = v["nodes"].as_array().unwrap().len();
+        v["nodes"].as_array_mut().unwrap().push(serde_json::json!({
+            "mesh": doc["nodes"][walls]["mesh"],
+            "scale": [scale, scale, scale],
+            "translation": [translation, translation, translation],
+        }));
+        v["scenes"][0]["nodes"]
+            .as_array_mut()
+            .unwrap()
+            .push(n.into());
+        v
+    };
+    // A copy a billionth of the box's size: its triangles round to nothing beside the box.
+    write_json(&d.join("one.gltf"), &with_copy(1e-9, 0.3));
+    let o = render("one.gltf", &["--out", "one.exr"], d);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("too small to keep in 32-bit floats") && err.contains("left out"),
+        "{err}"
+    );
+    // A copy 1e12 away: beside that extent the box with its lights rounds to nothing, and
+    // the error says why (it said "has no lights").
+    write_json(&d.join("all.gltf"), &with_copy(1.0, 1e12));
+    refused(
+        &render("all.gltf", &["--out", "all.exr"], d),
+        &["all.gltf", "too small to keep in 32-bit floats"],
+    );
+}
+
+/// A failing `farm` (a buffer it could not read: its URI was percent-encoded, which the
+/// loader decodes and the bundler did not) had already replaced an existing job's scene and
+/// left it half-copied; into a new folder it left folders behind. The bundle is read whole
+/// before anything is written, and encoded URIs are bundled under their decoded names.
+#[test]
+fn a_failed_farm_run_leaves_the_job_it_found() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let doc = cornell(d);
+    let job = [
+        "--still", "--width", "8", "--height", "8", "--spp", "2", "--chunks", "2",
+    ];
+    let farm = |scene: &str, out: &str| {
+        let mut a = vec!["farm", scene, "--out", out];
+        a.extend_from_slice(&job);
+        run(&a, d)
+    };
+    let o = farm("c.gltf", "job");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let before: Vec<(String, Vec<u8>)> = ["template.yaml", "scene/c.gltf"]
+        .iter()
+        .map(|f| (f.to_string(), std::fs::read(d.join("job").join(f)).unwrap()))
+        .collect();
+
+    // The same scene with its buffer in a file whose name has a space, URI-encoded.
+    std::fs::create_dir(d.join("sub")).unwrap();
+    let uri = doc["buffers"][0]["uri"].as_str().unwrap();
+    let data = base64_decode(uri.split_once(";base64,").unwrap().1);
+    std::fs::write(d.join("sub").join("my data.bin"), &data).unwrap();
+    let mut external = doc.clone();
+    external["buffers"][0]["uri"] = "my%20data.bin".into();
+    write_json(&d.join("sub").join("c.gltf"), &external);
+    // A texture that is not there: the scene loads (the material keeps its colour, with a
+    // warning) but the bundle cannot hold it.
+    write_json(&d.join("sub").join("m.gltf"), &textured(&doc, "gone.png"));
+
+    refused(&farm("sub/m.gltf", "job"), &["gone.png", "job bundle"]);
+    for (f, bytes) in &before {
+        assert_eq!(
+            &std::fs::read(d.join("job").join(f)).unwrap(),
+            bytes,
+            "{f} changed"
+        );
+    }
+    assert_eq!(files(&d.join("job").join("scene")), ["c.gltf"]);
+    refused(&farm("sub/m.gltf", "fresh/job"), &["gone.png"]);
+    assert!(!d.join("fresh").exists(), "a refused job left folders");
+
+    let o = farm("sub/c.gltf", "job2");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        files(&d.join("job2").join("scene")),
+        ["c.gltf", "my data.bin"]
+    );
+    let o = render("job2/scene/c.gltf", &["--out", "b.exr"], d);
+    assert!(
+        o.status.success(),
+        "the bundled scene does not load: {}",
+        stderr(&o)
+    );
+}
+
+/// Refused runs left the folders they had made: `render --mkdir` before its checks, and
+/// `animate` before its first frame.
+#[test]
+fn refused_runs_leave_no_folder_behind() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    refused(
+        &render("missing.glb", &["--mkdir", "--out", "nd/deep/o.exr"], d),
+        &["missing.glb"],
+    );
+    refused(
+        &run(&["render", "--mkdir", "--out", "nd2/o.png", "-q"], d),
+        &["must end in .exr"],
+    );
+    refused(
+        &run(&["animate", "missing.glb", "--out", "an/sub", "-q"], d),
+        &["missing.glb"],
+    );
+    assert!(files(d).is_empty(), "{:?}", files(d));
+}
+
+fn base64_decode(s: &str) -> Vec<u8> {
+    use base64::Engine;
+    base64::engine::general_purpose::STANDARD.decode(s).unwrap()
+}
