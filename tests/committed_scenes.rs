@@ -126,6 +126,15 @@ fn scene_command_refuses_bad_requests() {
         &["rooms", "--lights", "5", "--rooms", "0x4", "--out", "x.glb"],
         "at least 1x1",
     );
+    // Another family's option was ignored without a word.
+    fail(
+        &["cornell", "--lights", "5", "--rooms", "2x2", "--out", "x.glb"],
+        "--rooms applies to the rooms family only",
+    );
+    fail(
+        &["hall", "--lights", "5", "--blocks", "3", "--out", "x.glb"],
+        "--blocks applies to the city family only",
+    );
     fail(
         &[
             "city", "--lights", "100000", "--blocks", "1", "--out", "x.glb",

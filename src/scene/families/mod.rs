@@ -137,6 +137,13 @@ pub fn generate(family: Family, p: &FamilyParams) -> Result<GltfBuilder> {
     if !(3..=512).contains(&p.resolution) {
         bail!("--resolution {} is out of range: use 3..=512", p.resolution);
     }
+    // An option of another family was ignored without a word (`cornell --rooms 2x2`).
+    if p.rooms.is_some() && family != Family::Rooms {
+        bail!("--rooms applies to the rooms family only; {family:?} has no grid of rooms");
+    }
+    if p.blocks.is_some() && family != Family::City {
+        bail!("--blocks applies to the city family only; {family:?} has no blocks");
+    }
     if p.animate && !matches!(family, Family::Rooms | Family::City) {
         bail!("--animate is supported for rooms (a camera walk) and city (moving headlights); {family:?} has no animated variant");
     }
