@@ -107,6 +107,58 @@ pub fn check_outputs_spare_inputs(outputs: &[&Path], inputs: &[(&str, &Path)]) -
     Ok(())
 }
 
+/// The first `max` bytes of the regular file at `path`: anything else (a folder, a FIFO that
+/// would block, a device such as /dev/zero that never ends) is refused before it is opened
+/// (each of these hung or filled memory as a scene, buffer, statistics file or report).
+pub fn read_regular(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let meta = std::fs::metadata(path)?;
+    if !meta.is_file() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            "not a regular file",
+        ));
+    }
+    let mut bytes = Vec::with_capacity(meta.len().min(max) as usize);
+    std::fs::File::open(path)?
+        .take(max)
+        .read_to_end(&mut bytes)?;
+    Ok(bytes)
+}
+
+/// All of the regular file at `path` ([`read_regular`]).
+pub fn read_all(path: &Path) -> std::io::Result<Vec<u8>> {
+    read_regular(path, u64::MAX)
+}
+
+/// [`check_outputs_spare_inputs`] against the scene `scene` (with the buffers and images it
+/// names) and `others`.
+pub fn check_outputs_spare_scene(
+    outputs: &[&Path],
+    scene: Option<&Path>,
+    others: &[(&str, &Path)],
+) -> Result<()> {
+    let files = scene
+        .map(crate::scene::gltf_load::input_files)
+        .unwrap_or_default();
+    let mut inputs: Vec<(&str, &Path)> = files
+        .iter()
+        .enumerate()
+        .map(|(i, f)| {
+            (
+                if i == 0 {
+                    "the scene"
+                } else {
+                    "a file of the scene"
+                },
+                f.as_path(),
+            )
+        })
+        .collect();
+    inputs.extend_from_slice(others);
+    check_outputs_spare_inputs(outputs, &inputs)
+}
+
 /// Whether `a` and `b` name the same file (also when neither exists yet: their folders and
 /// names are compared).
 pub fn same_path(a: &Path, b: &Path) -> bool {

@@ -128,7 +128,9 @@ fn scene_command_refuses_bad_requests() {
     );
     // Another family's option was ignored without a word.
     fail(
-        &["cornell", "--lights", "5", "--rooms", "2x2", "--out", "x.glb"],
+        &[
+            "cornell", "--lights", "5", "--rooms", "2x2", "--out", "x.glb",
+        ],
         "--rooms applies to the rooms family only",
     );
     fail(

@@ -519,3 +519,429 @@ fn base64_decode(s: &str) -> Vec<u8> {
     use base64::Engine;
     base64::engine::general_purpose::STANDARD.decode(s).unwrap()
 }
+
+/// The value of the EXR header attribute `name` (its offset and length in `bytes`).
+fn exr_attribute(bytes: &[u8], name: &str) -> (usize, usize) {
+    let mut p = 8;
+    while bytes[p] != 0 {
+        let end = |from: usize| from + bytes[from..].iter().position(|&b| b == 0).unwrap();
+        let name_end = end(p);
+        let type_end = end(name_end + 1);
+        let size =
+            i32::from_le_bytes(bytes[type_end + 1..type_end + 5].try_into().unwrap()) as usize;
+        if &bytes[p..name_end] == name.as_bytes() {
+            return (type_end + 5, size);
+        }
+        p = type_end + 5 + size;
+    }
+    panic!("no attribute {name}");
+}
+
+/// A render's EXR whose header claims `side`×`side` pixels (windows and chunk count agree,
+/// so a reader takes it as valid until it allocates the pixels).
+fn exr_claiming(path: &Path, side: u32) -> Vec<u8> {
+    let mut b = std::fs::read(path).unwrap();
+    let mut window = Vec::new();
+    for v in [0i32, 0, side as i32 - 1, side as i32 - 1] {
+        window.extend_from_slice(&v.to_le_bytes());
+    }
+    for name in ["dataWindow", "displayWindow"] {
+        let (o, n) = exr_attribute(&b, name);
+        b[o..o + n].copy_from_slice(&window);
+    }
+    let (t, _) = exr_attribute(&b, "tiles");
+    let tile = |i: usize| u32::from_le_bytes(b[t + 4 * i..t + 4 * i + 4].try_into().unwrap());
+    let chunks = side.div_ceil(tile(0)) * side.div_ceil(tile(1));
+    let (c, _) = exr_attribute(&b, "chunkCount");
+    b[c..c + 4].copy_from_slice(&chunks.to_le_bytes());
+    b
+}
+
+/// A 1-KB EXR whose header claimed 100000×100000 pixels made `merge` and `compare` ask for
+/// 120 GB and abort; FIFOs as statistics files or references blocked the run forever. Now
+/// each is refused in one line and `compare` leaves no folder.
+#[test]
+fn exr_headers_past_any_film_and_fifo_inputs_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    cornell(d);
+    let cache = d.join("cache");
+    let cache = cache.to_str().unwrap();
+    for (seed, name) in [("1", "p1"), ("2", "p2")] {
+        let exr = format!("{name}.exr");
+        let o = render(
+            "c.gltf",
+            &["--seed", seed, "--out", &exr, "--max-depth", "1"],
+            d,
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    std::fs::write(d.join("big.exr"), exr_claiming(&d.join("p1.exr"), 100_000)).unwrap();
+    std::fs::copy(d.join("p1.json"), d.join("big.json")).unwrap();
+    refused(
+        &run(&["merge", "big.exr", "p2.exr", "--out", "m.exr"], d),
+        &["big.exr", "100000×100000"],
+    );
+    let compare = |reference: &str| {
+        common::run_in(
+            &[
+                "compare",
+                "c.gltf",
+                "--reference",
+                reference,
+                "--spp",
+                "1",
+                "--width",
+                "8",
+                "--height",
+                "8",
+                "--samplers",
+                "uniform",
+                "--out",
+                "cmp",
+            ],
+            d,
+            &[("LIGHTLEARN_CACHE", cache)],
+        )
+    };
+    refused(&compare("big.exr"), &["big.exr", "100000×100000"]);
+    let fifo = d.join("f.exr");
+    if Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .is_ok_and(|s| s.success())
+    {
+        Command::new("mkfifo")
+            .arg(d.join("f.stats"))
+            .status()
+            .unwrap();
+        let o = run_within(
+            &[
+                "compare",
+                "c.gltf",
+                "--reference",
+                "f.exr",
+                "--spp",
+                "1",
+                "--width",
+                "8",
+                "--height",
+                "8",
+                "--samplers",
+                "uniform",
+                "--out",
+                "cmp",
+            ],
+            d,
+            Duration::from_secs(60),
+        )
+        .unwrap();
+        refused(&o, &["f.exr", "not a regular file"]);
+        let o = run_within(
+            &[
+                "render",
+                "c.gltf",
+                "--load-stats",
+                "f.stats",
+                "--out",
+                "l.exr",
+                "-q",
+            ],
+            d,
+            Duration::from_secs(60),
+        )
+        .unwrap();
+        refused(&o, &["f.stats", "not a regular file"]);
+    } else {
+        eprintln!("skipped the FIFO cases: mkfifo is not available");
+    }
+    assert!(!d.join("cmp").exists() && !d.join("m.exr").exists());
+}
+
+/// Files a command writes into its output folder replaced a scene (or the scene's texture,
+/// or a given reference) of the same name there, with exit 0: `compare` (metrics.json, a
+/// run's EXR), `animate` (animation.json), `variance` (variance.json), `render` (the
+/// scene's `box.png` as the preview of `--out box.exr`). Each is refused, the files kept.
+#[test]
+fn files_in_the_output_folder_that_a_command_reads_are_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let doc = cornell(d);
+    let cache = d.join("cache");
+    let cache = cache.to_str().unwrap();
+    for sub in ["out", "a2", "v"] {
+        std::fs::create_dir(d.join(sub)).unwrap();
+    }
+    let scene = std::fs::read(d.join("c.gltf")).unwrap();
+    for f in ["out/metrics.json", "a2/animation.json", "v/variance.json"] {
+        std::fs::write(d.join(f), &scene).unwrap();
+    }
+    let o = common::run_in(
+        &[
+            "compare",
+            "out/metrics.json",
+            "--spp",
+            "1",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--samplers",
+            "uniform",
+            "--reference-spp",
+            "4",
+            "--out",
+            "out",
+        ],
+        d,
+        &[("LIGHTLEARN_CACHE", cache)],
+    );
+    refused(&o, &["metrics.json", "the scene"]);
+    let o = run(
+        &[
+            "animate",
+            "a2/animation.json",
+            "--frames",
+            "0..1",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--spp",
+            "1",
+            "--out",
+            "a2",
+            "--no-video",
+            "-q",
+        ],
+        d,
+    );
+    refused(&o, &["animation.json", "the scene"]);
+    let o = run(
+        &[
+            "variance",
+            "v/variance.json",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--spp",
+            "2",
+            "--stride",
+            "4",
+            "--hits",
+            "2",
+            "--samplers",
+            "wang",
+            "--out",
+            "v",
+        ],
+        d,
+    );
+    refused(&o, &["variance.json", "the scene is read from"]);
+    for f in ["out/metrics.json", "a2/animation.json", "v/variance.json"] {
+        assert_eq!(std::fs::read(d.join(f)).unwrap(), scene, "{f} replaced");
+    }
+    // A given reference named like one of compare's own EXRs in --out.
+    let o = common::run_in(
+        &[
+            "reference",
+            "c.gltf",
+            "--out",
+            "out/spp-uniform.exr",
+            "--spp",
+            "4",
+            "--width",
+            "8",
+            "--height",
+            "8",
+        ],
+        d,
+        &[("LIGHTLEARN_CACHE", cache)],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let reference = std::fs::read(d.join("out/spp-uniform.exr")).unwrap();
+    let o = common::run_in(
+        &[
+            "compare",
+            "c.gltf",
+            "--reference",
+            "out/spp-uniform.exr",
+            "--spp",
+            "1",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--samplers",
+            "uniform",
+            "--out",
+            "out",
+        ],
+        d,
+        &[("LIGHTLEARN_CACHE", cache)],
+    );
+    refused(&o, &["spp-uniform.exr", "the --reference"]);
+    assert_eq!(
+        std::fs::read(d.join("out/spp-uniform.exr")).unwrap(),
+        reference
+    );
+    // The scene's own texture, named like the render's preview.
+    let png = std::fs::read(d.join("out/spp-uniform.png")).unwrap();
+    std::fs::write(d.join("box.png"), &png).unwrap();
+    write_json(&d.join("box.gltf"), &textured(&doc, "box.png"));
+    refused(
+        &render("box.gltf", &["--out", "box.exr"], d),
+        &["box.png", "a file of the scene"],
+    );
+    assert_eq!(std::fs::read(d.join("box.png")).unwrap(), png);
+    // One hit a pixel has no footprint term: it read 0 % and a total too small.
+    refused(
+        &run(
+            &[
+                "variance", "c.gltf", "--hits", "1", "--width", "8", "--height", "8",
+            ],
+            d,
+        ),
+        &["--hits 2..=256"],
+    );
+}
+
+/// A reference cache that cannot be written failed `compare` after the whole reference was
+/// rendered; the cache is best effort: the comparison goes on with a warning.
+#[test]
+fn an_unwritable_reference_cache_is_skipped_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    cornell(d);
+    std::fs::write(d.join("not-a-folder"), "x").unwrap();
+    let cache = d.join("not-a-folder");
+    let o = common::run_in(
+        &[
+            "compare",
+            "c.gltf",
+            "--spp",
+            "1",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--samplers",
+            "uniform",
+            "--reference-spp",
+            "4",
+            "--out",
+            "cmp",
+        ],
+        d,
+        &[("LIGHTLEARN_CACHE", cache.to_str().unwrap())],
+    );
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("not cached"), "{err}");
+    let metrics: Value =
+        serde_json::from_slice(&std::fs::read(d.join("cmp/metrics.json")).unwrap()).unwrap();
+    assert!(
+        metrics["reference"]
+            .as_str()
+            .unwrap()
+            .contains("not cached"),
+        "{metrics}"
+    );
+}
+
+/// `animate` into a folder of an earlier, longer run encoded the old PNGs into its video (a
+/// 2-frame run made a 6-frame video); `--frame K` replaced the summary with frame K alone;
+/// a failed or skipped encoding left the earlier video; an output folder whose name is not
+/// UTF-8 panicked writing the summary. Needs ffmpeg for the video part.
+#[test]
+fn animation_summaries_and_videos_hold_the_folders_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let walk = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/rooms-walk.glb");
+    let walk = walk.to_str().unwrap();
+    cornell(d);
+    let animate = |scene: &str, frames: &[&str], out: &str| {
+        let mut a = vec![
+            "animate", scene, "--width", "16", "--height", "12", "--spp", "2",
+        ];
+        a.extend_from_slice(&["--max-depth", "1", "--out", out, "-q"]);
+        a.extend_from_slice(frames);
+        run(&a, d)
+    };
+    let listed = |out: &str| -> Vec<u64> {
+        let v: Value =
+            serde_json::from_slice(&std::fs::read(d.join(out).join("animation.json")).unwrap())
+                .unwrap();
+        v["frames"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|f| f["frame"].as_u64().unwrap())
+            .collect()
+    };
+    let video = Command::new("ffprobe")
+        .arg("-version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    let video_frames = |out: &str| -> u64 {
+        let o = Command::new("ffprobe")
+            .args([
+                "-v",
+                "error",
+                "-count_frames",
+                "-select_streams",
+                "v:0",
+                "-show_entries",
+            ])
+            .args(["stream=nb_read_frames", "-of", "csv=p=0"])
+            .arg(d.join(out).join("animation.mp4"))
+            .output()
+            .unwrap();
+        String::from_utf8_lossy(&o.stdout).trim().parse().unwrap()
+    };
+    let o = animate(walk, &["--frames", "0..3"], "an");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = animate(
+        walk,
+        &["--frame", "2", "--load-stats", "an/frame-0001.stats"],
+        "an",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        listed("an"),
+        [0, 1, 2, 3],
+        "the summary lost the sequence's other frames"
+    );
+    if video {
+        assert_eq!(video_frames("an"), 4);
+    }
+    let o = animate("c.gltf", &["--frames", "0..1"], "an");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(listed("an"), [0, 1]);
+    if video {
+        assert_eq!(
+            video_frames("an"),
+            2,
+            "the video holds an earlier run's frames"
+        );
+    } else {
+        eprintln!("skipped the video checks: ffmpeg/ffprobe are not installed (ci/setup.sh installs them)");
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::ffi::OsStrExt;
+        let name = std::ffi::OsStr::from_bytes(b"an\xff");
+        let o = Command::new(common::exe())
+            .args([
+                "animate", "c.gltf", "--frames", "0..0", "--width", "8", "--height", "8",
+            ])
+            .args(["--spp", "1", "--no-video", "-q", "--out"])
+            .arg(name)
+            .current_dir(d)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(d.join(name).join("animation.json").exists());
+    }
+}

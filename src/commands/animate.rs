@@ -16,7 +16,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{bail, Context as _, Result};
-use serde_json::json;
+use serde_json::{json, Value};
 
 use super::Ui;
 use crate::accel::Bvh;
@@ -82,7 +82,14 @@ pub struct FrameRecord {
     pub regions_added: usize,
     /// The film's own estimate of the image's MSE (per-pixel variance of the mean).
     pub estimated_mse: f64,
+    /// Written as text even where the path is not UTF-8 (serde's PathBuf refuses it, and
+    /// the summary's `json!` panicked on such an output folder).
+    #[serde(serialize_with = "lossy_path")]
     pub exr: PathBuf,
+}
+
+fn lossy_path<S: serde::Serializer>(p: &Path, s: S) -> std::result::Result<S::Ok, S::Error> {
+    s.serialize_str(&p.to_string_lossy())
 }
 
 pub struct AnimateOutcome {
@@ -194,6 +201,22 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         }
     }
     crate::io::check_writable(&req.out.join("animation.json"))?;
+    // None of them may be the scene, a file it names or the --load-stats file (a scene
+    // named animation.json inside --out was replaced, with exit 0).
+    let mut written: Vec<PathBuf> = (first..=last)
+        .flat_map(|k| {
+            let stem = frame_stem(&req.out, k);
+            ["exr", "png", "json", "stats"].map(|e| stem.with_extension(e))
+        })
+        .collect();
+    written.push(req.out.join("animation.json"));
+    written.push(req.out.join("animation.mp4"));
+    let written: Vec<&Path> = written.iter().map(PathBuf::as_path).collect();
+    let mut others: Vec<(&str, &Path)> = Vec::new();
+    if let Some(p) = &req.load_stats {
+        others.push(("the --load-stats file", p));
+    }
+    crate::io::check_outputs_spare_scene(&written, req.scene.as_deref(), &others)?;
 
     let ctx = Context::new(&req.device)?;
     let mut quiet = |_: String| {};
@@ -224,6 +247,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
     let mut prev_gpu: Option<GpuScene> = None;
     let mut records = Vec::new();
     let mut interrupted = false;
+    let mut span = (first, 0u32);
     for k in first..=last {
         let t = anim.time(k, req.fps);
         let scene = if k == 0 {
@@ -369,7 +393,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
             estimated_mse: result.estimated_error().0,
             exr: paths.exr.clone(),
         });
-        write_summary(req, &anim, &records, started.elapsed().as_secs_f64())?;
+        span = write_summary(req, &anim, &records, started.elapsed().as_secs_f64())?;
         if result.interrupted {
             interrupted = true;
             break;
@@ -379,10 +403,20 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         prev_gpu = Some(gpu);
     }
     let video = if req.video && !interrupted {
-        encode_video(req, first, ui)?
+        encode_video(req, span, ui)?
     } else {
         None
     };
+    let old_video = req.out.join("animation.mp4");
+    if req.video && video.is_none() && old_video.exists() {
+        // A video of other frames (an earlier run's) would pass for this run's.
+        std::fs::remove_file(&old_video)
+            .with_context(|| format!("cannot remove the earlier '{}'", old_video.display()))?;
+        ui.message(&format!(
+            "removed the earlier {} (it showed other frames)",
+            old_video.display()
+        ));
+    }
     Ok(AnimateOutcome {
         frames: records,
         interrupted,
@@ -396,12 +430,49 @@ fn warn_once(ui: &mut dyn Ui) -> impl FnMut(String) + '_ {
     move |w: String| ui.message(&format!("warning: {w}"))
 }
 
+/// Writes DIR/animation.json with this run's frame records and, where the folder's
+/// summary is of the same sequence (scene, fps, sampler, size, depth, seed, carrying), the
+/// earlier records of the frames this run did not render (`--frame K` re-renders one frame
+/// of a sequence: the summary had shrunk to that frame). Returns the span of frames the
+/// summary lists without a gap around this run's, (first, count), for the video.
 fn write_summary(
     req: &AnimateRequest,
     anim: &AnimatedScene,
     records: &[FrameRecord],
     seconds: f64,
-) -> Result<()> {
+) -> Result<(u32, u32)> {
+    let mut frames: Vec<Value> = records
+        .iter()
+        .map(serde_json::to_value)
+        .collect::<std::result::Result<_, _>>()?;
+    let path = req.out.join("animation.json");
+    let same = |old: &Value| {
+        old["scene"] == json!(anim.doc.name())
+            && old["fps"] == json!(req.fps)
+            && old["sampler"] == json!(req.sampler.name())
+            && old["carry"] == json!(req.carry)
+            && old["width"] == json!(req.width)
+            && old["height"] == json!(req.height)
+            && old["max_depth"] == json!(req.max_depth)
+            && old["seed"] == json!(req.seed)
+    };
+    let old: Option<Value> = crate::io::read_all(&path)
+        .ok()
+        .and_then(|b| serde_json::from_slice(&b).ok());
+    let ours: Vec<u64> = records.iter().map(|r| r.frame as u64).collect();
+    if let Some(old) = old.filter(|o| same(o)) {
+        for f in old["frames"].as_array().into_iter().flatten() {
+            if f["frame"].as_u64().is_some_and(|k| !ours.contains(&k)) {
+                frames.push(f.clone());
+            }
+        }
+    }
+    frames.sort_by_key(|f| f["frame"].as_u64().unwrap_or(0));
+    let listed: Vec<u32> = frames
+        .iter()
+        .filter_map(|f| f["frame"].as_u64().map(|k| k as u32))
+        .collect();
+    let span = contiguous_span(&listed, records.first().map_or(0, |r| r.frame));
     let summary = json!({
         "lightlearn_version": env!("CARGO_PKG_VERSION"),
         "scene": anim.doc.name(),
@@ -417,17 +488,31 @@ fn write_summary(
         "max_depth": req.max_depth,
         "seed": req.seed,
         "total_seconds": seconds,
-        "frames": records,
+        "frames": frames,
     });
-    crate::io::write_atomic(
-        &req.out.join("animation.json"),
-        serde_json::to_string_pretty(&summary)?.as_bytes(),
-    )
+    crate::io::write_atomic(&path, serde_json::to_string_pretty(&summary)?.as_bytes())?;
+    Ok(span)
+}
+
+/// The run of consecutive frames in the sorted `listed` that holds `k`: (first, count).
+fn contiguous_span(listed: &[u32], k: u32) -> (u32, u32) {
+    let (mut a, mut b) = (k, k);
+    while a > 0 && listed.contains(&(a - 1)) {
+        a -= 1;
+    }
+    while listed.contains(&(b + 1)) {
+        b += 1;
+    }
+    (a, b - a + 1)
 }
 
 /// DIR/animation.mp4 from the frames' PNGs with ffmpeg, when it is installed (else a
 /// message says why there is none).
-fn encode_video(req: &AnimateRequest, first: u32, ui: &mut dyn Ui) -> Result<Option<PathBuf>> {
+fn encode_video(
+    req: &AnimateRequest,
+    (first, count): (u32, u32),
+    ui: &mut dyn Ui,
+) -> Result<Option<PathBuf>> {
     let ffmpeg_found = std::process::Command::new("ffmpeg")
         .arg("-version")
         .output()
@@ -443,6 +528,9 @@ fn encode_video(req: &AnimateRequest, first: u32, ui: &mut dyn Ui) -> Result<Opt
         .arg(format!("{}", req.fps))
         .args(["-start_number", &first.to_string(), "-i"])
         .arg(req.out.join("frame-%04d.png"))
+        // Only the summary's frames: PNGs of an earlier, longer run in the folder were
+        // encoded too (a 2-frame run made a 6-frame video).
+        .args(["-frames:v", &count.to_string()])
         // Even dimensions for yuv420p, which every player reads.
         .args([
             "-vf",

@@ -79,6 +79,37 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
     }
     let ref_settings =
         reference::settings(a.width, a.height, a.reference_spp, a.seed, a.max_depth)?;
+    // Every file the report writes, against what the comparison reads (a scene or a given
+    // reference inside --out under one of these names was replaced, with exit 0). A given
+    // reference that is --out/reference.exr is written back with its own pixels.
+    let mut written = vec![
+        "metrics.json".to_string(),
+        "convergence.csv".into(),
+        "index.html".into(),
+    ];
+    if a.reference
+        .as_ref()
+        .is_none_or(|r| !crate::io::same_path(r, &a.out.join("reference.exr")))
+    {
+        written.push("reference.exr".into());
+    }
+    for prefix in budgets.iter().map(|b| match b {
+        Budget::Seconds(_) => "time",
+        Budget::Samples(_) => "spp",
+    }) {
+        written.extend(
+            samplers
+                .iter()
+                .map(|s| format!("{prefix}-{}.exr", s.name())),
+        );
+    }
+    let written: Vec<PathBuf> = written.iter().map(|n| a.out.join(n)).collect();
+    let written: Vec<&std::path::Path> = written.iter().map(PathBuf::as_path).collect();
+    let mut others: Vec<(&str, &std::path::Path)> = Vec::new();
+    if let Some(r) = &a.reference {
+        others.push(("the --reference", r));
+    }
+    crate::io::check_outputs_spare_scene(&written, a.scene.as_deref(), &others)?;
     std::fs::create_dir_all(&a.out)
         .with_context(|| format!("cannot create the output folder '{}'", a.out.display()))?;
     crate::io::write_atomic(&a.out.join(".write-test"), b"")
@@ -114,7 +145,7 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
     }
     let (reference_image, reference_note, reference_noise) = match given {
         Some((p, px)) => {
-            let sidecar: Option<serde_json::Value> = std::fs::read(p.with_extension("json"))
+            let sidecar: Option<serde_json::Value> = crate::io::read_all(&p.with_extension("json"))
                 .ok()
                 .and_then(|b| serde_json::from_slice(&b).ok());
             let noise = sidecar.as_ref().and_then(reference::noise);

@@ -60,7 +60,7 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
     let mut reports = Vec::new();
     for p in parts {
         let j = p.with_extension("json");
-        let text = std::fs::read(&j).with_context(|| {
+        let text = crate::io::read_all(&j).with_context(|| {
             format!(
                 "part '{}' has no report '{}' beside it (render writes one)",
                 p.display(),

@@ -111,14 +111,11 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
             .map_err(|e| anyhow::anyhow!("cannot create the folder '{}': {e}", dir.display()))?;
     }
     let paths = OutputPaths::new(&req.out)?;
-    let mut inputs: Vec<(&str, &std::path::Path)> = Vec::new();
-    if let Some(s) = &req.scene {
-        inputs.push(("the scene", s));
-    }
+    let mut others: Vec<(&str, &std::path::Path)> = Vec::new();
     if let Some(s) = &req.load_stats {
-        inputs.push(("the --load-stats file", s));
+        others.push(("the --load-stats file", s));
     }
-    crate::io::check_outputs_spare_inputs(&paths.all(), &inputs)?;
+    crate::io::check_outputs_spare_scene(&paths.all(), req.scene.as_deref(), &others)?;
     if let Some(p) = &req.save_stats {
         let inputs: Vec<&std::path::Path> = req.scene.iter().map(PathBuf::as_path).collect();
         stats_file::check_save_target(p, &inputs, &paths.all(), req.force)?;

@@ -97,8 +97,12 @@ fn check(a: &VarianceRequest) -> Result<()> {
     if !(2..=65536).contains(&a.spp) {
         bail!("--spp {} is out of range: use 2..=65536", a.spp);
     }
-    if !(1..=64).contains(&a.stride) || !(1..=256).contains(&a.hits) {
-        bail!("--stride takes 1..=64 and --hits 1..=256");
+    // One hit a pixel has no spread between hits: the footprint term read 0 % and the
+    // total came out too small, with exit 0.
+    if !(1..=64).contains(&a.stride) || !(2..=256).contains(&a.hits) {
+        bail!(
+            "--stride takes 1..=64 and --hits 2..=256 (the footprint term needs two hits a pixel)"
+        );
     }
     if !(2..=65536).contains(&a.area_samples) {
         bail!(
@@ -149,6 +153,29 @@ fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> 
         std::fs::create_dir_all(out)
             .with_context(|| format!("cannot create the output folder '{}'", out.display()))?;
         crate::io::check_writable(&out.join("variance.json"))?;
+        // The report's files are variance.json and rowN.exr (their count is known only
+        // later): none may be the scene or a file it names (a scene named variance.json in
+        // --out was replaced, with exit 0).
+        if let Some(scene) = &a.scene {
+            for f in crate::scene::gltf_load::input_files(scene) {
+                let name = f.file_name().and_then(|n| n.to_str()).unwrap_or("");
+                let row = name
+                    .strip_prefix("row")
+                    .and_then(|r| r.strip_suffix(".exr"))
+                    .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()));
+                let inside = f.parent().is_some_and(|d| {
+                    crate::io::same_path(d, out)
+                        || (d.as_os_str().is_empty() && crate::io::same_path(Path::new("."), out))
+                });
+                if inside && (name == "variance.json" || row) {
+                    bail!(
+                        "--out '{}' would replace '{}', which the scene is read from; name another --out",
+                        out.display(),
+                        f.display()
+                    );
+                }
+            }
+        }
     }
     let (scene, ctx, gpu, _) = prepare(a.scene.as_deref(), &a.device, ui)?;
     check_scene(&scene)?;
@@ -505,8 +532,17 @@ fn table(a: &VarianceRequest, rows: &[Row]) -> String {
     for r in rows {
         let s = &r.sum;
         let tot = s.total();
-        let pct = |v: f64| format!("{:.1} %", 100.0 * v / tot);
-        let ratio = wang.map_or("—".into(), |w| format!("{:.2}×", w / tot));
+        // A scene whose decomposed hits are all dark has nothing to share out: "—", not NaN.
+        let pct = |v: f64| {
+            if tot > 0.0 {
+                format!("{:.1} %", 100.0 * v / tot)
+            } else {
+                "—".into()
+            }
+        };
+        let ratio = wang
+            .filter(|_| tot > 0.0)
+            .map_or("—".into(), |w| format!("{:.2}×", w / tot));
         t += &format!(
             "| {} | {:.3e} | {:.3e} | {} | {} | {} | {} | {} ({}) | {:.3e} | {} | {:.1} % | {:.1} % | {:.1} % |",
             r.name,

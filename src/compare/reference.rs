@@ -161,6 +161,19 @@ pub fn render_to(
     paths: &OutputPaths,
     progress: &mut dyn FnMut(u32, f64),
 ) -> Result<(Vec<[f32; 3]>, serde_json::Value)> {
+    let (image, report) = render_image(ctx, scene, gpu, settings, progress)?;
+    film::write_outputs(paths, settings.width, settings.height, &image, &report)?;
+    Ok((image, report))
+}
+
+/// The reference image and its report, not written anywhere.
+fn render_image(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    gpu: &GpuScene,
+    settings: &RenderSettings,
+    progress: &mut dyn FnMut(u32, f64),
+) -> Result<(Vec<[f32; 3]>, serde_json::Value)> {
     let result = render::render(ctx, scene, gpu, settings, progress)?;
     if result.interrupted {
         bail!(
@@ -169,9 +182,7 @@ pub fn render_to(
         );
     }
     let report = render::report_json(scene, settings, &result, &ctx.describe());
-    let image = result.mean();
-    film::write_outputs(paths, settings.width, settings.height, &image, &report)?;
-    Ok((image, report))
+    Ok((result.mean(), report))
 }
 
 fn cache_paths(scene: &Scene, settings: &RenderSettings) -> (String, OutputPaths) {
@@ -200,7 +211,7 @@ fn cache_paths(scene: &Scene, settings: &RenderSettings) -> (String, OutputPaths
 pub fn store_in_cache(scene: &Scene, settings: &RenderSettings, written: &OutputPaths) {
     let (_, cached) = cache_paths(scene, settings);
     if std::fs::create_dir_all(cache_dir()).is_ok() {
-        let _ = std::fs::read(&written.exr)
+        let _ = crate::io::read_all(&written.exr)
             .map_err(anyhow::Error::from)
             .and_then(|b| crate::io::write_atomic(&cached.exr, &b))
             .and_then(|_| seal(&written.json, &cached));
@@ -213,8 +224,8 @@ const CHECKSUM: &str = "cache_exr_fnv1a";
 /// Writes the cache entry's JSON: the report at `report_path` plus the checksum of the
 /// entry's EXR as it is on disk (the entry counts as whole only once this is written).
 fn seal(report_path: &std::path::Path, entry: &OutputPaths) -> Result<()> {
-    let mut report: serde_json::Value = serde_json::from_slice(&std::fs::read(report_path)?)?;
-    let sum = crate::learning::stats_file::fnv1a(&std::fs::read(&entry.exr)?);
+    let mut report: serde_json::Value = serde_json::from_slice(&crate::io::read_all(report_path)?)?;
+    let sum = crate::learning::stats_file::fnv1a(&crate::io::read_all(&entry.exr)?);
     report[CHECKSUM] = serde_json::json!(format!("{sum:016x}"));
     crate::io::write_atomic(
         &entry.json,
@@ -232,10 +243,11 @@ fn read_entry(
     if !paths.exr.exists() && !paths.json.exists() {
         return Ok(None);
     }
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(&paths.json).context("its JSON cannot be read")?)
-            .context("its JSON is damaged")?;
-    let bytes = std::fs::read(&paths.exr).context("its EXR cannot be read")?;
+    let report: serde_json::Value = serde_json::from_slice(
+        &crate::io::read_all(&paths.json).context("its JSON cannot be read")?,
+    )
+    .context("its JSON is damaged")?;
+    let bytes = crate::io::read_all(&paths.exr).context("its EXR cannot be read")?;
     let sum = format!("{:016x}", crate::learning::stats_file::fnv1a(&bytes));
     // Entries cached before the checksum existed have none: checked below by what can be
     // checked, and sealed.
@@ -280,10 +292,11 @@ pub fn cached(
     let Budget::Samples(spp) = settings.budget else {
         unreachable!("references have a sample budget")
     };
-    let note = |report: &serde_json::Value| {
+    let note = |report: &serde_json::Value, cached: bool| {
         format!(
-            "{} at {spp} spp, cached as {}; its own estimated relMSE {:.2e} (a floor under every raw relMSE below; the corrected numbers subtract it)",
+            "{} at {spp} spp, {} {}; its own estimated relMSE {:.2e} (a floor under every raw relMSE below; the corrected numbers subtract it)",
             settings.sampler.name(),
+            if cached { "cached as" } else { "not cached: could not write" },
             paths.exr.display(),
             report["estimated_rel_mse_of_mean"].as_f64().unwrap_or(f64::NAN)
         )
@@ -291,7 +304,7 @@ pub fn cached(
     match read_entry(&paths, settings.width, settings.height) {
         Ok(Some((px, report))) => {
             log(format!("using cached reference {}", paths.exr.display()));
-            return Ok((px, note(&report), noise(&report)));
+            return Ok((px, note(&report, true), noise(&report)));
         }
         Ok(None) => {}
         Err(why) => log(format!(
@@ -300,13 +313,24 @@ pub fn cached(
         )),
     }
     let dir = cache_dir();
-    std::fs::create_dir_all(&dir)
-        .with_context(|| format!("cannot create the reference cache '{}'", dir.display()))?;
     log(format!(
         "rendering the reference once ({spp} spp; cached for later runs)"
     ));
-    let (image, report) = render_to(ctx, scene, gpu, settings, &paths, progress)?;
-    seal(&paths.json, &paths)
-        .with_context(|| format!("cannot finish the cache entry '{}'", paths.json.display()))?;
-    Ok((image, note(&report), noise(&report)))
+    let (image, report) = render_image(ctx, scene, gpu, settings, progress)?;
+    // The cache is best effort: a cache that cannot be written (read-only, a folder in an
+    // entry's place) failed the comparison after the whole reference was rendered.
+    let stored = std::fs::create_dir_all(&dir)
+        .with_context(|| format!("cannot create the reference cache '{}'", dir.display()))
+        .and_then(|_| film::write_outputs(&paths, settings.width, settings.height, &image, &report))
+        .and_then(|_| {
+            seal(&paths.json, &paths).with_context(|| {
+                format!("cannot finish the cache entry '{}'", paths.json.display())
+            })
+        });
+    if let Err(e) = &stored {
+        log(format!(
+            "warning: the reference is used but not cached ({e:#}); set LIGHTLEARN_CACHE to a writable folder to keep it"
+        ));
+    }
+    Ok((image, note(&report, stored.is_ok()), noise(&report)))
 }

@@ -108,9 +108,31 @@ pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Resu
         .map_err(|e| anyhow!("EXR write failed: {e}"))
 }
 
+/// The largest side of an EXR that [`read_exr`] reads: the largest film (16384).
+const MAX_EXR_SIDE: usize = 16384;
+
 /// Reads a float RGB EXR written by [`write_exr`] (tests, `compare`).
 pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
     use exr::prelude::*;
+    // The header first: its size decides the allocation below (a 1-KB file that claimed
+    // 100000×100000 asked for 120 GB and aborted `merge` and `compare`), and a FIFO would
+    // block the reader.
+    if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+        bail!("cannot read EXR '{}': not a regular file", path.display());
+    }
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| anyhow!("cannot read EXR '{}': {e}", path.display()))?;
+    for h in &meta.headers {
+        let size = h.layer_size;
+        if size.width() > MAX_EXR_SIDE || size.height() > MAX_EXR_SIDE {
+            bail!(
+                "cannot read EXR '{}': it is {}×{}, larger than any image lightlearn writes (at most {MAX_EXR_SIDE} a side)",
+                path.display(),
+                size.width(),
+                size.height()
+            );
+        }
+    }
     let image = read_first_rgba_layer_from_file(
         path,
         |res, _| {

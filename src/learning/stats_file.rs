@@ -175,7 +175,7 @@ impl SavedStats {
     }
 
     pub fn load(path: &Path) -> Result<SavedStats> {
-        let bytes = std::fs::read(path)
+        let bytes = crate::io::read_all(path)
             .with_context(|| format!("cannot read the statistics file '{}'", path.display()))?;
         Self::from_bytes(&bytes, &path.display().to_string())
     }

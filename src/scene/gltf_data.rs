@@ -44,7 +44,7 @@ impl Images<'_> {
                         .map_err(|e| anyhow!("image {}: bad base64 data ({e})", image.index()))?
                 } else {
                     let path = self.base.join(percent_decode(uri));
-                    read_regular_file(&path, MAX_IMAGE_FILE_BYTES).map_err(|e| {
+                    crate::io::read_regular(&path, MAX_IMAGE_FILE_BYTES).map_err(|e| {
                         anyhow!(
                             "cannot read image '{}' ({e}); keep it next to '{}'",
                             path.display(),
@@ -119,24 +119,6 @@ const MAX_TEXELS: u64 = 1 << 26;
 /// The largest image file read (a PNG of MAX_TEXELS compresses far below this).
 const MAX_IMAGE_FILE_BYTES: u64 = 1 << 30;
 
-/// The first `max` bytes of the regular file at `path`: anything else (a folder, a FIFO that
-/// would block, a device such as /dev/zero that never ends) is refused before it is opened.
-pub(super) fn read_regular_file(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
-    use std::io::Read;
-    let meta = std::fs::metadata(path)?;
-    if !meta.is_file() {
-        return Err(std::io::Error::new(
-            std::io::ErrorKind::InvalidInput,
-            "not a regular file",
-        ));
-    }
-    let mut bytes = Vec::with_capacity(meta.len().min(max) as usize);
-    std::fs::File::open(path)?
-        .take(max)
-        .read_to_end(&mut bytes)?;
-    Ok(bytes)
-}
-
 pub(super) fn load_buffers(gltf: &gltf::Gltf, name: &str, base: &Path) -> Result<Vec<Vec<u8>>> {
     let mut out = Vec::new();
     for buffer in gltf.document.buffers() {
@@ -164,7 +146,7 @@ pub(super) fn load_buffers(gltf: &gltf::Gltf, name: &str, base: &Path) -> Result
                     let path: PathBuf = base.join(percent_decode(uri));
                     // At most the declared length: a longer file's tail is not the buffer
                     // (and /dev/zero as a URI read until memory ran out).
-                    read_regular_file(&path, buffer.length() as u64).with_context(|| {
+                    crate::io::read_regular(&path, buffer.length() as u64).with_context(|| {
                         format!(
                             "'{name}': cannot read buffer {} from '{}'; keep the .bin file next to the .gltf",
                             buffer.index(),

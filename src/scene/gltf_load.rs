@@ -50,7 +50,7 @@ pub fn load_bytes(
 pub fn open(path: &Path, warn: &mut dyn FnMut(String)) -> Result<Document> {
     // A scene file larger than this is not a scene (the largest generated, 10^6 lights, is
     // ~0.2 GB); a FIFO or device is refused before it is opened (reading one blocked).
-    let bytes = super::gltf_data::read_regular_file(path, 1 << 34).map_err(|e| {
+    let bytes = crate::io::read_regular(path, 1 << 34).map_err(|e| {
         anyhow!(
             "cannot read scene file '{}': {e}. Check the path (run `lightlearn render --help` for usage).",
             path.display()
@@ -59,6 +59,36 @@ pub fn open(path: &Path, warn: &mut dyn FnMut(String)) -> Result<Document> {
     let name = path.display().to_string();
     let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
     open_bytes(&bytes, &name, &base, warn)
+}
+
+/// The files a glTF/GLB scene is read from: the file itself and the buffers and images it
+/// names by URI (beside it), for the commands' check that no output lands on one (a render
+/// of a scene whose texture was `box.png`, with `--out box.exr`, replaced the texture). A
+/// file that cannot be parsed lists itself alone: loading it says what is wrong.
+pub fn input_files(path: &Path) -> Vec<std::path::PathBuf> {
+    let mut files = vec![path.to_path_buf()];
+    let Ok(bytes) = crate::io::read_regular(path, 1 << 34) else {
+        return files;
+    };
+    let Ok(gltf) = gltf::Gltf::from_slice_without_validation(&bytes) else {
+        return files;
+    };
+    let base = path.parent().unwrap_or(Path::new(""));
+    let uris = gltf
+        .document
+        .buffers()
+        .filter_map(|b| match b.source() {
+            gltf::buffer::Source::Uri(u) => Some(u.to_string()),
+            gltf::buffer::Source::Bin => None,
+        })
+        .chain(gltf.document.images().filter_map(|i| match i.source() {
+            gltf::image::Source::Uri { uri, .. } => Some(uri.to_string()),
+            gltf::image::Source::View { .. } => None,
+        }));
+    for uri in uris.filter(|u| !u.starts_with("data:")) {
+        files.push(base.join(super::percent_decode(&uri)));
+    }
+    files
 }
 
 /// Parses a glTF/GLB file from bytes; `name` is used in messages and `base` resolves
@@ -462,7 +492,7 @@ impl Document {
                             || up.length_squared() == 0.0
                             || forward.normalize().cross(up.normalize()).length_squared() < 1e-12
                         {
-                            bail!("'{name}': camera {} has an invalid yfov ({yfov}) or a degenerate transform; use 0 < yfov < π", cam.index());
+                            bail!("'{name}': camera {} has an invalid yfov ({yfov}) or a degenerate transform; use 1e-4 < yfov < π − 1e-4 radians", cam.index());
                         }
                         camera = Some((position, forward.normalize(), up.normalize(), yfov));
                     }
