@@ -25,6 +25,15 @@ fn render(scene: &str, extra: &[&str], dir: &Path) -> Output {
     run(&args, dir)
 }
 
+/// `lightlearn compare SCENE ARGS… --width 8 --height 8 --samplers uniform` in `dir` with
+/// its reference cache in `cache`.
+fn compare(dir: &Path, cache: &str, args: &[&str]) -> Output {
+    let mut a = vec!["compare"];
+    a.extend_from_slice(args);
+    a.extend_from_slice(&["--width", "8", "--height", "8", "--samplers", "uniform"]);
+    common::run_in(&a, dir, &[("LIGHTLEARN_CACHE", cache)])
+}
+
 /// A small Cornell box as a .gltf with embedded data, and its JSON.
 fn cornell(dir: &Path) -> Value {
     let o = run(
@@ -582,29 +591,22 @@ fn exr_headers_past_any_film_and_fifo_inputs_are_refused() {
         &run(&["merge", "big.exr", "p2.exr", "--out", "m.exr"], d),
         &["big.exr", "100000×100000"],
     );
-    let compare = |reference: &str| {
-        common::run_in(
+    refused(
+        &compare(
+            d,
+            cache,
             &[
-                "compare",
                 "c.gltf",
                 "--reference",
-                reference,
+                "big.exr",
                 "--spp",
                 "1",
-                "--width",
-                "8",
-                "--height",
-                "8",
-                "--samplers",
-                "uniform",
                 "--out",
                 "cmp",
             ],
-            d,
-            &[("LIGHTLEARN_CACHE", cache)],
-        )
-    };
-    refused(&compare("big.exr"), &["big.exr", "100000×100000"]);
+        ),
+        &["big.exr", "100000×100000"],
+    );
     let fifo = d.join("f.exr");
     if Command::new("mkfifo")
         .arg(&fifo)
@@ -623,12 +625,6 @@ fn exr_headers_past_any_film_and_fifo_inputs_are_refused() {
                 "f.exr",
                 "--spp",
                 "1",
-                "--width",
-                "8",
-                "--height",
-                "8",
-                "--samplers",
-                "uniform",
                 "--out",
                 "cmp",
             ],
@@ -676,25 +672,18 @@ fn files_in_the_output_folder_that_a_command_reads_are_kept() {
     for f in ["out/metrics.json", "a2/animation.json", "v/variance.json"] {
         std::fs::write(d.join(f), &scene).unwrap();
     }
-    let o = common::run_in(
+    let o = compare(
+        d,
+        cache,
         &[
-            "compare",
             "out/metrics.json",
             "--spp",
             "1",
-            "--width",
-            "8",
-            "--height",
-            "8",
-            "--samplers",
-            "uniform",
             "--reference-spp",
             "4",
             "--out",
             "out",
         ],
-        d,
-        &[("LIGHTLEARN_CACHE", cache)],
     );
     refused(&o, &["metrics.json", "the scene"]);
     let o = run(
@@ -761,25 +750,18 @@ fn files_in_the_output_folder_that_a_command_reads_are_kept() {
     );
     assert!(o.status.success(), "{}", stderr(&o));
     let reference = std::fs::read(d.join("out/spp-uniform.exr")).unwrap();
-    let o = common::run_in(
+    let o = compare(
+        d,
+        cache,
         &[
-            "compare",
             "c.gltf",
             "--reference",
             "out/spp-uniform.exr",
             "--spp",
             "1",
-            "--width",
-            "8",
-            "--height",
-            "8",
-            "--samplers",
-            "uniform",
             "--out",
             "out",
         ],
-        d,
-        &[("LIGHTLEARN_CACHE", cache)],
     );
     refused(&o, &["spp-uniform.exr", "the --reference"]);
     assert_eq!(
@@ -816,26 +798,16 @@ fn an_unwritable_reference_cache_is_skipped_with_a_warning() {
     cornell(d);
     std::fs::write(d.join("not-a-folder"), "x").unwrap();
     let cache = d.join("not-a-folder");
-    let o = common::run_in(
-        &[
-            "compare",
-            "c.gltf",
-            "--spp",
-            "1",
-            "--width",
-            "8",
-            "--height",
-            "8",
-            "--samplers",
-            "uniform",
-            "--reference-spp",
-            "4",
-            "--out",
-            "cmp",
-        ],
-        d,
-        &[("LIGHTLEARN_CACHE", cache.to_str().unwrap())],
-    );
+    let args = [
+        "c.gltf",
+        "--spp",
+        "1",
+        "--reference-spp",
+        "4",
+        "--out",
+        "cmp",
+    ];
+    let o = compare(d, cache.to_str().unwrap(), &args);
     let err = stderr(&o);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("not cached"), "{err}");
