@@ -119,7 +119,11 @@ pub fn read_regular(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
             "not a regular file",
         ));
     }
-    let mut bytes = Vec::with_capacity(meta.len().min(max) as usize);
+    let mut bytes = Vec::new();
+    // A sparse file of a terabyte aborted the process in `with_capacity`: an error instead.
+    bytes
+        .try_reserve_exact(meta.len().min(max) as usize)
+        .map_err(|_| std::io::Error::new(std::io::ErrorKind::OutOfMemory, "too large to read"))?;
     std::fs::File::open(path)?
         .take(max)
         .read_to_end(&mut bytes)?;

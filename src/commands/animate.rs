@@ -18,6 +18,8 @@ use std::time::Instant;
 use anyhow::{bail, Context as _, Result};
 use serde_json::{json, Value};
 
+use crate::learning::stats_file::fnv1a;
+
 use super::Ui;
 use crate::accel::Bvh;
 use crate::film::{self, OutputPaths};
@@ -446,16 +448,8 @@ fn write_summary(
         .map(serde_json::to_value)
         .collect::<std::result::Result<_, _>>()?;
     let path = req.out.join("animation.json");
-    let same = |old: &Value| {
-        old["scene"] == json!(anim.doc.name())
-            && old["fps"] == json!(req.fps)
-            && old["sampler"] == json!(req.sampler.name())
-            && old["carry"] == json!(req.carry)
-            && old["width"] == json!(req.width)
-            && old["height"] == json!(req.height)
-            && old["max_depth"] == json!(req.max_depth)
-            && old["seed"] == json!(req.seed)
-    };
+    let key = sequence_key(req);
+    let same = |old: &Value| old["sequence"] == json!(key);
     let old: Option<Value> = crate::io::read_all(&path)
         .ok()
         .and_then(|b| serde_json::from_slice(&b).ok());
@@ -488,10 +482,33 @@ fn write_summary(
         "max_depth": req.max_depth,
         "seed": req.seed,
         "total_seconds": seconds,
+        "sequence": key,
         "frames": frames,
     });
     crate::io::write_atomic(&path, serde_json::to_string_pretty(&summary)?.as_bytes())?;
     Ok(span)
+}
+
+/// What makes two runs frames of one sequence: the scene's bytes and every setting but the
+/// frames, the output folder, the video and the statistics loaded for the first frame (a
+/// summary keyed by the scene's name and a few settings took in frames of an edited scene
+/// or of another budget).
+fn sequence_key(req: &AnimateRequest) -> String {
+    let scene = match &req.scene {
+        Some(p) => crate::io::read_all(p).map_or(0, |b| fnv1a(&b)),
+        None => 0,
+    };
+    let mut settings = req.clone();
+    settings.scene = None;
+    settings.frames = None;
+    settings.out = PathBuf::new();
+    settings.video = false;
+    settings.load_stats = None;
+    settings.device = Default::default();
+    format!(
+        "{scene:016x}-{:016x}",
+        fnv1a(format!("{settings:?}").as_bytes())
+    )
 }
 
 /// The run of consecutive frames in the sorted `listed` that holds `k`: (first, count).

@@ -77,7 +77,7 @@ fn bundle_files(scene: &Path) -> Result<(String, Bundle)> {
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("gltf"));
     if is_gltf {
-        let doc: Value = serde_json::from_slice(&std::fs::read(scene)?)
+        let doc: Value = serde_json::from_slice(&crate::io::read_all(scene)?)
             .with_context(|| format!("'{}' is not a glTF JSON file", scene.display()))?;
         for kind in ["buffers", "images"] {
             for item in doc[kind].as_array().into_iter().flatten() {
@@ -89,7 +89,11 @@ fn bundle_files(scene: &Path) -> Result<(String, Bundle)> {
                 }
                 // The file the loader reads (it decodes %XX), kept under the URI's own
                 // decoded name, where the loader looks for it in the bundle.
-                let rel = PathBuf::from(crate::scene::percent_decode(uri));
+                // Without `.` parts, so `./t.png` and `t.png` are one file of the bundle.
+                let rel: PathBuf = PathBuf::from(crate::scene::percent_decode(uri))
+                    .components()
+                    .filter(|c| *c != std::path::Component::CurDir)
+                    .collect();
                 if rel.is_absolute()
                     || rel
                         .components()
@@ -107,7 +111,7 @@ fn bundle_files(scene: &Path) -> Result<(String, Bundle)> {
     let scene_dir = Path::new("scene");
     let mut read = Vec::new();
     for (source, target) in files {
-        let bytes = std::fs::read(from.join(&source)).with_context(|| {
+        let bytes = crate::io::read_all(&from.join(&source)).with_context(|| {
             format!(
                 "cannot read '{}' for the job bundle",
                 from.join(&source).display()

@@ -117,7 +117,14 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
     }
     crate::io::check_outputs_spare_scene(&paths.all(), req.scene.as_deref(), &others)?;
     if let Some(p) = &req.save_stats {
-        let inputs: Vec<&std::path::Path> = req.scene.iter().map(PathBuf::as_path).collect();
+        // The scene and the files it names (a texture too: `--save-stats box.png --force`
+        // replaced it); not --load-stats, which a continuation saves over.
+        let files = req
+            .scene
+            .as_deref()
+            .map(crate::scene::gltf_load::input_files)
+            .unwrap_or_default();
+        let inputs: Vec<&std::path::Path> = files.iter().map(PathBuf::as_path).collect();
         stats_file::check_save_target(p, &inputs, &paths.all(), req.force)?;
     }
     let loaded = match &req.load_stats {

@@ -116,9 +116,11 @@ pub fn topology_fingerprint(tree: &LightTree) -> String {
 pub fn is_stats_file(path: &Path) -> bool {
     use std::io::Read;
     let mut magic = [0u8; 8];
-    std::fs::File::open(path)
-        .and_then(|mut f| f.read_exact(&mut magic))
-        .is_ok()
+    // Not a regular file (a FIFO would block the open): not ours.
+    std::fs::metadata(path).is_ok_and(|m| m.is_file())
+        && std::fs::File::open(path)
+            .and_then(|mut f| f.read_exact(&mut magic))
+            .is_ok()
         && &magic == MAGIC
 }
 
@@ -136,7 +138,7 @@ pub fn grid_fields(g: &GridParams) -> ([f32; 4], [u32; 4]) {
 pub fn check_save_target(p: &Path, inputs: &[&Path], outputs: &[&Path], force: bool) -> Result<()> {
     let d = p.display();
     if inputs.iter().any(|i| crate::io::same_path(p, i)) {
-        bail!("--save-stats '{d}' is the scene this render reads; name another file");
+        bail!("--save-stats '{d}' is the scene this render reads (or a file it names); name another file");
     }
     if outputs.iter().any(|o| crate::io::same_path(p, o)) {
         bail!(

@@ -600,7 +600,7 @@ impl Document {
         // black image, without a word).
         // Counted only where the whole triangle is below f32's resolution at the scene's
         // extent: a sliver (a sphere's pole) also rounds to zero area, and is no news.
-        let mut collapsed = 0usize;
+        let (mut collapsed, mut collapsed_emitters) = (0usize, 0usize);
         let tiny = (hi0 - lo0).max_element() * 1e-6;
         for (i, t) in triangles.iter().enumerate() {
             let tri = t.map(to_f32);
@@ -614,6 +614,10 @@ impl Document {
                     .fold(0.0, f64::max);
                 if longest > 0.0 && longest < tiny {
                     collapsed += 1;
+                    let m = scene.triangle_material[i] as usize;
+                    if materials[m].emission.max_element() > 0.0 {
+                        collapsed_emitters += 1;
+                    }
                 }
                 continue;
             }
@@ -668,7 +672,8 @@ impl Document {
                 .resize(scene.triangles.len(), [[0.0; 2]; 3]);
         }
         if scene.lights.is_empty() {
-            if collapse_note.is_some() {
+            // Blame the scale only where emitting triangles were lost to it.
+            if collapsed_emitters > 0 {
                 return Err(out_of_scale("lights"));
             }
             bail!(
