@@ -6,11 +6,22 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 
 /// A hidden temporary name in the same folder as `p` (renames stay on one file system).
+/// A long name keeps its first 96 bytes and a hash of the whole: the prefix and suffix
+/// took a 246-character name (legal) past the 255 bytes a file system allows, and the
+/// output was refused with a permissions hint.
 pub fn temp_path(p: &Path) -> PathBuf {
-    let name = p
+    let mut name = p
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
+    if name.len() > 128 {
+        let hash = crate::learning::stats_file::fnv1a(name.as_bytes());
+        let cut = (0..=96)
+            .rev()
+            .find(|&i| name.is_char_boundary(i))
+            .unwrap_or(0);
+        name = format!("{}-{hash:016x}", &name[..cut]);
+    }
     p.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
 }
 

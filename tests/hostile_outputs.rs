@@ -489,3 +489,24 @@ fn animation_summaries_and_videos_hold_the_folders_frames() {
         assert!(d.join(name).join("animation.json").exists());
     }
 }
+
+/// A long `--out` name (legal: 242 bytes, or 120 two-byte characters) was refused with
+/// "its folder does not take new files (permissions?)": the hidden temporary's prefix and
+/// suffix took it past the 255 bytes a file name may have. It is written.
+#[test]
+fn long_output_names_are_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    cornell(d);
+    for stem in ["a".repeat(242 - 4), "é".repeat(120)] {
+        let out = format!("{stem}.exr");
+        let o = render("c.gltf", &["--out", &out], d);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(d.join(&out).exists() && d.join(format!("{stem}.json")).exists());
+    }
+    assert!(
+        !files(d).iter().any(|f| f.ends_with(".tmp")),
+        "{:?}",
+        files(d)
+    );
+}
