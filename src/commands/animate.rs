@@ -250,6 +250,8 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
     let mut records = Vec::new();
     let mut interrupted = false;
     let mut span = (first, 0u32);
+    // Read once (it hashes the scene file), not once a frame.
+    let sequence = sequence_key(req);
     for k in first..=last {
         let t = anim.time(k, req.fps);
         let scene = if k == 0 {
@@ -395,7 +397,13 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
             estimated_mse: result.estimated_error().0,
             exr: paths.exr.clone(),
         });
-        span = write_summary(req, &anim, &records, started.elapsed().as_secs_f64())?;
+        span = write_summary(
+            req,
+            &anim,
+            &sequence,
+            &records,
+            started.elapsed().as_secs_f64(),
+        )?;
         if result.interrupted {
             interrupted = true;
             break;
@@ -440,6 +448,7 @@ fn warn_once(ui: &mut dyn Ui) -> impl FnMut(String) + '_ {
 fn write_summary(
     req: &AnimateRequest,
     anim: &AnimatedScene,
+    key: &str,
     records: &[FrameRecord],
     seconds: f64,
 ) -> Result<(u32, u32)> {
@@ -448,7 +457,6 @@ fn write_summary(
         .map(serde_json::to_value)
         .collect::<std::result::Result<_, _>>()?;
     let path = req.out.join("animation.json");
-    let key = sequence_key(req);
     let same = |old: &Value| old["sequence"] == json!(key);
     let old: Option<Value> = crate::io::read_all(&path)
         .ok()
