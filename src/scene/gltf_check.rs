@@ -42,6 +42,21 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
                     bail!("{at}: its index accessor {} is not a scalar of unsigned bytes, shorts or ints (glTF 2.0 §3.7.2.1); export the file again", i.value());
                 }
             }
+            // glTF 2.0 §3.7.2.1: POSITION is VEC3 of FLOAT (the crate's reader assumes it,
+            // and a VEC2 or normalized SHORT accessor rendered as garbage without a word).
+            let position = prim
+                .attributes
+                .get(&Checked::Valid(gltf::json::mesh::Semantic::Positions));
+            if let Some(i) = position {
+                let acc = &root.accessors[i.value()];
+                let float = matches!(
+                    acc.component_type,
+                    Checked::Valid(GenericComponentType(ComponentType::F32))
+                );
+                if !float || acc.type_ != Checked::Valid(Type::Vec3) || acc.normalized {
+                    bail!("{at}: its POSITION accessor {} is {:?} of {:?}{}, but glTF requires VEC3 of FLOAT; export the mesh again", i.value(), acc.type_, acc.component_type, if acc.normalized { " (normalized)" } else { "" });
+                }
+            }
             if let Some(mat) = &prim.material {
                 if mat.value() >= root.materials.len() {
                     bail!(

@@ -119,6 +119,36 @@ const MAX_TEXELS: u64 = 1 << 26;
 /// The largest image file read (a PNG of MAX_TEXELS compresses far below this).
 const MAX_IMAGE_FILE_BYTES: u64 = 1 << 30;
 
+/// The files a glTF/GLB scene is read from: the file itself and the buffers and images it
+/// names by URI (beside it), for the commands' check that no output lands on one (a render
+/// of a scene whose texture was `box.png`, with `--out box.exr`, replaced the texture). A
+/// file that cannot be parsed lists itself alone: loading it says what is wrong.
+pub fn input_files(path: &Path) -> Vec<std::path::PathBuf> {
+    let mut files = vec![path.to_path_buf()];
+    let Ok(bytes) = crate::io::read_regular(path, 1 << 34) else {
+        return files;
+    };
+    let Ok(gltf) = gltf::Gltf::from_slice_without_validation(&bytes) else {
+        return files;
+    };
+    let base = path.parent().unwrap_or(Path::new(""));
+    let uris = gltf
+        .document
+        .buffers()
+        .filter_map(|b| match b.source() {
+            gltf::buffer::Source::Uri(u) => Some(u.to_string()),
+            gltf::buffer::Source::Bin => None,
+        })
+        .chain(gltf.document.images().filter_map(|i| match i.source() {
+            gltf::image::Source::Uri { uri, .. } => Some(uri.to_string()),
+            gltf::image::Source::View { .. } => None,
+        }));
+    for uri in uris.filter(|u| !u.starts_with("data:")) {
+        files.push(base.join(percent_decode(&uri)));
+    }
+    files
+}
+
 pub(super) fn load_buffers(gltf: &gltf::Gltf, name: &str, base: &Path) -> Result<Vec<Vec<u8>>> {
     let mut out = Vec::new();
     for buffer in gltf.document.buffers() {

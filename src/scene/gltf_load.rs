@@ -61,35 +61,7 @@ pub fn open(path: &Path, warn: &mut dyn FnMut(String)) -> Result<Document> {
     open_bytes(&bytes, &name, &base, warn)
 }
 
-/// The files a glTF/GLB scene is read from: the file itself and the buffers and images it
-/// names by URI (beside it), for the commands' check that no output lands on one (a render
-/// of a scene whose texture was `box.png`, with `--out box.exr`, replaced the texture). A
-/// file that cannot be parsed lists itself alone: loading it says what is wrong.
-pub fn input_files(path: &Path) -> Vec<std::path::PathBuf> {
-    let mut files = vec![path.to_path_buf()];
-    let Ok(bytes) = crate::io::read_regular(path, 1 << 34) else {
-        return files;
-    };
-    let Ok(gltf) = gltf::Gltf::from_slice_without_validation(&bytes) else {
-        return files;
-    };
-    let base = path.parent().unwrap_or(Path::new(""));
-    let uris = gltf
-        .document
-        .buffers()
-        .filter_map(|b| match b.source() {
-            gltf::buffer::Source::Uri(u) => Some(u.to_string()),
-            gltf::buffer::Source::Bin => None,
-        })
-        .chain(gltf.document.images().filter_map(|i| match i.source() {
-            gltf::image::Source::Uri { uri, .. } => Some(uri.to_string()),
-            gltf::image::Source::View { .. } => None,
-        }));
-    for uri in uris.filter(|u| !u.starts_with("data:")) {
-        files.push(base.join(super::percent_decode(&uri)));
-    }
-    files
-}
+pub use super::gltf_data::input_files;
 
 /// Parses a glTF/GLB file from bytes; `name` is used in messages and `base` resolves
 /// relative buffer URIs.
@@ -362,23 +334,6 @@ impl Document {
                     ));
                     continue;
                 }
-                // glTF 2.0 §3.7.2.1: POSITION is VEC3 of FLOAT (the reader assumes it, and a
-                // VEC2 or normalized SHORT accessor rendered as garbage without a word).
-                if let Some(acc) = prim.get(&gltf::Semantic::Positions) {
-                    use gltf::accessor::{DataType, Dimensions};
-                    if acc.dimensions() != Dimensions::Vec3
-                        || acc.data_type() != DataType::F32
-                        || acc.normalized()
-                    {
-                        bail!(
-                            "'{name}': {mesh_label}: its POSITION accessor {} is {:?} of {:?}{}, but glTF requires VEC3 of FLOAT; export the mesh again",
-                            acc.index(),
-                            acc.dimensions(),
-                            acc.data_type(),
-                            if acc.normalized() { " (normalized)" } else { "" }
-                        );
-                    }
-                }
                 let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
                 let positions: Vec<[f32; 3]> = reader
                     .read_positions()
@@ -572,9 +527,8 @@ impl Document {
             "'{name}': {lights_with_range} lights set `range`; lightlearn ignores it (inverse-square falloff only)"
         ));
         }
-        let (lo0, hi0) = bounds64(&triangles, &light_positions);
-        let Frame { origin, unit } = frame.unwrap_or_else(|| Frame::of(lo0, hi0));
-        let to_f32 = |p: DVec3| ((p - origin) * unit).as_vec3();
+        let (lo0, hi0) = super::frame::bounds64(&triangles, &light_positions);
+        let frame = frame.unwrap_or_else(|| Frame::of(lo0, hi0));
         for (l, p) in scene.lights.iter_mut().zip(&light_positions) {
             if let Light::Point {
                 position,
@@ -586,51 +540,36 @@ impl Document {
                 ..
             } = l
             {
-                *position = to_f32(*p);
+                *position = frame.to_local(*p);
                 // Irradiance I / d² stays what it was when lengths are × unit.
-                *intensity *= (unit * unit) as f32;
+                *intensity *= (frame.unit * frame.unit) as f32;
             }
         }
         // Triangles in f32 about the origin; one that rounds to zero area is dropped with its
         // material and texture coordinates.
-        let uv_kept = !scene.triangle_uv.is_empty();
-        let (mut kept_material, mut kept_uv) = (Vec::new(), Vec::new());
-        // Triangles with an area that 32-bit floats lose about the scene's frame: an object
-        // far out of scale with the rest (a node scaled by 1e30 left 2 of 36 triangles and a
-        // black image, without a word).
-        // Counted only where the whole triangle is below f32's resolution at the scene's
-        // extent: a sliver (a sphere's pole) also rounds to zero area, and is no news.
-        let (mut collapsed, mut collapsed_emitters) = (0usize, 0usize);
-        let tiny = (hi0 - lo0).max_element() * 1e-6;
-        for (i, t) in triangles.iter().enumerate() {
-            let tri = t.map(to_f32);
-            if !tri.iter().all(|v| v.is_finite()) {
-                bail!("'{name}': triangle {i} lies beyond the range of 32-bit floats ({:?}); scale the scene down", t[0]);
-            }
-            if (tri[1] - tri[0]).cross(tri[2] - tri[0]).length_squared() == 0.0 {
-                let longest = [t[1] - t[0], t[2] - t[1], t[0] - t[2]]
-                    .iter()
-                    .map(|e| e.length())
-                    .fold(0.0, f64::max);
-                if longest > 0.0 && longest < tiny {
-                    collapsed += 1;
-                    let m = scene.triangle_material[i] as usize;
-                    if materials[m].emission.max_element() > 0.0 {
-                        collapsed_emitters += 1;
-                    }
-                }
-                continue;
-            }
-            scene.triangles.push(tri);
-            kept_material.push(scene.triangle_material[i]);
-            if uv_kept {
-                kept_uv.push(scene.triangle_uv.get(i).copied().unwrap_or([[0.0; 2]; 3]));
-            }
+        let extent = (hi0 - lo0).max_element();
+        let local = frame
+            .triangles(&triangles, extent, |i| {
+                materials[scene.triangle_material[i] as usize]
+                    .emission
+                    .max_element()
+                    > 0.0
+            })
+            .map_err(|i| anyhow!("'{name}': triangle {i} lies beyond the range of 32-bit floats ({:?}); scale the scene down", triangles[i][0]))?;
+        let uv = std::mem::take(&mut scene.triangle_uv);
+        if !uv.is_empty() {
+            scene.triangle_uv = (local.kept.iter())
+                .map(|&i| uv.get(i).copied().unwrap_or([[0.0; 2]; 3]))
+                .collect();
         }
-        scene.triangle_material = kept_material;
-        scene.triangle_uv = kept_uv;
+        scene.triangle_material = local
+            .kept
+            .iter()
+            .map(|&i| scene.triangle_material[i])
+            .collect();
+        scene.triangles.extend(local.triangles);
+        let (collapsed, collapsed_emitters) = (local.collapsed, local.collapsed_emitters);
         let collapse_note = (collapsed > 0).then(|| {
-            let extent = (hi0 - lo0).max_element();
             format!(
                 "{collapsed} of {} triangles are too small to keep in 32-bit floats beside the scene's extent of {extent:.3e} units (an object or light far out of scale with the rest?)",
                 triangles.len()
@@ -706,9 +645,12 @@ impl Document {
         }
         let (lo, hi) = scene.bounds();
         scene.camera = match camera {
-            Some((position, forward, up, yfov)) => {
-                Camera::looking(to_f32(position), forward.as_vec3(), up.as_vec3(), yfov)
-            }
+            Some((position, forward, up, yfov)) => Camera::looking(
+                frame.to_local(position),
+                forward.as_vec3(),
+                up.as_vec3(),
+                yfov,
+            ),
             None => Camera::framing(lo, hi),
         };
         Ok(scene)
@@ -727,16 +669,6 @@ fn accessor_box(prim: &gltf::Primitive) -> Option<(DVec3, DVec3)> {
         Some(DVec3::new(a[0].as_f64()?, a[1].as_f64()?, a[2].as_f64()?))
     };
     Some((read(acc.min())?, read(acc.max())?))
-}
-
-/// The bounds of triangles and points in f64.
-fn bounds64(triangles: &[[DVec3; 3]], points: &[DVec3]) -> (DVec3, DVec3) {
-    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-    for p in triangles.iter().flatten().chain(points) {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
-    }
-    (lo, hi)
 }
 
 fn node_label(node: &gltf::Node) -> String {
