@@ -11,6 +11,7 @@ pub mod reference;
 pub mod render;
 pub mod scene;
 pub mod variance;
+pub mod variance_report;
 
 use std::path::Path;
 use std::sync::Arc;

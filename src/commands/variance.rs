@@ -13,7 +13,6 @@ use std::sync::Arc;
 
 use anyhow::{bail, Context as _, Result};
 use rayon::prelude::*;
-use serde_json::json;
 
 use super::{check_depth, check_size, prepare, Ui};
 use crate::abi::SlotStats;
@@ -25,6 +24,9 @@ use crate::render::{camera_params, Budget, GpuScene, LightSampler, RenderSetting
 use crate::rng::SplitMix64;
 use crate::scene::{luminance, Scene};
 use crate::variance::{hit_terms, pixel_terms, HitTerms, Learned, PixelTerms, Selection};
+
+pub use super::variance_report::Row;
+use super::variance_report::{table, write_outputs};
 
 pub struct VarianceRequest {
     pub scene: Option<PathBuf>,
@@ -49,38 +51,6 @@ pub struct VarianceRequest {
     pub learn: LearnSettings,
     pub device: ContextOptions,
     pub out: Option<PathBuf>,
-}
-
-/// One row: the decomposition summed over the decomposed pixels, and the measurement.
-#[derive(Clone, Debug)]
-pub struct Row {
-    pub name: String,
-    pub sum: PixelTerms,
-    pub pixels: Vec<PixelTerms>,
-    /// Σ over the decomposed pixels of spp · (a − b)² / 2 from two renders of other seeds
-    /// (independent jitter): the variance per sample the kernel shows.
-    pub measured: f64,
-    /// Per decomposed pixel: spp · (a − b)² / 2 (the terms of `measured`).
-    pub measured_pixels: Vec<f64>,
-    /// The same with the renderer's own jitter, stratified over the passes (the default
-    /// `--stratify`, Sobol'; R2 before 2026-12-05, hence the name); the table shows
-    /// `measured` ÷ this, what stratification takes out.
-    pub measured_r2: f64,
-    /// The same at `max_depth` (None for direct light only), stratified jitter.
-    pub measured_gi: Option<f64>,
-}
-
-impl Row {
-    /// The largest single pixel's share of `measured`: near 1 the measurement (and any
-    /// equal-spp ratio on this image) rests on a pixel or two of a heavy-tailed estimator.
-    pub fn top_pixel_share(&self) -> f64 {
-        let top = self.measured_pixels.iter().copied().fold(0.0, f64::max);
-        if self.measured > 0.0 {
-            top / self.measured
-        } else {
-            0.0
-        }
-    }
 }
 
 pub struct VarianceOutcome {
@@ -491,161 +461,4 @@ fn two_seed_pixels(a: &VarianceRequest, x: &[[f32; 3]], y: &[[f32; 3]]) -> Vec<f
             a.spp as f64 * d * d / 2.0
         })
         .collect()
-}
-
-/// The measured variance with independent numbers over the one with the renderer's
-/// stratified numbers. (Until 2026-12-05 this column was a "stratified footprint",
-/// stratified − the independent selection terms: stratification takes variance out of the
-/// light choice as well as out of the footprint, so that difference went negative, e.g.
-/// −184 % for `wang` on rooms16, and meant nothing.)
-fn stratification_gain(independent: f64, stratified: f64) -> String {
-    if stratified > 0.0 && independent.is_finite() {
-        format!("{:.1}×", independent / stratified)
-    } else {
-        "—".into()
-    }
-}
-
-fn table(a: &VarianceRequest, rows: &[Row]) -> String {
-    let wang = rows
-        .iter()
-        .find(|r| r.name == "wang")
-        .map(|r| r.sum.total());
-    let mut t = String::new();
-    t += &format!(
-        "Variance per sample, luminance, summed over {} pixels ({} hits each); shares of the predicted total\n\n",
-        rows.first().map_or(0, |r| r.pixels.len()),
-        a.hits
-    );
-    t += "| sampler | predicted | measured | ÷ wang | cluster | light in cluster | point on light | footprint (at emitter pixels) | measured, stratified | stratification's gain | zero samples (lit hits) | dark hits | top pixel's share of measured |";
-    if a.max_depth > 1 {
-        t += &format!(
-            " measured, depth {} (stratified) | later vertices (beyond stratified direct) |",
-            a.max_depth
-        );
-    }
-    t += "\n|---|---|---|---|---|---|---|---|---|---|---|---|---|";
-    if a.max_depth > 1 {
-        t += "---|---|";
-    }
-    t += "\n";
-    for r in rows {
-        let s = &r.sum;
-        let tot = s.total();
-        // A scene whose decomposed hits are all dark has nothing to share out: "—", not NaN.
-        let pct = |v: f64| {
-            if tot > 0.0 {
-                format!("{:.1} %", 100.0 * v / tot)
-            } else {
-                "—".into()
-            }
-        };
-        let ratio = wang
-            .filter(|_| tot > 0.0)
-            .map_or("—".into(), |w| format!("{:.2}×", w / tot));
-        t += &format!(
-            "| {} | {:.3e} | {:.3e} | {} | {} | {} | {} | {} ({}) | {:.3e} | {} | {:.1} % | {:.1} % | {:.1} % |",
-            r.name,
-            tot,
-            r.measured,
-            ratio,
-            pct(s.cluster),
-            pct(s.light),
-            pct(s.point),
-            pct(s.jitter),
-            pct(s.jitter_emitter),
-            r.measured_r2,
-            stratification_gain(r.measured, r.measured_r2),
-            100.0 * s.zero_lit,
-            100.0 * s.dark_hits as f64 / s.hits.max(1) as f64,
-            100.0 * r.top_pixel_share(),
-        );
-        if let Some(g) = r.measured_gi {
-            t += &format!(" {:.3e} | {:.1} % |", g, 100.0 * (g - r.measured_r2) / g);
-        }
-        t += "\n";
-    }
-    if rows.iter().any(|r| r.top_pixel_share() > 0.2) {
-        t += "\nwarning: one pixel holds over 20 % of a measured variance: the estimator is heavy-tailed there, so measured and predicted can disagree widely (more --hits sample the hits better; more pixels the measurement)\n";
-    }
-    if rows.iter().any(|r| r.sum.missed > 0.0) {
-        t += "\nwarning: a sampler gave some light probability 0 (biased): see `missed` in variance.json\n";
-    }
-    t
-}
-
-fn write_outputs(out: &Path, a: &VarianceRequest, rows: &[Row]) -> Result<()> {
-    let (w, h) = (a.width.div_ceil(a.stride), a.height.div_ceil(a.stride));
-    let mut set = crate::io::FileSet::default();
-    let mut json_rows = Vec::new();
-    for (i, r) in rows.iter().enumerate() {
-        let file = format!("row{i}.exr");
-        set.add_with(&out.join(&file), |tmp| write_maps(tmp, w, h, r))?;
-        let s = &r.sum;
-        json_rows.push(json!({
-            "name": r.name,
-            "maps": file,
-            "predicted": s.total(),
-            "measured": r.measured,
-            "measured_r2": r.measured_r2,
-            "top_pixel_share_of_measured": r.top_pixel_share(),
-            "measured_gi": r.measured_gi,
-            "cluster": s.cluster,
-            "light": s.light,
-            "point": s.point,
-            "footprint": s.jitter,
-            "footprint_at_emitter_pixels": s.jitter_emitter,
-            "missed": s.missed,
-            "zero_share_lit_hits": s.zero_lit,
-            "dark_hits": s.dark_hits,
-            "hits": s.hits,
-        }));
-    }
-    let report = json!({
-        "scene": a.scene.as_ref().map(|p| p.display().to_string()),
-        "width": a.width,
-        "height": a.height,
-        "spp": a.spp,
-        "seed": a.seed,
-        "stride": a.stride,
-        "hits_per_pixel": a.hits,
-        "area_samples": a.area_samples,
-        "max_depth": a.max_depth,
-        "map_channels": ["cluster", "light", "point", "footprint", "value", "measured"],
-        "rows": json_rows,
-    });
-    set.add(
-        &out.join("variance.json"),
-        (serde_json::to_string_pretty(&report)? + "\n").as_bytes(),
-    )?;
-    set.commit()
-}
-
-/// Per-pixel maps (variance per sample by stage, and the pixel's value) as a float EXR
-/// with named channels, one pixel per decomposed pixel.
-fn write_maps(path: &Path, w: u32, h: u32, r: &Row) -> Result<()> {
-    use exr::prelude::*;
-    let px = &r.pixels;
-    let chan = |name: &str, f: &dyn Fn(&PixelTerms) -> f64| {
-        AnyChannel::new(
-            name,
-            FlatSamples::F32(px.iter().map(|p| f(p) as f32).collect()),
-        )
-    };
-    let channels = AnyChannels::sort(SmallVec::from_vec(vec![
-        chan("cluster", &|p| p.cluster),
-        chan("light", &|p| p.light),
-        chan("point", &|p| p.point),
-        chan("footprint", &|p| p.jitter),
-        chan("value", &|p| p.value),
-        AnyChannel::new(
-            "measured",
-            FlatSamples::F32(r.measured_pixels.iter().map(|&v| v as f32).collect()),
-        ),
-    ]));
-    Image::from_channels((w as usize, h as usize), channels)
-        .write()
-        .non_parallel()
-        .to_file(path)
-        .map_err(|e| anyhow::anyhow!("EXR write failed: {e}"))
 }
