@@ -56,33 +56,11 @@ fn glsl_and_rust_importance_agree_on_random_inputs() {
             light: u32::MAX,
         });
     }
-    let gpu_nodes: Vec<_> = nodes.iter().map(gpu_node).collect();
-    let nb = Buffer::texels(&ctx, "nodes", &gpu_nodes).unwrap();
-    let ob = Buffer::from_slice(&ctx, "order", &[0u32]).unwrap();
-    let qb = Buffer::from_slice(&ctx, "queries", &queries).unwrap();
-    let vb = Buffer::zeroed(&ctx, "values", (count * 4) as u64).unwrap();
-    let k = ComputePipeline::new(&ctx, "importance", kernels::IMPORTANCE, 4, 4, &[]).unwrap();
-    k.bind(&[&nb, &ob, &qb, &vb]).unwrap();
-    let n = count as u32;
-    ctx.submit(|cmd| k.dispatch(cmd, bytemuck::bytes_of(&n), [n.div_ceil(64), 1, 1]))
-        .unwrap();
-    let gpu: Vec<f32> = vb.read().unwrap();
+    let gpu = gpu_importance(&ctx, &nodes, &queries);
 
     let (mut zeros, mut mismatches, mut max_rel) = (0, 0, 0.0f32);
     for i in 0..count {
-        let nd = &nodes[i];
-        let q = &queries[i];
-        let cpu = importance(
-            Vec3::from(nd.bmin),
-            Vec3::from(nd.bmax),
-            nd.phi,
-            Vec3::from(nd.axis),
-            nd.cos_o,
-            nd.cos_e,
-            nd.flags,
-            Vec3::from(q.p),
-            Vec3::from(q.n),
-        );
+        let cpu = cpu_importance(&nodes[i], &queries[i]);
         let g = gpu[i];
         assert!(g.is_finite() && g >= 0.0, "input {i}: GPU importance {g}");
         zeros += (cpu == 0.0) as usize;
@@ -107,4 +85,87 @@ fn glsl_and_rust_importance_agree_on_random_inputs() {
         zeros > count / 20 && zeros < count * 19 / 20,
         "inputs should mix zero and non-zero importance ({zeros} zeros)"
     );
+}
+
+/// The kernels' `light_importance` (importance.comp) of each node at its query.
+fn gpu_importance(
+    ctx: &std::sync::Arc<lightlearn::gpu::Context>,
+    nodes: &[LightNode],
+    queries: &[LightQuery],
+) -> Vec<f32> {
+    let gpu_nodes: Vec<_> = nodes.iter().map(gpu_node).collect();
+    let nb = Buffer::texels(ctx, "nodes", &gpu_nodes).unwrap();
+    let ob = Buffer::from_slice(ctx, "order", &[0u32]).unwrap();
+    let qb = Buffer::from_slice(ctx, "queries", queries).unwrap();
+    let vb = Buffer::zeroed(ctx, "values", (queries.len() * 4) as u64).unwrap();
+    let k = ComputePipeline::new(ctx, "importance", kernels::IMPORTANCE, 4, 4, &[]).unwrap();
+    k.bind(&[&nb, &ob, &qb, &vb]).unwrap();
+    let n = queries.len() as u32;
+    ctx.submit(|cmd| k.dispatch(cmd, bytemuck::bytes_of(&n), [n.div_ceil(64), 1, 1]))
+        .unwrap();
+    vb.read().unwrap()
+}
+
+/// The host's mirror of the same.
+fn cpu_importance(nd: &LightNode, q: &LightQuery) -> f32 {
+    importance(
+        Vec3::from(nd.bmin),
+        Vec3::from(nd.bmax),
+        nd.phi,
+        Vec3::from(nd.axis),
+        nd.cos_o,
+        nd.cos_e,
+        nd.flags,
+        Vec3::from(q.p),
+        Vec3::from(q.n),
+    )
+}
+
+/// A spot with innerConeAngle = outerConeAngle (legal glTF: a hard edge) has no falloff
+/// ramp, θ_e = 0 and cos θ_e = 1 (tree.rs LightBounds). Inside its cone cos θ_p is 1, and
+/// the importance had returned 0 when cos θ_p ≤ cos θ_e: every sampler that reads Ĩ
+/// (bayes, the default, wang, donikian, lightbvh) never chose the light, a black image
+/// where `uniform` lit the floor (found by an audit, 2026-12-06). Both implementations.
+#[test]
+fn a_hard_edged_spot_lights_its_cone_and_nothing_outside() {
+    let ctx = common::ctx();
+    let angle = 0.5f32;
+    // What tree.rs makes of inner = outer = 0.5.
+    let cos_e = (angle.cos().clamp(-1.0, 1.0).acos() - angle.cos().clamp(-1.0, 1.0).acos()).cos();
+    assert_eq!(cos_e, 1.0);
+    let spot = LightNode {
+        bmin: [0.0, 2.0, 0.0],
+        phi: 10.0,
+        bmax: [0.0, 2.0, 0.0],
+        cos_o: angle.cos(),
+        axis: [0.0, -1.0, 0.0],
+        cos_e,
+        right: 0,
+        begin: 0,
+        count: 1,
+        flags: 0,
+    };
+    let query = |x: f32| LightQuery {
+        p: [x, 0.0, 0.0],
+        u: 0.0,
+        n: [0.0, 1.0, 0.0],
+        light: u32::MAX,
+    };
+    // Under the spot, near its edge (0.45 rad off the axis), and outside (0.55 rad).
+    let queries = [
+        query(0.0),
+        query(2.0 * 0.45f32.tan()),
+        query(2.0 * 0.55f32.tan()),
+    ];
+    let gpu = gpu_importance(&ctx, &[spot; 3], &queries);
+    for (i, q) in queries.iter().enumerate() {
+        let cpu = cpu_importance(&spot, q);
+        let lit = i < 2;
+        assert_eq!(
+            (cpu > 0.0, gpu[i] > 0.0),
+            (lit, lit),
+            "query {i}: CPU {cpu}, GPU {}",
+            gpu[i]
+        );
+    }
 }

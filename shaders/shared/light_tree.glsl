@@ -86,7 +86,7 @@ float light_importance_d2(GpuLightNode nd, vec3 p, vec3 n, out float d2) {
     float cos_wo = cos_sub_clamped(sin_w, cos_w, nd.sin_o, nd.cos_o);
     float sin_wo = sin_sub_clamped(sin_w, cos_w, nd.sin_o, nd.cos_o);
     float cos_p = cos_sub_clamped(sin_wo, cos_wo, sin_b, cos_b);
-    if (cos_p <= nd.cos_e) return 0.0;
+    if (cos_p < nd.cos_e) return 0.0;  // strict: see tree.rs (a hard-edged spot)
     float imp = nd.phi * cos_p / d2;
     if (n != vec3(0.0)) {
         float cos_i = dot(n, -wi);

@@ -264,7 +264,10 @@ pub fn node_importance(nd: &GpuLightNode, p: Vec3, n: Vec3) -> f32 {
     let cos_wo = cos_sub_clamped(sin_w, cos_w, nd.sin_o, nd.cos_o);
     let sin_wo = sin_sub_clamped(sin_w, cos_w, nd.sin_o, nd.cos_o);
     let cos_p = cos_sub_clamped(sin_wo, cos_wo, sin_b, cos_b);
-    if cos_p <= nd.cos_e {
+    // Strictly outside the emission spread: a hard-edged spot (inner = outer cone, θ_e = 0,
+    // cos θ_e = 1) has cos θ_p = 1 inside its cone, and `<=` had priced it 0 there
+    // (tests/importance.rs). pbrt-v4's LightBounds::Importance compares with `<=`.
+    if cos_p < nd.cos_e {
         return 0.0;
     }
     let mut imp = nd.phi * cos_p / d2;
