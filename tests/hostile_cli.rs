@@ -241,6 +241,31 @@ fn malformed_gltf_gives_one_line_and_no_panic_text() {
             }),
             &["node 0", "cycle"],
         ),
+        // Not trees: each was flattened once per path, a coincident copy of the node's
+        // triangles and lights (an audit, 2026-12-06).
+        (
+            "twoparents.glb",
+            common::edit_glb(&cornell, |j| {
+                j["nodes"][4]["children"] = serde_json::json!([0]);
+                j["nodes"][5]["children"] = serde_json::json!([0]);
+                j["scenes"][0]["nodes"] = serde_json::json!([1, 2, 3, 4, 5, 6, 7, 8]);
+            }),
+            &["node 0", "node 4", "node 5", "tree"],
+        ),
+        (
+            "rootchild.glb",
+            common::edit_glb(&cornell, |j| {
+                j["nodes"][4]["children"] = serde_json::json!([0]);
+            }),
+            &["scene 0", "node 0", "child of node 4"],
+        ),
+        (
+            "roottwice.glb",
+            common::edit_glb(&cornell, |j| {
+                j["scenes"][0]["nodes"] = serde_json::json!([0, 1, 2, 3, 4, 5, 6, 7, 8, 1]);
+            }),
+            &["scene 0", "node 1", "twice"],
+        ),
     ];
     for (name, bytes, wants) in cases {
         std::fs::write(d.join(name), bytes).unwrap();

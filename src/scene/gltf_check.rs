@@ -69,7 +69,7 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
         }
     }
     check_animations(root, name)?;
-    check_node_cycles(root, name)?;
+    check_node_tree(root, name)?;
     check_rotations(root, name)?;
     let mut errors = Vec::new();
     root.validate(root, gltf::json::Path::new, &mut |path, e| {
@@ -142,7 +142,43 @@ fn check_accessor(root: &Root, a: usize, at: &str) -> Result<()> {
 }
 
 /// glTF node hierarchies are trees (glTF 2.0 §3.5.3): a node that is its own ancestor is
-/// named (before, a cycle was walked until the triangle limit and reported as a huge scene).
+/// named (before, a cycle was walked until the triangle limit and reported as a huge scene),
+/// and so is a node with two parents or a scene root listed twice or also a child: each was
+/// flattened once per path to it, a coincident copy of its triangles and lights with exit 0
+/// (an audit, 2026-12-06: the lamp counted twice, 3 lights became 5).
+fn check_node_tree(root: &Root, name: &str) -> Result<()> {
+    let mut parent: Vec<Option<usize>> = vec![None; root.nodes.len()];
+    for (p, node) in root.nodes.iter().enumerate() {
+        for c in node.children.as_deref().unwrap_or(&[]) {
+            let c = c.value();
+            // Out of range: the crate's validation names it.
+            let Some(slot) = parent.get_mut(c) else {
+                continue;
+            };
+            match *slot {
+                Some(q) if q == p => bail!("'{name}': node {p} lists node {c} twice among its children; list it once"),
+                Some(q) => bail!("'{name}': node {c} is a child of node {q} and of node {p}; a glTF node hierarchy must be a tree (one parent a node): give one of them its own copy of the node"),
+                None => *slot = Some(p),
+            }
+        }
+    }
+    for (i, scene) in root.scenes.iter().enumerate() {
+        let mut listed = std::collections::HashSet::new();
+        for n in &scene.nodes {
+            let n = n.value();
+            if !listed.insert(n) {
+                bail!(
+                    "'{name}': scene {i} lists node {n} twice among its root nodes; list it once"
+                );
+            }
+            if let Some(Some(p)) = parent.get(n) {
+                bail!("'{name}': scene {i} lists node {n} as a root node, but it is a child of node {p}; list only nodes without a parent");
+            }
+        }
+    }
+    check_node_cycles(root, name)
+}
+
 fn check_node_cycles(root: &Root, name: &str) -> Result<()> {
     // 0: not seen, 1: on the current path, 2: done. Iterative depth-first search.
     let mut state = vec![0u8; root.nodes.len()];
