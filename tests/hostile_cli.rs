@@ -332,6 +332,25 @@ fn spot_cone_angles_out_of_range_are_named_in_a_warning() {
         err.contains("warning:") && err.contains("'wide'") && err.contains("outer cone angle of 0"),
         "{err}"
     );
+    // A power past f32's range or rounded to 0 is refused naming the light: it said "a
+    // punctual light" and "a light's power", which cannot be found in a file of thousands
+    // (an audit, 2026-12-06). A spot of outer cone 1e-30 rad; a bulb of intensity 1e38 (4π ×
+    // 1e38 W).
+    let cases: [(usize, &str, f64, f64, &str); 2] = [
+        (0, "'wide'", 1e-30, 10.0, "rounds to 0"),
+        (1, "'bulb'", 0.4, 1e38, "more power"),
+    ];
+    for (k, label, outer, intensity, want) in cases {
+        let bytes = common::edit_glb(&g.to_glb(), |j| {
+            let lights = &mut j["extensions"]["KHR_lights_punctual"]["lights"];
+            lights[0]["spot"]["innerConeAngle"] = 0.0.into();
+            lights[0]["spot"]["outerConeAngle"] = outer.into();
+            lights[k]["intensity"] = intensity.into();
+        });
+        std::fs::write(d.join("power.glb"), bytes).unwrap();
+        let o = run_render(&["power.glb", "--out", "p.exr"], d);
+        refused(&o, &["power.glb", &format!("light {k}"), label, want]);
+    }
 }
 
 #[test]

@@ -309,6 +309,8 @@ impl Document {
         // file's origin (a node translation of 1e7) keeps full f32 precision around itself.
         let mut triangles: Vec<[DVec3; 3]> = Vec::new();
         let mut light_positions: Vec<DVec3> = Vec::new();
+        // The punctual lights' names ("light K ('name')"), in the order of light_positions.
+        let mut light_labels: Vec<String> = Vec::new();
         let mut skipped_primitives = 0usize;
         let mut lights_with_range = 0usize;
 
@@ -476,6 +478,7 @@ impl Document {
                 match light.kind() {
                     gltf::khr_lights_punctual::Kind::Point => {
                         light_positions.push(position);
+                        light_labels.push(label.clone());
                         scene.lights.push(Light::Point {
                             position: Vec3::ZERO,
                             intensity,
@@ -503,6 +506,7 @@ impl Document {
                             warn(format!("'{name}': {label} is a spot with an outer cone angle of 0, which lights nothing; skipped"));
                         } else {
                             light_positions.push(position);
+                            light_labels.push(label.clone());
                             scene.lights.push(Light::Spot {
                                 position: Vec3::ZERO,
                                 direction: direction.normalize(),
@@ -621,24 +625,36 @@ impl Document {
         }
         // Emission of any size renders (the kernels work in normalised units, see
         // lights::emission_scale), as long as each light's power and their sum are f32 numbers.
+        // The punctual lights come first in scene.lights, in light_labels' order; a light is
+        // named by its glTF index and name (an audit found "a punctual light" in a file of
+        // 20,000 of them).
+        let what = |i: usize, l: &Light| match l {
+            Light::Triangle { triangle } => format!(
+                "material {} of emissive triangle {triangle}",
+                scene.triangle_material[*triangle as usize]
+            ),
+            _ => light_labels
+                .get(i)
+                .cloned()
+                .unwrap_or_else(|| "a punctual light".to_string()),
+        };
         let mut total = 0f64;
-        for l in &scene.lights {
+        for (i, l) in scene.lights.iter().enumerate() {
             let p = scene.light_power(l);
             total += p as f64;
             if !p.is_finite() {
-                let what = match l {
-                    Light::Triangle { triangle } => format!(
-                        "material {} of emissive triangle {triangle}",
-                        scene.triangle_material[*triangle as usize]
-                    ),
-                    _ => "a punctual light".to_string(),
-                };
-                bail!("'{name}': {what} emits more power than 32-bit floats hold; lower its emissiveStrength/intensity (the image scales with it)");
+                bail!("'{name}': {} emits more power than 32-bit floats hold; lower its emissiveStrength/intensity (the image scales with it)", what(i, l));
+            }
+            // Rescaling (scene_frame) can take a punctual intensity below f32's range, and a
+            // spot's cone can be too narrow for its solid angle to be a float.
+            if p == 0.0 {
+                bail!("'{name}': the power of {} rounds to 0 in 32-bit floats once the scene is brought to the renderer's scale (it is {:.3e} units across); raise its intensity or widen its cone, or scale the scene", what(i, l), (hi0 - lo0).length());
             }
         }
-        // Rescaling (scene_frame) can take a punctual intensity below f32's range.
-        if total <= 0.0 || scene.lights.iter().any(|l| scene.light_power(l) == 0.0) {
-            bail!("'{name}': a light's power rounds to 0 in 32-bit floats once the scene is brought to the renderer's scale (it is {:.3e} units across); scale the scene or the light's intensity", (hi0 - lo0).length());
+        if total <= 0.0 {
+            bail!(
+                "'{name}': its lights' power rounds to 0 in 32-bit floats; raise their intensity"
+            );
         }
         if total > f32::MAX as f64 / 16.0 {
             bail!("'{name}': its lights emit {total:.3e} W in total, more than 32-bit floats can render; lower the emission (the image scales with it)");
