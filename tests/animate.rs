@@ -164,6 +164,49 @@ fn malformed_animations_are_named() {
         j["animations"][0]["channels"][0]["target"]["node"] = 99.into();
     });
     check("node.glb", missing, &["channel 0", "targets node 99"]);
+    // A light keyed 1e20 away collapses the other frames' triangles in the frame of all of
+    // them: it said "has no triangles", which is not so (an audit, 2026-12-06).
+    let mut g = floor(0.5, (-2.0, 4.0), 2.0);
+    g.point_light("bulb", Vec3::new(0.0, 1.0, 0.0), Vec3::ONE, 2.0);
+    let n = g.last_node();
+    g.animate(
+        n,
+        "translation",
+        &[0.0, 2.0],
+        &[vec![0.0, 1.0, 0.0], vec![1e20, 1.0, 0.0]],
+    );
+    g.camera(Vec3::new(1.0, 3.0, 5.0), Vec3::new(1.0, 0.0, 0.0), 0.9);
+    check("far.glb", g.to_glb(), &["far out of scale"]);
+    // A camera keyed to a scale of 0 fails at that frame, after the frames before it: the
+    // message blamed "an invalid yfov (0.9)" and named no frame.
+    let mut g = moving_light();
+    let cam = g.last_node();
+    g.animate(cam, "scale", &[0.0, 2.0], &[vec![1.0; 3], vec![0.0; 3]]);
+    let path = dir.path().join("scale0.glb");
+    std::fs::write(&path, g.to_glb()).unwrap();
+    let out = dir.path().join("scale0.out");
+    let o = run(&[
+        "animate",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--fps",
+        "1",
+        "--spp",
+        "1",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--no-video",
+        "-q",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    for w in ["frame 2", "t = 2 s", "degenerate", "non-zero scale"] {
+        assert!(err.contains(w), "'{w}' missing in: {err}");
+    }
+    assert!(!err.contains("yfov"), "{err}");
 }
 
 fn animate(scene: &Path, out: &Path, extra: &[&str]) {

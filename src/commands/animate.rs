@@ -257,7 +257,10 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         let scene = if k == 0 {
             scene0.clone()
         } else {
-            anim.scene_at(t, &mut quiet)?
+            // A frame's own error names the frame: a camera keyed to a scale of 0 failed
+            // after the frames before it with no word of which (an audit, 2026-12-06).
+            anim.scene_at(t, &mut quiet)
+                .with_context(|| format!("frame {k} (t = {t} s)"))?
         };
         let moved = previous
             .as_ref()

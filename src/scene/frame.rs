@@ -36,7 +36,11 @@ impl Frame {
         // at the scene's extent: a sliver (a sphere's pole) also rounds to zero area, and is
         // no news. A node scaled by 1e30 left 2 of 36 triangles and a black image, without
         // a word, before these were counted.
-        let tiny = extent * 1e-6;
+        // The scene's extent, or the frame's own span where it is larger: `animate` takes
+        // every frame in the frame of all of them, and a light keyed 1e20 away collapsed
+        // frame 0's triangles there without counting them ("has no triangles": an audit,
+        // 2026-12-06). A frame's unit brings its size to 4..8 (scene_frame).
+        let tiny = extent.max(4.0 / self.unit) * 1e-6;
         for (i, t) in world.iter().enumerate() {
             let tri = t.map(|p| self.to_local(p));
             if !tri.iter().all(|v| v.is_finite()) {

@@ -444,12 +444,16 @@ impl Document {
                         let forward = (world * DVec4::new(0.0, 0.0, -1.0, 0.0)).truncate();
                         let up = (world * DVec4::new(0.0, 1.0, 0.0, 0.0)).truncate();
                         let yfov = p.yfov();
-                        if !(yfov > 1e-4 && yfov < std::f32::consts::PI - 1e-4)
-                            || forward.length_squared() == 0.0
+                        if !(yfov > 1e-4 && yfov < std::f32::consts::PI - 1e-4) {
+                            bail!("'{name}': camera {} has an invalid yfov ({yfov}); use 1e-4 < yfov < π − 1e-4 radians", cam.index());
+                        }
+                        // One message for both had blamed a valid yfov for a node scaled to 0
+                        // (an audit, 2026-12-06).
+                        if forward.length_squared() == 0.0
                             || up.length_squared() == 0.0
                             || forward.normalize().cross(up.normalize()).length_squared() < 1e-12
                         {
-                            bail!("'{name}': camera {} has an invalid yfov ({yfov}) or a degenerate transform; use 1e-4 < yfov < π − 1e-4 radians", cam.index());
+                            bail!("'{name}': camera {} sits on node {} ('{}') whose transform is degenerate (a scale of 0, or view and up directions parallel), so it has no view direction; give the node a non-zero scale", cam.index(), node.index(), node.name().unwrap_or(""));
                         }
                         camera = Some((position, forward.normalize(), up.normalize(), yfov));
                     }
