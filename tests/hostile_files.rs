@@ -339,3 +339,59 @@ fn exr_headers_past_any_film_and_fifo_inputs_are_refused() {
     }
     assert!(!d.join("cmp").exists() && !d.join("m.exr").exists());
 }
+
+/// Mesh data that glTF forbids and that had been read silently (an audit, 2026-12-06): a
+/// triangle list whose index count is not a multiple of 3 (its last indices dropped), a
+/// TEXCOORD_0 shorter than POSITION (read as (0, 0) past its end); and a baseColorFactor
+/// above 1, clamped without a word (now a warning).
+#[test]
+fn malformed_mesh_data_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let doc = cornell(d);
+    let mut idx = doc.clone();
+    let i = idx["meshes"][0]["primitives"][0]["indices"]
+        .as_u64()
+        .unwrap() as usize;
+    let n = idx["accessors"][i]["count"].as_u64().unwrap();
+    idx["accessors"][i]["count"] = (n - 1).into();
+    write_json(&d.join("idx.gltf"), &idx);
+    refused(
+        &render("idx.gltf", &["--out", "i.exr"], d),
+        &[
+            "idx.gltf",
+            "mesh",
+            &format!("{} indices", n - 1),
+            "multiple of 3",
+        ],
+    );
+    lightlearn::film::write_png(&d.join("t.png"), 2, 2, &[[0.5; 3]; 4]).unwrap();
+    let mut uv = textured(&doc, "t.png");
+    let short = uv["accessors"].as_array().unwrap().len();
+    uv["accessors"].as_array_mut().unwrap().push(
+        serde_json::json!({"bufferView": 0, "componentType": 5126, "type": "VEC2", "count": 1}),
+    );
+    for m in uv["meshes"].as_array_mut().unwrap() {
+        for p in m["primitives"].as_array_mut().unwrap() {
+            p["attributes"]["TEXCOORD_0"] = short.into();
+        }
+    }
+    write_json(&d.join("uv.gltf"), &uv);
+    refused(
+        &render("uv.gltf", &["--out", "u.exr"], d),
+        &["uv.gltf", "1 TEXCOORD_0 values", "vertices"],
+    );
+    let mut bright = doc.clone();
+    bright["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] =
+        serde_json::json!([5.0, 5.0, 5.0, 1.0]);
+    write_json(&d.join("bright.gltf"), &bright);
+    let o = render("bright.gltf", &["--out", "b.exr"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("warning:")
+            && stderr(&o).contains("baseColorFactor")
+            && stderr(&o).contains("clamped"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -350,6 +350,11 @@ impl Document {
                     }
                     None => (0..positions.len() as u32).collect(),
                 };
+                // A triangle list of 3k + 1 or + 2 indices is malformed glTF; its last
+                // indices were dropped without a word (an audit, 2026-12-06).
+                if mode == Mode::Triangles && indices.len() % 3 != 0 {
+                    bail!("'{name}': {mesh_label} is a triangle list of {} {}, not a multiple of 3; fix the mesh data", indices.len(), if prim.indices().is_some() { "indices" } else { "vertices" });
+                }
                 let tris = triangulate(mode, &indices);
                 let world_pos: Vec<DVec3> = positions
                     .iter()
@@ -380,6 +385,11 @@ impl Document {
                     (Some(_), Some(info)) => match reader.read_tex_coords(info.tex_coord()) {
                         Some(t) => {
                             let uvs: Vec<[f32; 2]> = t.into_f32().collect();
+                            // One coordinate a vertex (glTF: every attribute has POSITION's
+                            // count); a short one was read as (0, 0) past its end.
+                            if uvs.len() != positions.len() {
+                                bail!("'{name}': {mesh_label} has {} TEXCOORD_{} values for {} vertices; an attribute needs one a vertex", uvs.len(), info.tex_coord(), positions.len());
+                            }
                             if let Some(bad) = uvs
                                 .iter()
                                 .position(|t| !(t[0].is_finite() && t[1].is_finite()))

@@ -40,6 +40,13 @@ pub(crate) fn material_slot(
             "'{file}': {label} has a non-finite or negative baseColorFactor; use values in [0, 1]"
         );
     }
+    // glTF bounds it by 1 and the BRDF clamps it there (an albedo above 1 would create
+    // energy): said, where it was silent (an audit, 2026-12-06).
+    if base_color.max_element() > 1.0 {
+        warn(format!(
+            "'{file}': {label} has baseColorFactor {base_color} above 1; rendered with it clamped to 1 (glTF asks for values in [0, 1])"
+        ));
+    }
     let pbr = m.pbr_metallic_roughness();
     let (metallic, roughness) = (pbr.metallic_factor(), pbr.roughness_factor());
     if !(0.0..=1.0).contains(&metallic) || !(0.0..=1.0).contains(&roughness) {
