@@ -352,7 +352,7 @@ impl Document {
                 };
                 // A triangle list of 3k + 1 or + 2 indices is malformed glTF; its last
                 // indices were dropped without a word (an audit, 2026-12-06).
-                if mode == Mode::Triangles && indices.len() % 3 != 0 {
+                if mode == Mode::Triangles && !indices.len().is_multiple_of(3) {
                     bail!("'{name}': {mesh_label} is a triangle list of {} {}, not a multiple of 3; fix the mesh data", indices.len(), if prim.indices().is_some() { "indices" } else { "vertices" });
                 }
                 let tris = triangulate(mode, &indices);
