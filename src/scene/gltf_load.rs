@@ -637,42 +637,7 @@ impl Document {
             "'{name}' has no lights: add KHR_lights_punctual point/spot lights or give a material a non-zero emissiveFactor"
         );
         }
-        // Emission of any size renders (the kernels work in normalised units, see
-        // lights::emission_scale), as long as each light's power and their sum are f32 numbers.
-        // The punctual lights come first in scene.lights, in light_labels' order; a light is
-        // named by its glTF index and name (an audit found "a punctual light" in a file of
-        // 20,000 of them).
-        let what = |i: usize, l: &Light| match l {
-            Light::Triangle { triangle } => format!(
-                "material {} of emissive triangle {triangle}",
-                scene.triangle_material[*triangle as usize]
-            ),
-            _ => light_labels
-                .get(i)
-                .cloned()
-                .unwrap_or_else(|| "a punctual light".to_string()),
-        };
-        let mut total = 0f64;
-        for (i, l) in scene.lights.iter().enumerate() {
-            let p = scene.light_power(l);
-            total += p as f64;
-            if !p.is_finite() {
-                bail!("'{name}': {} emits more power than 32-bit floats hold; lower its emissiveStrength/intensity (the image scales with it)", what(i, l));
-            }
-            // Rescaling (scene_frame) can take a punctual intensity below f32's range, and a
-            // spot's cone can be too narrow for its solid angle to be a float.
-            if p == 0.0 {
-                bail!("'{name}': the power of {} rounds to 0 in 32-bit floats once the scene is brought to the renderer's scale (it is {:.3e} units across); raise its intensity or widen its cone, or scale the scene", what(i, l), (hi0 - lo0).length());
-            }
-        }
-        if total <= 0.0 {
-            bail!(
-                "'{name}': its lights' power rounds to 0 in 32-bit floats; raise their intensity"
-            );
-        }
-        if total > f32::MAX as f64 / 16.0 {
-            bail!("'{name}': its lights emit {total:.3e} W in total, more than 32-bit floats can render; lower the emission (the image scales with it)");
-        }
+        scene.check_light_power(name, &light_labels, (hi0 - lo0).length())?;
         let (lo, hi) = scene.bounds();
         scene.camera = match camera {
             Some((position, forward, up, yfov)) => Camera::looking(

@@ -15,6 +15,7 @@ pub mod gltf_load;
 mod gltf_material;
 pub mod gltf_write;
 
+use anyhow::bail;
 use glam::Vec3;
 
 /// Rec. 709 luminance: the scalar "power" of a colour used by the power sampler.
@@ -180,6 +181,54 @@ impl Scene {
     pub fn triangle_emission(&self, triangle: u32) -> (Vec3, bool) {
         let m = &self.materials[self.triangle_material[triangle as usize] as usize];
         (m.emission, m.double_sided)
+    }
+
+    /// Each light's power and their sum must be f32 numbers, neither 0 nor past the range
+    /// (`labels`: the punctual lights' names, which come first in `lights`; `across`: the
+    /// scene's size in the file's units). Errors name the light and the file `name`.
+    pub(crate) fn check_light_power(
+        &self,
+        name: &str,
+        labels: &[String],
+        across: f64,
+    ) -> anyhow::Result<()> {
+        // Emission of any size renders (the kernels work in normalised units, see
+        // lights::emission_scale), as long as each light's power and their sum are f32 numbers.
+        // The punctual lights come first in self.lights, in labels' order; a light is
+        // named by its glTF index and name (an audit found "a punctual light" in a file of
+        // 20,000 of them).
+        let what = |i: usize, l: &Light| match l {
+            Light::Triangle { triangle } => format!(
+                "material {} of emissive triangle {triangle}",
+                self.triangle_material[*triangle as usize]
+            ),
+            _ => labels
+                .get(i)
+                .cloned()
+                .unwrap_or_else(|| "a punctual light".to_string()),
+        };
+        let mut total = 0f64;
+        for (i, l) in self.lights.iter().enumerate() {
+            let p = self.light_power(l);
+            total += p as f64;
+            if !p.is_finite() {
+                bail!("'{name}': {} emits more power than 32-bit floats hold; lower its emissiveStrength/intensity (the image scales with it)", what(i, l));
+            }
+            // Rescaling (scene_frame) can take a punctual intensity below f32's range, and a
+            // spot's cone can be too narrow for its solid angle to be a float.
+            if p == 0.0 {
+                bail!("'{name}': the power of {} rounds to 0 in 32-bit floats once the scene is brought to the renderer's scale (it is {:.3e} units across); raise its intensity or widen its cone, or scale the scene", what(i, l), across);
+            }
+        }
+        if total <= 0.0 {
+            bail!(
+                "'{name}': its lights' power rounds to 0 in 32-bit floats; raise their intensity"
+            );
+        }
+        if total > f32::MAX as f64 / 16.0 {
+            bail!("'{name}': its lights emit {total:.3e} W in total, more than 32-bit floats can render; lower the emission (the image scales with it)");
+        }
+        Ok(())
     }
 
     /// Total emitted power of a light as luminance (W): what the `power` sampler is
