@@ -102,11 +102,12 @@ fn animated_nodes_move_as_keyed() {
 #[test]
 fn malformed_animations_are_named() {
     let dir = tempfile::tempdir().unwrap();
-    let check = |name: &str, bytes: Vec<u8>, want: &[&str]| {
+    // `animate` of `bytes` (as `name`) at 8×8, 1 spp, with `extra`: its output and folder.
+    let tiny = |name: &str, bytes: Vec<u8>, extra: &[&str]| {
         let path = dir.path().join(name);
         std::fs::write(&path, bytes).unwrap();
         let out = dir.path().join(format!("{name}.out"));
-        let o = run(&[
+        let mut args = vec![
             "animate",
             path.to_str().unwrap(),
             "--out",
@@ -117,7 +118,12 @@ fn malformed_animations_are_named() {
             "8",
             "--height",
             "8",
-        ]);
+        ];
+        args.extend_from_slice(extra);
+        (run(&args), out)
+    };
+    let check = |name: &str, bytes: Vec<u8>, want: &[&str]| {
+        let (o, out) = tiny(name, bytes, &[]);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(1), "{name}: {err}");
         assert_eq!(err.trim().lines().count(), 1, "{name}: one line: {err}");
@@ -182,25 +188,11 @@ fn malformed_animations_are_named() {
     let mut g = moving_light();
     let cam = g.last_node();
     g.animate(cam, "scale", &[0.0, 2.0], &[vec![1.0; 3], vec![0.0; 3]]);
-    let path = dir.path().join("scale0.glb");
-    std::fs::write(&path, g.to_glb()).unwrap();
-    let out = dir.path().join("scale0.out");
-    let o = run(&[
-        "animate",
-        path.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--fps",
-        "1",
-        "--spp",
-        "1",
-        "--width",
-        "8",
-        "--height",
-        "8",
-        "--no-video",
-        "-q",
-    ]);
+    let (o, _) = tiny(
+        "scale0.glb",
+        g.to_glb(),
+        &["--fps", "1", "--no-video", "-q"],
+    );
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     for w in ["frame 2", "t = 2 s", "degenerate", "non-zero scale"] {
