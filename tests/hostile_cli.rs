@@ -239,7 +239,7 @@ fn malformed_gltf_gives_one_line_and_no_panic_text() {
             common::edit_glb(&cornell, |j| {
                 j["nodes"][0]["children"] = serde_json::json!([0]);
             }),
-            &["node 0", "cycle"],
+            &["node 0", "own ancestor"],
         ),
         // Not trees: each was flattened once per path, a coincident copy of the node's
         // triangles and lights (an audit, 2026-12-06).
@@ -264,7 +264,7 @@ fn malformed_gltf_gives_one_line_and_no_panic_text() {
             common::edit_glb(&cornell, |j| {
                 j["scenes"][0]["nodes"] = serde_json::json!([0, 1, 2, 3, 4, 5, 6, 7, 8, 1]);
             }),
-            &["scene 0", "node 1", "twice"],
+            &["scene 0", "node 1", "twice among its root nodes"],
         ),
     ];
     for (name, bytes, wants) in cases {

@@ -168,7 +168,7 @@ fn priors_out_of_range_are_refused_and_in_range_render_finite() {
         // light was missing at 1024 spp, exit 0 (learning/mod.rs MIN_PRIOR_COUNT).
         ("--prior-scale", "1e-10"),
         ("--prior-nonzero", "1e-30"),
-        ("--prior-zero", "0"),
+        ("--prior-zero", "1e-4"),
     ] {
         refused(
             &render("c.gltf", &[flag, value, "--out", "p.exr"], d),

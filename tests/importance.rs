@@ -122,50 +122,68 @@ fn cpu_importance(nd: &LightNode, q: &LightQuery) -> f32 {
 }
 
 /// A spot with innerConeAngle = outerConeAngle (legal glTF: a hard edge) has no falloff
-/// ramp, θ_e = 0 and cos θ_e = 1 (tree.rs LightBounds). Inside its cone cos θ_p is 1, and
-/// the importance had returned 0 when cos θ_p ≤ cos θ_e: every sampler that reads Ĩ
-/// (bayes, the default, wang, donikian, lightbvh) never chose the light, a black image
-/// where `uniform` lit the floor (found by an audit, 2026-12-06). Both implementations.
+/// ramp. Its bounds (tree.rs LightBounds::of) had cos θ_e = 1, and inside its cone cos θ_p is
+/// 1: the importance returned 0 where cos θ_p ≤ cos θ_e, so every sampler that reads Ĩ
+/// (bayes, the default, wang, donikian, lightbvh) never chose the light, a black image where
+/// `uniform` lit the floor (found by an audit, 2026-12-06; the old comparison fails the
+/// first case, tried). A ramp of 1e-4 rad, whose cos θ_e also rounds to 1, must light its
+/// band between the cones too (it passes with the old bounds as well: f32 rounds cos θ_p to
+/// 1 there at these angles). Both implementations, on the bounds the tree builds.
 #[test]
 fn a_hard_edged_spot_lights_its_cone_and_nothing_outside() {
     let ctx = common::ctx();
-    let angle = 0.5f32;
-    // What tree.rs makes of inner = outer = 0.5.
-    let cos_e = (angle.cos().clamp(-1.0, 1.0).acos() - angle.cos().clamp(-1.0, 1.0).acos()).cos();
-    assert_eq!(cos_e, 1.0);
-    let spot = LightNode {
-        bmin: [0.0, 2.0, 0.0],
-        phi: 10.0,
-        bmax: [0.0, 2.0, 0.0],
-        cos_o: angle.cos(),
-        axis: [0.0, -1.0, 0.0],
-        cos_e,
-        right: 0,
-        begin: 0,
-        count: 1,
-        flags: 0,
-    };
-    let query = |x: f32| LightQuery {
-        p: [x, 0.0, 0.0],
-        u: 0.0,
-        n: [0.0, 1.0, 0.0],
-        light: u32::MAX,
-    };
-    // Under the spot, near its edge (0.45 rad off the axis), and outside (0.55 rad).
-    let queries = [
-        query(0.0),
-        query(2.0 * 0.45f32.tan()),
-        query(2.0 * 0.55f32.tan()),
-    ];
-    let gpu = gpu_importance(&ctx, &[spot; 3], &queries);
-    for (i, q) in queries.iter().enumerate() {
-        let cpu = cpu_importance(&spot, q);
-        let lit = i < 2;
-        assert_eq!(
-            (cpu > 0.0, gpu[i] > 0.0),
-            (lit, lit),
-            "query {i}: CPU {cpu}, GPU {}",
-            gpu[i]
+    for (inner, outer) in [(0.5f32, 0.5f32), (0.4999, 0.5)] {
+        let mut g = lightlearn::scene::gltf_write::GltfBuilder::new();
+        let m = g.material("grey", Vec3::splat(0.5), Vec3::ZERO, false);
+        g.cuboid("box", Vec3::ZERO, Vec3::ONE, m);
+        g.spot_light(
+            "spot",
+            Vec3::new(0.5, 3.0, 0.5),
+            Vec3::NEG_Y,
+            Vec3::ONE,
+            10.0,
+            inner,
+            outer,
         );
+        let scene = common::load(&g, "spot");
+        let light = scene.lights[0];
+        let lightlearn::scene::Light::Spot { position, .. } = light else {
+            panic!("the spot is not the first light: {light:?}");
+        };
+        let b = lightlearn::lights::tree::LightBounds::of(&scene, &light);
+        let spot = LightNode {
+            bmin: b.lo.to_array(),
+            phi: b.phi,
+            bmax: b.hi.to_array(),
+            cos_o: b.cos_o,
+            axis: b.axis.to_array(),
+            cos_e: b.cos_e,
+            right: 0,
+            begin: 0,
+            count: 1,
+            flags: 0,
+        };
+        let query = |a: f32| LightQuery {
+            p: (position + Vec3::new(2.0 * a.tan(), -2.0, 0.0)).to_array(),
+            u: 0.0,
+            n: [0.0, 1.0, 0.0],
+            light: u32::MAX,
+        };
+        // On the axis, inside the inner cone, between the cones (lit by the falloff) and
+        // outside the outer one.
+        let angles = [0.0, 0.45, 0.49995, 0.55];
+        let queries: Vec<_> = angles.iter().map(|&a| query(a)).collect();
+        let gpu = gpu_importance(&ctx, &[spot; 4], &queries);
+        for (i, q) in queries.iter().enumerate() {
+            let cpu = cpu_importance(&spot, q);
+            let lit = angles[i] < outer;
+            assert_eq!(
+                (cpu > 0.0, gpu[i] > 0.0),
+                (lit, lit),
+                "cones {inner}/{outer}, {} rad off the axis: CPU {cpu}, GPU {}",
+                angles[i],
+                gpu[i]
+            );
+        }
     }
 }

@@ -223,7 +223,10 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
     let ctx = Context::new(&req.device)?;
     let mut quiet = |_: String| {};
     // Frame 0's tree: the topology every frame refits.
-    let scene0 = anim.scene_at(anim.time(0, req.fps), &mut warn_once(ui))?;
+    let t0 = anim.time(0, req.fps);
+    let scene0 = anim
+        .scene_at(t0, &mut warn_once(ui))
+        .with_context(|| format!("frame 0 (t = {t0} s)"))?;
     let topology = LightTree::build(&scene0);
     ui.message(&format!(
         "{}: {} triangles, {} lights, {} animation channels; frames {first}..={last} at {} fps; device {}",

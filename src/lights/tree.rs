@@ -53,18 +53,32 @@ impl LightBounds {
                 cos_inner,
                 cos_outer,
                 ..
-            } => LightBounds {
-                lo: position,
-                hi: position,
-                phi,
-                axis: direction,
-                // Full intensity up to the inner cone, falling to zero at the outer one.
-                cos_o: cos_inner,
-                cos_e: (cos_outer.clamp(-1.0, 1.0).acos() - cos_inner.clamp(-1.0, 1.0).acos())
-                    .cos(),
-                two_sided: false,
-                area: false,
-            },
+            } => {
+                // Full intensity up to the inner cone, falling to zero at the outer one. A ramp
+                // narrower than 1e-3 rad (inner = outer: a hard edge) is bounded as the whole
+                // outer cone with no spread: its cos θ_e rounds to 1 in f32, and whether the
+                // band between the cones, which `spot_falloff` lights, is then priced 0 would
+                // hang on the rounding of cos θ_p there (a review, 2026-12-06).
+                let (inner, outer) = (
+                    cos_inner.clamp(-1.0, 1.0).acos(),
+                    cos_outer.clamp(-1.0, 1.0).acos(),
+                );
+                let (cos_o, cos_e) = if outer - inner < 1e-3 {
+                    (cos_outer, 1.0)
+                } else {
+                    (cos_inner, (outer - inner).cos())
+                };
+                LightBounds {
+                    lo: position,
+                    hi: position,
+                    phi,
+                    axis: direction,
+                    cos_o,
+                    cos_e,
+                    two_sided: false,
+                    area: false,
+                }
+            }
             Light::Triangle { triangle } => {
                 let [a, b, c] = scene.triangles[triangle as usize];
                 let (_, two) = scene.triangle_emission(triangle);

@@ -36,11 +36,15 @@ impl Frame {
         // at the scene's extent: a sliver (a sphere's pole) also rounds to zero area, and is
         // no news. A node scaled by 1e30 left 2 of 36 triangles and a black image, without
         // a word, before these were counted.
-        // The scene's extent, or the frame's own span where it is larger: `animate` takes
-        // every frame in the frame of all of them, and a light keyed 1e20 away collapsed
-        // frame 0's triangles there without counting them ("has no triangles": an audit,
-        // 2026-12-06). A frame's unit brings its size to 4..8 (scene_frame).
-        let tiny = extent.max(4.0 / self.unit) * 1e-6;
+        // A rescaled frame's span (its unit brings it to 4..8, scene_frame) where that is
+        // larger than the scene's extent: `animate` takes every frame in the frame of all of
+        // them (the review of 2026-12-06: not for unit 1, where it would count slivers).
+        let span = if self.unit == 1.0 {
+            extent
+        } else {
+            extent.max(4.0 / self.unit)
+        };
+        let tiny = span * 1e-6;
         for (i, t) in world.iter().enumerate() {
             let tri = t.map(|p| self.to_local(p));
             if !tri.iter().all(|v| v.is_finite()) {
@@ -51,7 +55,14 @@ impl Frame {
                     .iter()
                     .map(|e| e.length())
                     .fold(0.0, f64::max);
-                if longest > 0.0 && longest < tiny {
+                // Or small beside where it sits in the frame. Either way, a light keyed 1e20
+                // away in `animate` had collapsed frame 0's triangles uncounted ("has no
+                // triangles": an audit, 2026-12-06).
+                let far = tri
+                    .iter()
+                    .map(|v| v.abs().max_element())
+                    .fold(0.0, f32::max) as f64;
+                if longest > 0.0 && (longest < tiny || longest * self.unit < far * 1e-6) {
                     out.collapsed += 1;
                     if emits(i) {
                         out.collapsed_emitters += 1;

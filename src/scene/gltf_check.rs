@@ -147,6 +147,8 @@ fn check_accessor(root: &Root, a: usize, at: &str) -> Result<()> {
 /// flattened once per path to it, a coincident copy of its triangles and lights with exit 0
 /// (an audit, 2026-12-06: the lamp counted twice, 3 lights became 5).
 fn check_node_tree(root: &Root, name: &str) -> Result<()> {
+    // A cycle first, so that one through a root is named as a cycle.
+    check_node_cycles(root, name)?;
     let mut parent: Vec<Option<usize>> = vec![None; root.nodes.len()];
     for (p, node) in root.nodes.iter().enumerate() {
         for c in node.children.as_deref().unwrap_or(&[]) {
@@ -176,7 +178,7 @@ fn check_node_tree(root: &Root, name: &str) -> Result<()> {
             }
         }
     }
-    check_node_cycles(root, name)
+    Ok(())
 }
 
 fn check_node_cycles(root: &Root, name: &str) -> Result<()> {

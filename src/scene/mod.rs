@@ -217,7 +217,7 @@ impl Scene {
             // Rescaling (scene_frame) can take a punctual intensity below f32's range, and a
             // spot's cone can be too narrow for its solid angle to be a float.
             if p == 0.0 {
-                bail!("'{name}': the power of {} rounds to 0 in 32-bit floats once the scene is brought to the renderer's scale (it is {:.3e} units across); raise its intensity or widen its cone, or scale the scene", what(i, l), across);
+                bail!("'{name}': the power of {} rounds to 0 in 32-bit floats once the scene is brought to the renderer's scale (it is {:.3e} units across); {}", what(i, l), across, if matches!(l, Light::Triangle { .. }) { "raise its emission, or scale the scene" } else { "raise its intensity (a spot: or widen its cone), or scale the scene" });
             }
         }
         if total <= 0.0 {
