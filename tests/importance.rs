@@ -128,7 +128,7 @@ fn cpu_importance(nd: &LightNode, q: &LightQuery) -> f32 {
 /// `uniform` lit the floor (found by an audit, 2026-12-06; the old comparison fails the
 /// first case, tried). A ramp of 1e-4 rad, whose cos θ_e also rounds to 1, must light its
 /// band between the cones too (it passes with the old bounds as well: f32 rounds cos θ_p to
-/// 1 there at these angles). Both implementations, on the bounds the tree builds.
+/// 1 there at these angles). Both implementations, on the node the tree builds.
 #[test]
 fn a_hard_edged_spot_lights_its_cone_and_nothing_outside() {
     let ctx = common::ctx();
@@ -150,19 +150,13 @@ fn a_hard_edged_spot_lights_its_cone_and_nothing_outside() {
         let lightlearn::scene::Light::Spot { position, .. } = light else {
             panic!("the spot is not the first light: {light:?}");
         };
-        let b = lightlearn::lights::tree::LightBounds::of(&scene, &light);
-        let spot = LightNode {
-            bmin: b.lo.to_array(),
-            phi: b.phi,
-            bmax: b.hi.to_array(),
-            cos_o: b.cos_o,
-            axis: b.axis.to_array(),
-            cos_e: b.cos_e,
-            right: 0,
-            begin: 0,
-            count: 1,
-            flags: 0,
-        };
+        // The leaf the tree builds for it (LightBounds::of, then the node's flags).
+        let tree = lightlearn::lights::tree::LightTree::build(&scene);
+        let spot = *tree
+            .nodes
+            .iter()
+            .find(|n| n.count == 1 && n.begin == tree.position[0])
+            .expect("a leaf for the spot");
         let query = |a: f32| LightQuery {
             p: (position + Vec3::new(2.0 * a.tan(), -2.0, 0.0)).to_array(),
             u: 0.0,
