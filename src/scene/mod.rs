@@ -185,7 +185,9 @@ impl Scene {
 
     /// Each light's power and their sum must be f32 numbers, neither 0 nor past the range
     /// (`labels`: the punctual lights' names, which come first in `lights`; `across`: the
-    /// scene's size in the file's units). Errors name the light and the file `name`.
+    /// scene's size in the file's units). Errors name the light and the file `name`. The
+    /// caller has refused a scene without lights; powers are ≥ 0 (emission and intensity are
+    /// checked first), so with none of them 0 the sum is not 0 either.
     pub(crate) fn check_light_power(
         &self,
         name: &str,
@@ -219,11 +221,6 @@ impl Scene {
             if p == 0.0 {
                 bail!("'{name}': the power of {} rounds to 0 in 32-bit floats once the scene is brought to the renderer's scale (it is {:.3e} units across); {}", what(i, l), across, if matches!(l, Light::Triangle { .. }) { "raise its emission, or scale the scene" } else { "raise its intensity (a spot: or widen its cone), or scale the scene" });
             }
-        }
-        if total <= 0.0 {
-            bail!(
-                "'{name}': its lights' power rounds to 0 in 32-bit floats; raise their intensity"
-            );
         }
         if total > f32::MAX as f64 / 16.0 {
             bail!("'{name}': its lights emit {total:.3e} W in total, more than 32-bit floats can render; lower the emission (the image scales with it)");
