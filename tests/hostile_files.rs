@@ -395,3 +395,85 @@ fn malformed_mesh_data_is_named() {
         stderr(&o)
     );
 }
+
+/// Buffer layouts glTF does not allow, a perspective node matrix and camera planes that
+/// would hide geometry (an audit, 2026-12-06). With the build before: a byteStride of 13
+/// rendered with exit 0, one of 4 gave "malformed in a way the parser could not report", an
+/// accessor of 2^62 elements was blamed on its first index, the matrix was applied as if
+/// affine, quantized positions were named in Rust's debug spelling, and both camera cases
+/// rendered without a word.
+#[test]
+fn buffer_layouts_matrices_and_camera_planes_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let doc = cornell(d);
+    let prim = &doc["meshes"][0]["primitives"][0];
+    let pos = prim["attributes"]["POSITION"].as_u64().unwrap() as usize;
+    let view = doc["accessors"][pos]["bufferView"].as_u64().unwrap() as usize;
+    let edited = |file: &str, edit: &dyn Fn(&mut Value)| {
+        let mut g = doc.clone();
+        edit(&mut g);
+        write_json(&d.join(file), &g);
+        render(file, &["--out", "o.exr"], d)
+    };
+    for stride in [13u64, 4] {
+        let o = edited("stride.gltf", &|g| {
+            g["bufferViews"][view]["byteStride"] = stride.into()
+        });
+        refused(
+            &o,
+            &[
+                "stride.gltf",
+                &format!("buffer view {view} has byteStride {stride}"),
+                "multiple of 4",
+            ],
+        );
+    }
+    let o = edited("count.gltf", &|g| {
+        g["accessors"][pos]["count"] = (1u64 << 62).into()
+    });
+    refused(
+        &o,
+        &[
+            "count.gltf",
+            &format!("accessor {pos}"),
+            "runs past",
+            "count",
+        ],
+    );
+    let o = edited("quantized.gltf", &|g| {
+        g["accessors"][pos]["componentType"] = 5121.into()
+    });
+    refused(&o, &["quantized.gltf", "VEC3 of UNSIGNED_BYTE", "FLOAT"]);
+    let o = edited("projective.gltf", &|g| {
+        let m = [
+            1., 0., 0., 0., 0., 1., 0., 0., 0., 0., 1., 0.5, 0., 0., 0., 2.,
+        ];
+        g["nodes"][0]["matrix"] = serde_json::json!(m);
+        for k in ["translation", "rotation", "scale"] {
+            g["nodes"][0].as_object_mut().unwrap().remove(k);
+        }
+    });
+    refused(&o, &["projective.gltf", "node 0", "last row", "affine"]);
+    for (znear, zfar, wants) in [
+        (50.0, None, "znear 50 would hide geometry"),
+        (1.0, Some(0.5), "zfar 0.5 ≤ znear 1"),
+    ] {
+        let o = edited("clip.gltf", &|g| {
+            g["cameras"][0]["perspective"]["znear"] = znear.into();
+            if let Some(f) = zfar {
+                g["cameras"][0]["perspective"]["zfar"] = f.into();
+            }
+        });
+        assert!(o.status.success(), "{}", stderr(&o));
+        let e = stderr(&o);
+        assert!(e.contains("warning:") && e.contains(wants), "{e}");
+    }
+    // The file as written says nothing.
+    let o = render("c.gltf", &["--out", "c.exr"], d);
+    assert!(
+        o.status.success() && !stderr(&o).contains("warning"),
+        "{}",
+        stderr(&o)
+    );
+}

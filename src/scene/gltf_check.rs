@@ -54,7 +54,7 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
                     Checked::Valid(GenericComponentType(ComponentType::F32))
                 );
                 if !float || acc.type_ != Checked::Valid(Type::Vec3) || acc.normalized {
-                    bail!("{at}: its POSITION accessor {} is {:?} of {:?}{}, but glTF requires VEC3 of FLOAT; export the mesh again", i.value(), acc.type_, acc.component_type, if acc.normalized { " (normalized)" } else { "" });
+                    bail!("{at}: its POSITION accessor {} is {}{}, but glTF requires VEC3 of FLOAT (quantized positions, KHR_mesh_quantization, are not supported); export the mesh again", i.value(), accessor_kind(acc), if acc.normalized { " (normalized)" } else { "" });
                 }
             }
             if let Some(mat) = &prim.material {
@@ -71,6 +71,7 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
     check_animations(root, name)?;
     check_node_tree(root, name)?;
     check_rotations(root, name)?;
+    check_matrices(root, name)?;
     let mut errors = Vec::new();
     root.validate(root, gltf::json::Path::new, &mut |path, e| {
         errors.push(format!("{}: {e}", path()))
@@ -138,7 +139,77 @@ fn check_accessor(root: &Root, a: usize, at: &str) -> Result<()> {
             root.buffers.len()
         );
     }
+    check_layout(root, a, at)
+}
+
+/// An accessor's elements lie inside its buffer view, and the view inside its buffer, with a
+/// stride glTF allows (2.0 §3.6.2.4, §3.6.3: a multiple of 4 from 4 to 252, at least an
+/// element). The crate reads what it is given: a stride of 13 rendered silently, one smaller
+/// than an element panicked in its reader ("malformed in a way the parser could not
+/// report"), and an accessor of 2^62 elements read as none, blamed on its first index (an
+/// audit, 2026-12-06).
+fn check_layout(root: &Root, a: usize, at: &str) -> Result<()> {
+    let acc = &root.accessors[a];
+    let Some(view) = &acc.buffer_view else {
+        return Ok(());
+    };
+    let v = &root.buffer_views[view.value()];
+    let view_at = format!("buffer view {}", view.value());
+    // Matrices of bytes or shorts pad their columns; unknown enums: the crate's validation.
+    let elem = match (acc.component_type, acc.type_) {
+        (
+            Checked::Valid(c),
+            Checked::Valid(t @ (Type::Scalar | Type::Vec2 | Type::Vec3 | Type::Vec4)),
+        ) => (c.0.size() * t.multiplicity()) as u128,
+        _ => return Ok(()),
+    };
+    if let Some(s) = v.byte_stride {
+        let s = s.0 as u128;
+        if s < elem || !(4..=252).contains(&s) || !s.is_multiple_of(4) {
+            bail!("{at}: {view_at} has byteStride {s}, but glTF requires a multiple of 4 from 4 to 252, and at least accessor {a}'s {elem}-byte elements; export the file again");
+        }
+    }
+    let stride = v.byte_stride.map_or(elem, |s| s.0 as u128);
+    let count = acc.count.0 as u128;
+    let offset = acc.byte_offset.map_or(0, |o| o.0) as u128;
+    let length = v.byte_length.0 as u128;
+    if count > 0 && offset + (count - 1) * stride + elem > length {
+        bail!("{at}: accessor {a} ({count} elements of {elem} bytes, {stride} apart, from byte {offset}) runs past its {view_at}'s {length} bytes; fix the accessor's count or byteOffset, or export the file again");
+    }
+    let buffer = &root.buffers[v.buffer.value()];
+    let end = v.byte_offset.map_or(0, |o| o.0) as u128 + length;
+    if end > buffer.byte_length.0 as u128 {
+        bail!("{at}: {view_at} ends at byte {end}, past the {} bytes of buffer {}; fix its byteOffset or byteLength, or export the file again", buffer.byte_length.0, v.buffer.value());
+    }
     Ok(())
+}
+
+/// "VEC3 of FLOAT": an accessor's type as glTF spells it.
+fn accessor_kind(acc: &gltf::json::Accessor) -> String {
+    let t = match acc.type_ {
+        Checked::Valid(t) => match t {
+            Type::Scalar => "SCALAR",
+            Type::Vec2 => "VEC2",
+            Type::Vec3 => "VEC3",
+            Type::Vec4 => "VEC4",
+            Type::Mat2 => "MAT2",
+            Type::Mat3 => "MAT3",
+            Type::Mat4 => "MAT4",
+        },
+        Checked::Invalid => "an unknown type",
+    };
+    let c = match acc.component_type {
+        Checked::Valid(GenericComponentType(c)) => match c {
+            ComponentType::I8 => "BYTE",
+            ComponentType::U8 => "UNSIGNED_BYTE",
+            ComponentType::I16 => "SHORT",
+            ComponentType::U16 => "UNSIGNED_SHORT",
+            ComponentType::U32 => "UNSIGNED_INT",
+            ComponentType::F32 => "FLOAT",
+        },
+        Checked::Invalid => "an unknown component type",
+    };
+    format!("{t} of {c}")
 }
 
 /// glTF node hierarchies are trees (glTF 2.0 §3.5.3): a node that is its own ancestor is
@@ -226,6 +297,24 @@ fn check_rotations(root: &Root, name: &str) -> Result<()> {
                     "'{name}': node {i} ('{}') has the rotation {:?}, which is not a quaternion (length {len}); use a unit quaternion [x, y, z, w], [0, 0, 0, 1] for none",
                     node.name.as_deref().unwrap_or(""),
                     r.0
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Node matrices are affine, as TRS is (glTF 2.0 §3.5.2): the loader applies a matrix as an
+/// affine map, so a perspective last row was dropped without a word (an audit, 2026-12-06).
+fn check_matrices(root: &Root, name: &str) -> Result<()> {
+    for (i, node) in root.nodes.iter().enumerate() {
+        if let Some(m) = &node.matrix {
+            // Column-major: the last row is elements 3, 7, 11 and 15.
+            let row = [m[3], m[7], m[11], m[15]];
+            if row[..3].iter().any(|c| c.abs() > 1e-6) || (row[3] - 1.0).abs() > 1e-6 {
+                bail!(
+                    "'{name}': node {i} ('{}') has a matrix whose last row is {row:?}, not [0, 0, 0, 1]: glTF node matrices are affine (translation, rotation, scale); export it again",
+                    node.name.as_deref().unwrap_or("")
                 );
             }
         }

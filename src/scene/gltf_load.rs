@@ -21,6 +21,7 @@ use glam::{DMat4, DQuat, DVec3, DVec4, Quat, Vec3};
 use gltf::mesh::Mode;
 
 use super::animation::{Animations, Pose};
+use super::camera_clip::Clip;
 pub use super::frame::{Frame, NATIVE_SIZES};
 use super::gltf_data::{load_buffers, Images};
 use super::gltf_material::material_slot;
@@ -305,6 +306,8 @@ impl Document {
             file: name,
         };
         let mut camera: Option<(DVec3, DVec3, DVec3, f32)> = None;
+        // The camera's znear and zfar in world units, which only a warning reads.
+        let mut clip: Option<Clip> = None;
         // World positions in f64 until the scene's origin is known (below): a scene far from its
         // file's origin (a node translation of 1e7) keeps full f32 precision around itself.
         let mut triangles: Vec<[DVec3; 3]> = Vec::new();
@@ -466,6 +469,13 @@ impl Document {
                             bail!("'{name}': camera {} sits on node {} ('{}') whose transform is degenerate (a scale of 0, or view and up directions parallel), so it has no view direction; give the node a non-zero scale", cam.index(), node.index(), node.name().unwrap_or(""));
                         }
                         camera = Some((position, forward.normalize(), up.normalize(), yfov));
+                        // glTF gives znear and zfar in the camera node's units (§3.10.3).
+                        let scale = forward.length();
+                        clip = Some(Clip {
+                            camera: cam.index(),
+                            near: f64::from(p.znear()) * scale,
+                            far: p.zfar().map(|f| f64::from(f) * scale),
+                        });
                     }
                     gltf::camera::Projection::Orthographic(_) => warn(format!(
                         "'{name}': camera {} is orthographic, which is not supported; ignored",
@@ -544,6 +554,11 @@ impl Document {
             warn(format!(
             "'{name}': {lights_with_range} lights set `range`; lightlearn ignores it (inverse-square falloff only)"
         ));
+        }
+        if let (Some(c), Some((position, forward, _, yfov))) = (&clip, &camera) {
+            if let Some(w) = c.unapplied(name, *position, *forward, *yfov, &triangles) {
+                warn(w);
+            }
         }
         let (lo0, hi0) = super::frame::bounds64(&triangles, &light_positions);
         let frame = frame.unwrap_or_else(|| Frame::of(lo0, hi0));

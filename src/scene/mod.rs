@@ -6,6 +6,7 @@
 
 pub mod animated;
 pub mod animation;
+pub mod camera_clip;
 pub mod families;
 pub mod frame;
 pub mod gltf_check;

@@ -1,0 +1,142 @@
+//! A glTF camera's near and far planes (`znear`, `zfar`). lightlearn's camera rays start at
+//! the camera and end at the first hit, as pbrt-v4's do, so the planes are not applied; where
+//! they would have cut what a viewer shows (Blender's clip start and end export as these),
+//! the load says so instead of rendering a different picture without a word (an audit,
+//! 2026-12-06: znear 50 in a 3-unit room and zfar < znear rendered with exit 0 and silence).
+
+use glam::DVec3;
+
+/// The planes in world units (glTF gives them in the camera node's units, §3.10.3).
+#[derive(Clone, Copy, Debug)]
+pub struct Clip {
+    /// The glTF camera's index.
+    pub camera: usize,
+    pub near: f64,
+    pub far: Option<f64>,
+}
+
+/// The widest film the view cone below allows for: 2:1. A vertex outside the cone of a
+/// film's corner cannot be in view.
+const MAX_ASPECT: f64 = 2.0;
+
+impl Clip {
+    /// A warning where the planes are invalid or would have cut the scene's triangles in
+    /// front of a camera at `position` looking along unit `forward` with vertical field of
+    /// view `yfov`, else None. Near: a vertex in view closer than `near`; far: any vertex in
+    /// front farther than `far` (a large ground's corners are rarely in view, its far parts
+    /// are).
+    pub fn unapplied(
+        &self,
+        name: &str,
+        position: DVec3,
+        forward: DVec3,
+        yfov: f32,
+        triangles: &[[DVec3; 3]],
+    ) -> Option<String> {
+        let c = self.camera;
+        let near = self.near as f32;
+        if let Some(far) = self.far {
+            if far <= self.near {
+                return Some(format!("'{name}': camera {c} has zfar {} ≤ znear {near}, which glTF does not allow; both are ignored (lightlearn does not clip camera rays)", far as f32));
+            }
+        }
+        let t = (f64::from(yfov) * 0.5).tan();
+        let cos_cone = 1.0 / (1.0 + t * t * (1.0 + MAX_ASPECT * MAX_ASPECT)).sqrt();
+        let mut nearest_in_view = f64::INFINITY;
+        let mut farthest = 0.0f64;
+        for v in triangles.iter().flatten() {
+            let d = *v - position;
+            let depth = d.dot(forward);
+            if depth <= 0.0 {
+                continue;
+            }
+            farthest = farthest.max(depth);
+            if depth >= cos_cone * d.length() {
+                nearest_in_view = nearest_in_view.min(depth);
+            }
+        }
+        let mut cut = Vec::new();
+        if nearest_in_view < self.near {
+            cut.push(format!(
+                "its znear {near} would hide geometry {} in front of it",
+                nearest_in_view as f32
+            ));
+        }
+        if let Some(far) = self.far.filter(|f| farthest > *f) {
+            cut.push(format!(
+                "its zfar {} would hide geometry up to {} away",
+                far as f32, farthest as f32
+            ));
+        }
+        (!cut.is_empty()).then(|| {
+            format!(
+                "'{name}': camera {c}: {}; lightlearn does not clip camera rays and renders it (set znear/zfar to match, or ignore this)",
+                cut.join(", and ")
+            )
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn square(z: f64, half: f64) -> Vec<[DVec3; 3]> {
+        let p = |x: f64, y: f64| DVec3::new(x, y, z);
+        vec![
+            [p(-half, -half), p(half, -half), p(half, half)],
+            [p(-half, -half), p(half, half), p(-half, half)],
+        ]
+    }
+
+    fn warns(clip: Clip, tris: &[[DVec3; 3]]) -> Option<String> {
+        // A camera at the origin looking down −z, 60° vertical field of view.
+        clip.unapplied("s", DVec3::ZERO, DVec3::NEG_Z, 1.047, tris)
+    }
+
+    #[test]
+    fn planes_that_cut_nothing_in_view_say_nothing() {
+        let wall = square(-3.0, 1.0);
+        let clip = |near, far| Clip {
+            camera: 0,
+            near,
+            far,
+        };
+        assert_eq!(warns(clip(0.1, Some(100.0)), &wall), None);
+        assert_eq!(warns(clip(0.1, None), &wall), None);
+        // A floor under the camera reaches behind it: its vertices are far or out of view.
+        let floor = vec![[
+            DVec3::new(-5.0, -0.01, 5.0),
+            DVec3::new(5.0, -0.01, 5.0),
+            DVec3::new(0.0, -0.01, -5.0),
+        ]];
+        assert_eq!(warns(clip(0.1, Some(100.0)), &floor), None);
+    }
+
+    #[test]
+    fn planes_that_would_hide_geometry_are_named() {
+        let wall = square(-3.0, 1.0);
+        let near = |near| Clip {
+            camera: 2,
+            near,
+            far: None,
+        };
+        let w = warns(near(5.0), &wall).unwrap();
+        assert!(w.contains("camera 2") && w.contains("znear 5"), "{w}");
+        let far = Clip {
+            camera: 0,
+            near: 0.1,
+            far: Some(2.0),
+        };
+        let w = warns(far, &wall).unwrap();
+        assert!(w.contains("zfar 2") && w.contains("up to 3"), "{w}");
+        let inverted = Clip {
+            camera: 0,
+            near: 1.0,
+            far: Some(0.5),
+        };
+        assert!(warns(inverted, &wall)
+            .unwrap()
+            .contains("zfar 0.5 ≤ znear 1"));
+    }
+}
