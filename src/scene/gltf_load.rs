@@ -21,8 +21,8 @@ use glam::{DMat4, DQuat, DVec3, DVec4, Quat, Vec3};
 use gltf::mesh::Mode;
 
 use super::animation::{Animations, Pose};
-use super::camera_clip::Clip;
 pub use super::frame::{Frame, NATIVE_SIZES};
+use super::gltf_camera::{read_camera, Clip, View};
 use super::gltf_data::{load_buffers, Images};
 use super::gltf_material::material_slot;
 use super::{Camera, Light, Material, Scene};
@@ -305,7 +305,7 @@ impl Document {
             base,
             file: name,
         };
-        let mut camera: Option<(DVec3, DVec3, DVec3, f32)> = None;
+        let mut camera: Option<View> = None;
         // The camera's znear and zfar in world units, which only a warning reads.
         let mut clip: Option<Clip> = None;
         // World positions in f64 until the scene's origin is known (below): a scene far from its
@@ -451,36 +451,9 @@ impl Document {
 
         if camera.is_none() {
             if let Some(cam) = node.camera() {
-                match cam.projection() {
-                    gltf::camera::Projection::Perspective(p) => {
-                        let position = world.transform_point3(DVec3::ZERO);
-                        let forward = (world * DVec4::new(0.0, 0.0, -1.0, 0.0)).truncate();
-                        let up = (world * DVec4::new(0.0, 1.0, 0.0, 0.0)).truncate();
-                        let yfov = p.yfov();
-                        if !(yfov > 1e-4 && yfov < std::f32::consts::PI - 1e-4) {
-                            bail!("'{name}': camera {} has an invalid yfov ({yfov}); use 1e-4 < yfov < π − 1e-4 radians", cam.index());
-                        }
-                        // One message for both had blamed a valid yfov for a node scaled to 0
-                        // (an audit, 2026-12-06).
-                        if forward.length_squared() == 0.0
-                            || up.length_squared() == 0.0
-                            || forward.normalize().cross(up.normalize()).length_squared() < 1e-12
-                        {
-                            bail!("'{name}': camera {} sits on node {} ('{}') whose transform is degenerate (a scale of 0, or view and up directions parallel), so it has no view direction; give the node a non-zero scale", cam.index(), node.index(), node.name().unwrap_or(""));
-                        }
-                        camera = Some((position, forward.normalize(), up.normalize(), yfov));
-                        // glTF gives znear and zfar in the camera node's units (§3.10.3).
-                        let scale = forward.length();
-                        clip = Some(Clip {
-                            camera: cam.index(),
-                            near: f64::from(p.znear()) * scale,
-                            far: p.zfar().map(|f| f64::from(f) * scale),
-                        });
-                    }
-                    gltf::camera::Projection::Orthographic(_) => warn(format!(
-                        "'{name}': camera {} is orthographic, which is not supported; ignored",
-                        cam.index()
-                    )),
+                if let Some((view, planes)) = read_camera(&cam, node, world, name, warn)? {
+                    camera = Some(view);
+                    clip = Some(planes);
                 }
             }
         }

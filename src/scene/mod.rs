@@ -6,9 +6,9 @@
 
 pub mod animated;
 pub mod animation;
-pub mod camera_clip;
 pub mod families;
 pub mod frame;
+pub mod gltf_camera;
 pub mod gltf_check;
 mod gltf_data;
 pub use gltf_data::percent_decode;

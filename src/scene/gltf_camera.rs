@@ -1,12 +1,69 @@
-//! A glTF camera's near and far planes (`znear`, `zfar`). lightlearn's camera rays start at
+//! A glTF camera: the view of its node, and its near and far planes (`znear`, `zfar`).
+//!
+//! lightlearn's camera rays start at
 //! the camera and end at the first hit, as pbrt-v4's do, so the planes are not applied; where
 //! they would have cut what a viewer shows (Blender's clip start and end export as these),
 //! the load says so instead of rendering a different picture without a word (an audit,
 //! 2026-12-06: znear 50 in a 3-unit room and zfar < znear rendered with exit 0 and silence).
 
-use glam::DVec3;
+use anyhow::{bail, Result};
+use glam::{DMat4, DVec3, DVec4};
 
-/// The planes in world units (glTF gives them in the camera node's units, §3.10.3).
+/// A perspective camera's position, unit view and up directions (world, f64) and vertical
+/// field of view in radians.
+pub type View = (DVec3, DVec3, DVec3, f32);
+
+/// The view and planes of the camera `cam` on `node` with world transform `world`; None
+/// (with a warning) for an orthographic camera, which is not supported.
+pub fn read_camera(
+    cam: &gltf::Camera,
+    node: &gltf::Node,
+    world: DMat4,
+    name: &str,
+    warn: &mut dyn FnMut(String),
+) -> Result<Option<(View, Clip)>> {
+    let p = match cam.projection() {
+        gltf::camera::Projection::Perspective(p) => p,
+        gltf::camera::Projection::Orthographic(_) => {
+            warn(format!(
+                "'{name}': camera {} is orthographic, which is not supported; ignored",
+                cam.index()
+            ));
+            return Ok(None);
+        }
+    };
+    let position = world.transform_point3(DVec3::ZERO);
+    let forward = (world * DVec4::new(0.0, 0.0, -1.0, 0.0)).truncate();
+    let up = (world * DVec4::new(0.0, 1.0, 0.0, 0.0)).truncate();
+    let yfov = p.yfov();
+    if !(yfov > 1e-4 && yfov < std::f32::consts::PI - 1e-4) {
+        bail!(
+            "'{name}': camera {} has an invalid yfov ({yfov}); use 1e-4 < yfov < π − 1e-4 radians",
+            cam.index()
+        );
+    }
+    // One message for both had blamed a valid yfov for a node scaled to 0 (an audit,
+    // 2026-12-06).
+    if forward.length_squared() == 0.0
+        || up.length_squared() == 0.0
+        || forward.normalize().cross(up.normalize()).length_squared() < 1e-12
+    {
+        bail!("'{name}': camera {} sits on node {} ('{}') whose transform is degenerate (a scale of 0, or view and up directions parallel), so it has no view direction; give the node a non-zero scale", cam.index(), node.index(), node.name().unwrap_or(""));
+    }
+    // glTF gives znear and zfar in the camera node's units (§3.10.3).
+    let scale = forward.length();
+    let clip = Clip {
+        camera: cam.index(),
+        near: f64::from(p.znear()) * scale,
+        far: p.zfar().map(|f| f64::from(f) * scale),
+    };
+    Ok(Some((
+        (position, forward.normalize(), up.normalize(), yfov),
+        clip,
+    )))
+}
+
+/// The planes in world units.
 #[derive(Clone, Copy, Debug)]
 pub struct Clip {
     /// The glTF camera's index.
