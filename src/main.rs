@@ -19,7 +19,9 @@ use lightlearn::gpu::Context;
 fn main() -> ExitCode {
     let cli = Cli::parse();
     // First Ctrl-C during a render: finish the current batch and write what is done; a
-    // second one, or one at any other time (loading, building, writing): quit now.
+    // second one, or one at any other time (loading, building, writing): quit now. SIGTERM
+    // and SIGHUP too (ctrlc's `termination`): `timeout`, `kill`, a CI job's or a closed
+    // terminal's stop had lost every sample of a long render.
     let _ = ctrlc::set_handler(|| {
         if lightlearn::interrupt::requested() || !lightlearn::interrupt::active() {
             std::process::exit(130);

@@ -527,6 +527,18 @@ fn bench_rays_checks_its_arguments() {
 
 #[test]
 fn ctrl_c_writes_the_samples_so_far() {
+    interrupted_render_writes_the_samples_so_far("INT");
+}
+
+/// `timeout`, `kill` and a CI job's stop send SIGTERM: with the build before it ended the
+/// render at once (killed by the signal, nothing written: tried), as a closed terminal's
+/// SIGHUP did.
+#[test]
+fn sigterm_writes_the_samples_so_far() {
+    interrupted_render_writes_the_samples_so_far("TERM");
+}
+
+fn interrupted_render_writes_the_samples_so_far(signal: &str) {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let mut child = Command::new(common::exe())
@@ -558,7 +570,7 @@ fn ctrl_c_writes_the_samples_so_far() {
     std::thread::sleep(Duration::from_millis(3000));
     let t = Instant::now();
     let kill = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
+        .args([&format!("-{signal}"), &child.id().to_string()])
         .status()
         .unwrap();
     assert!(kill.success());
