@@ -134,7 +134,7 @@ fn cmd_render(a: RenderArgs) -> Result<()> {
     let o = commands::render::run(&a.request()?, &mut ui)?;
     if o.interrupted {
         bail!(
-            "interrupted (Ctrl-C) after {} spp; wrote the image so far to {} (+ .png, .json{})",
+            "interrupted (Ctrl-C or a stop signal) after {} spp; wrote the image so far to {} (+ .png, .json{})",
             o.spp,
             o.exr.display(),
             if o.wrote_stats { ", statistics" } else { "" }
@@ -181,7 +181,7 @@ fn cmd_animate(a: AnimateArgs) -> Result<()> {
     );
     if o.interrupted {
         bail!(
-            "interrupted (Ctrl-C) in frame {}; wrote {frames} frames (the last one partial) and animation.json to {}",
+            "interrupted (Ctrl-C or a stop signal) in frame {}; wrote {frames} frames (the last one partial) and animation.json to {}",
             o.frames.last().map_or(0, |f| f.frame),
             a.out.display()
         );

@@ -122,7 +122,7 @@ pub fn run(
     };
     let references = animate::run(&reference_req, ui)?;
     if references.interrupted {
-        bail!("interrupted (Ctrl-C) while rendering the references; nothing compared");
+        bail!("interrupted (Ctrl-C or a stop signal) while rendering the references; nothing compared");
     }
     let mut results = Vec::new();
     for v in variants {
@@ -136,7 +136,7 @@ pub fn run(
         let o = animate::run(&vreq, ui)?;
         if o.interrupted {
             bail!(
-                "interrupted (Ctrl-C) in variant {}; no report written",
+                "interrupted (Ctrl-C or a stop signal) in variant {}; no report written",
                 v.name()
             );
         }

@@ -178,7 +178,7 @@ pub fn compare(
         )?;
         if result.interrupted {
             bail!(
-                "interrupted (Ctrl-C) while rendering {}; the comparison wrote nothing",
+                "interrupted (Ctrl-C or a stop signal) while rendering {}; the comparison wrote nothing",
                 sampler.name()
             );
         }

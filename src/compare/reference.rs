@@ -177,7 +177,7 @@ fn render_image(
     let result = render::render(ctx, scene, gpu, settings, progress)?;
     if result.interrupted {
         bail!(
-            "interrupted (Ctrl-C) after {} spp; the reference was not written or cached",
+            "interrupted (Ctrl-C or a stop signal) after {} spp; the reference was not written or cached",
             result.spp
         );
     }
