@@ -477,3 +477,69 @@ fn buffer_layouts_matrices_and_camera_planes_are_named() {
         stderr(&o)
     );
 }
+
+/// What lightlearn renders without is said (an audit, 2026-12-06; each rendered with exit 0
+/// and silence with the build before: tried): an extension it does not read, a material that
+/// is not opaque, a skinned node, morph targets with weights. Required extensions it does not
+/// read are refused.
+#[test]
+fn features_rendered_without_are_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let doc = cornell(d);
+    let warned = |file: &str, edit: &dyn Fn(&mut Value), wants: &[&str]| {
+        let mut g = doc.clone();
+        edit(&mut g);
+        write_json(&d.join(file), &g);
+        let o = render(file, &["--out", "o.exr"], d);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let e = stderr(&o);
+        assert!(
+            e.contains("warning:") && wants.iter().all(|w| e.contains(w)),
+            "{e}"
+        );
+    };
+    warned(
+        "glass.gltf",
+        &|g| {
+            g["extensionsUsed"] = serde_json::json!(["KHR_materials_transmission"]);
+            g["materials"][0]["extensions"] =
+                serde_json::json!({"KHR_materials_transmission": {"transmissionFactor": 1.0}});
+        },
+        &["KHR_materials_transmission", "does not read"],
+    );
+    warned(
+        "cutout.gltf",
+        &|g| g["materials"][0]["alphaMode"] = "MASK".into(),
+        &["material 0", "alphaMode MASK", "opaque"],
+    );
+    warned(
+        "skinned.gltf",
+        &|g| {
+            g["skins"] = serde_json::json!([{"joints": [0]}]);
+            g["nodes"][0]["skin"] = 0.into();
+        },
+        &["node 0", "skinned", "bind pose"],
+    );
+    warned(
+        "morph.gltf",
+        &|g| {
+            let pos = g["meshes"][0]["primitives"][0]["attributes"]["POSITION"].clone();
+            g["meshes"][0]["primitives"][0]["targets"] = serde_json::json!([{"POSITION": pos}]);
+            g["meshes"][0]["weights"] = serde_json::json!([0.5]);
+        },
+        &["node 0", "morph-target weights"],
+    );
+    let mut draco = doc.clone();
+    draco["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);
+    draco["extensionsRequired"] = serde_json::json!(["KHR_draco_mesh_compression"]);
+    write_json(&d.join("draco.gltf"), &draco);
+    refused(
+        &render("draco.gltf", &["--out", "d.exr"], d),
+        &[
+            "draco.gltf",
+            "KHR_draco_mesh_compression",
+            "Unsupported extension",
+        ],
+    );
+}

@@ -332,3 +332,56 @@ pub fn rotation_is_unit(r: [f32; 4]) -> bool {
 pub fn rotation_length(r: [f32; 4]) -> f32 {
     r.iter().map(|c| c * c).sum::<f32>().sqrt()
 }
+
+/// The glTF extensions the loader reads; every other one a file uses is ignored.
+pub const SUPPORTED_EXTENSIONS: [&str; 3] = [
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_specular",
+];
+
+/// Warnings for what a file uses that lightlearn renders without: extensions it does not
+/// read, materials that are not opaque, skins and morph targets (an audit, 2026-12-06:
+/// each rendered a different picture with exit 0 and silence: cutout leaves as solid quads,
+/// glass as an opaque surface, a posed character in its bind pose). Required extensions are
+/// refused by the crate's validation.
+pub fn unsupported_features(doc: &gltf::Document, name: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let ignored: Vec<&str> = doc
+        .extensions_used()
+        .filter(|e| !SUPPORTED_EXTENSIONS.contains(e))
+        .collect();
+    if !ignored.is_empty() {
+        out.push(format!(
+            "'{name}' uses {}, which lightlearn does not read; it renders without {} (read: {})",
+            ignored.join(", "),
+            if ignored.len() > 1 { "them" } else { "it" },
+            SUPPORTED_EXTENSIONS.join(", ")
+        ));
+    }
+    for m in doc.materials() {
+        let mode = match m.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => continue,
+            gltf::material::AlphaMode::Mask => "MASK",
+            gltf::material::AlphaMode::Blend => "BLEND",
+        };
+        out.push(format!(
+            "'{name}': material {} ('{}') has alphaMode {mode}; lightlearn renders it opaque (no cutouts or transparency)",
+            m.index().unwrap_or(0),
+            m.name().unwrap_or("")
+        ));
+    }
+    for node in doc.nodes() {
+        let Some(mesh) = node.mesh() else { continue };
+        let label = format!("node {} ('{}')", node.index(), node.name().unwrap_or(""));
+        if node.skin().is_some() {
+            out.push(format!("'{name}': {label} is skinned; lightlearn renders its mesh as stored (the bind pose), without the skin"));
+        }
+        let morphs = mesh.primitives().any(|p| p.morph_targets().len() > 0);
+        let weights = node.weights().or(mesh.weights()).unwrap_or(&[]);
+        if morphs && weights.iter().any(|w| *w != 0.0) {
+            out.push(format!("'{name}': {label} has morph-target weights {weights:?}; lightlearn renders its mesh without morph targets"));
+        }
+    }
+    out
+}

@@ -80,6 +80,9 @@ pub fn open_bytes(
             )
         })?;
         super::gltf_check::check(gltf.as_json(), name)?;
+        for w in super::gltf_check::unsupported_features(&gltf.document, name) {
+            warn(w);
+        }
         for node in gltf.document.nodes() {
             if let gltf::scene::Transform::Decomposed { rotation, .. } = node.transform() {
                 if !super::gltf_check::rotation_is_unit(rotation) {
