@@ -25,6 +25,48 @@ pub fn temp_path(p: &Path) -> PathBuf {
     p.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
 }
 
+/// Removes the temporaries of `p` that a killed process left (`render --checkpoint`: a
+/// SIGKILL during a write leaves them, the outputs themselves whole): those named by
+/// [`temp_path`], and the second names of [`commit_all`], for a process id that no longer
+/// runs. Only where /proc tells which do.
+pub fn remove_stale_temps(p: &Path) {
+    let ours = temp_path(p);
+    let Some(ours) = ours.file_name().and_then(|n| n.to_str()) else {
+        return;
+    };
+    let pid = std::process::id().to_string();
+    let Some(prefix) = ours.strip_suffix(&format!("{pid}.tmp")) else {
+        return;
+    };
+    let dir = match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let name = e.file_name();
+        let Some(other) = name
+            .to_str()
+            .and_then(|n| n.strip_prefix(prefix))
+            .and_then(|n| n.strip_suffix(".tmp").or_else(|| n.strip_suffix(".old")))
+        else {
+            continue;
+        };
+        let dead = !other.is_empty()
+            && other.bytes().all(|b| b.is_ascii_digit())
+            && other != pid
+            && !Path::new("/proc").join(other).exists();
+        if dead {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+}
+
 /// Fails early, before any work, when `p`'s folder does not exist.
 pub fn check_parent(p: &Path) -> Result<()> {
     let dir = match p.parent() {
@@ -71,6 +113,7 @@ pub fn write_atomic(p: &Path, bytes: &[u8]) -> Result<()> {
 
 /// Lets `write` fill a temporary file, then renames it to `p`; removes it on failure.
 pub fn write_atomic_with(p: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    remove_stale_temps(p);
     let tmp = temp_path(p);
     let result = write(&tmp)
         .and_then(|_| Ok(std::fs::rename(&tmp, p)?))
@@ -266,6 +309,7 @@ impl FileSet {
         target: &Path,
         write: impl FnOnce(&Path) -> Result<()>,
     ) -> Result<()> {
+        remove_stale_temps(target);
         let tmp = temp_path(target);
         self.files.push((target.to_path_buf(), tmp.clone()));
         write(&tmp).with_context(|| format!("cannot write '{}'", target.display()))
@@ -287,5 +331,34 @@ impl Drop for FileSet {
         for (_, tmp) in &self.files {
             let _ = std::fs::remove_file(tmp);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A dead process's temporaries and second names of a target go; a live process's (pid 1,
+    /// this one), another target's and other files stay. Without the cleanup every name stays.
+    #[test]
+    fn stale_temporaries_of_dead_processes_are_removed() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let me = std::process::id();
+        let names = [
+            ".a.exr.999999999.tmp",
+            ".a.exr.999999999.old",
+            ".a.exr.1.tmp",
+            &format!(".a.exr.{me}.tmp"),
+            ".b.exr.999999999.tmp",
+            ".a.exr.x9.tmp",
+            "a.exr",
+        ];
+        for n in names {
+            std::fs::write(d.join(n), b"x").unwrap();
+        }
+        remove_stale_temps(&d.join("a.exr"));
+        let left: Vec<bool> = names.iter().map(|n| d.join(n).exists()).collect();
+        assert_eq!(left, [false, false, true, true, true, true, true]);
     }
 }

@@ -244,3 +244,75 @@ fn chunks_from_one_start_count_it_once() {
         total(&m)
     );
 }
+
+/// `render --checkpoint`: a render killed without warning (SIGKILL: no handler runs) keeps
+/// the image of its last checkpoint, whole and marked as one, and `merge` finishes it with a
+/// render of another seed; checkpoints leave the finished image's bytes as they were. With
+/// the build before, a killed render left nothing (and `--checkpoint` did not exist).
+#[test]
+fn a_killed_render_keeps_its_last_checkpoint_and_merges() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut child = Command::new(common::exe())
+        .args([
+            "render",
+            "--width",
+            "24",
+            "--height",
+            "16",
+            "--max-depth",
+            "2",
+            "-q",
+            "--seed",
+            "1",
+            "--time",
+            "120",
+            "--checkpoint",
+            "0.2",
+            "--out",
+            "a.exr",
+        ])
+        .current_dir(d)
+        .spawn()
+        .unwrap();
+    let t = std::time::Instant::now();
+    while !d.join("a.json").exists() {
+        assert!(t.elapsed().as_secs() < 60, "no checkpoint within 60 s");
+        std::thread::sleep(std::time::Duration::from_millis(100));
+    }
+    // One more checkpoint's time, so that the kill may land during a write.
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    child.kill().unwrap();
+    child.wait().unwrap();
+    // What survived, kept apart: the next render to a.exr replaces it, and removes the
+    // temporaries the kill may have left in the middle of a write.
+    for ext in ["exr", "json"] {
+        std::fs::copy(d.join(format!("a.{ext}")), d.join(format!("k.{ext}"))).unwrap();
+    }
+    part(d, "a.exr", "4", "1", &[]);
+    let files = common::files(d);
+    assert!(
+        !files
+            .iter()
+            .any(|f| f.ends_with(".tmp") || f.ends_with(".old")),
+        "{files:?}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("k.json")).unwrap()).unwrap();
+    assert_eq!(report["checkpoint"], true, "{report}");
+    let spp = report["spp"].as_u64().unwrap();
+    assert!(spp >= 1, "{report}");
+    let (w, h, a) = lightlearn::film::read_exr(&d.join("k.exr")).unwrap();
+    assert_eq!((w, h), (24, 16));
+    assert!(a.iter().flatten().all(|v| v.is_finite()) && a.iter().flatten().any(|&v| v > 0.0));
+    part(d, "b.exr", "2", "4", &[]);
+    ok(&run(&["merge", "k.exr", "b.exr", "--out", "m.exr"], d));
+    let merged: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("m.json")).unwrap()).unwrap();
+    assert_eq!(merged["spp"].as_u64().unwrap(), spp + 4, "{merged}");
+    // Checkpoints after every batch leave the final image's bytes alone.
+    part(d, "c.exr", "3", "24", &["--checkpoint", "0"]);
+    part(d, "e.exr", "3", "24", &["--checkpoint", "0.001"]);
+    let bytes = |n: &str| std::fs::read(d.join(n)).unwrap();
+    assert!(bytes("c.exr") == bytes("e.exr"));
+}

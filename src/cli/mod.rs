@@ -228,6 +228,12 @@ pub struct RenderArgs {
     /// Create the --out file's folder when it is missing (farm tasks write into new folders).
     #[arg(long)]
     pub mkdir: bool,
+    /// Every SECONDS of rendering, write the image so far (EXR, PNG, JSON with
+    /// "checkpoint": true, and --save-stats; each file replaced whole), so a render that is
+    /// killed or loses its machine keeps its samples (`merge` combines them with a render of
+    /// another seed); the final outputs replace them. 0: none.
+    #[arg(long, default_value_t = 300.0, value_name = "SECONDS")]
+    pub checkpoint: f64,
     #[command(flatten)]
     pub device: DeviceArgs,
 }
@@ -401,6 +407,7 @@ impl RenderArgs {
             stratify: self.stratify,
             regions: self.regions.settings()?,
             learn: self.learn.settings()?,
+            checkpoint_seconds: self.checkpoint,
             save_stats: self.save_stats.clone(),
             load_stats: self.load_stats.clone(),
             force: self.force,

@@ -48,6 +48,8 @@ pub struct RenderRequest {
     /// folder is an error (a typo must not scatter files).
     pub mkdir: bool,
     pub device: ContextOptions,
+    /// `--checkpoint`: seconds of rendering between writes of the image so far (0: none).
+    pub checkpoint_seconds: f64,
 }
 
 /// What a finished (or interrupted) render wrote.
@@ -77,6 +79,12 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
     let started = Instant::now();
     if let Some(n) = req.spp {
         super::check_spp("--spp", n)?;
+    }
+    if !(req.checkpoint_seconds.is_finite() && req.checkpoint_seconds >= 0.0) {
+        bail!(
+            "--checkpoint {} is out of range: use seconds of rendering between writes of the image so far, 0 for none",
+            req.checkpoint_seconds
+        );
     }
     let budget = match (req.spp, req.seconds) {
         (Some(n), _) => Budget::Samples(n),
@@ -160,28 +168,51 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
     }
     let mut session = render::Session::new(&ctx, &scene, &gpu, &settings)?;
     session.skip_passes(skip)?;
-    let result = render::run_session(
-        &mut session,
-        settings.budget,
-        &render::Checkpoints::None,
-        &mut |_| Ok(()),
-        &mut |spp, f| ui.progress("render", spp, f),
-    )?;
+    // Every output of the render as it stands: at each checkpoint, and at the end.
+    let write = |result: &render::RenderResult, checkpoint: bool| -> Result<bool> {
+        let image = result.mean();
+        let mut report = render::report_json(&scene, &settings, result, &ctx.describe());
+        report["bvh_build_seconds"] = json!(build_seconds);
+        report["light_tree_build_seconds"] = json!(gpu.light_tree_seconds);
+        report["total_seconds"] = json!(started.elapsed().as_secs_f64());
+        if checkpoint {
+            report["checkpoint"] = json!(true);
+        }
+        let stats = match (&req.save_stats, &result.learned) {
+            (Some(p), Some(l)) => vec![(p.as_path(), l.saved.to_bytes())],
+            _ => Vec::new(),
+        };
+        let extra: Vec<(&std::path::Path, &[u8])> =
+            stats.iter().map(|(p, b)| (*p, b.as_slice())).collect();
+        film::write_outputs_with(&paths, req.width, req.height, &image, &report, &extra)?;
+        Ok(!extra.is_empty())
+    };
+    let every = req.checkpoint_seconds;
+    let mut next = if every > 0.0 { every } else { f64::INFINITY };
+    let result = loop {
+        let result = render::run_session_until(
+            &mut session,
+            settings.budget,
+            next,
+            &render::Checkpoints::None,
+            &mut |_| Ok(()),
+            &mut |spp, f| ui.progress("render", spp, f),
+        )?;
+        let finished = match settings.budget {
+            Budget::Samples(n) => session.spp() >= n,
+            Budget::Seconds(t) => session.film_seconds() >= t,
+        };
+        if result.interrupted || finished {
+            break result;
+        }
+        // What an interrupted render would write, so that a render that is killed or loses
+        // its machine keeps its samples; the final outputs replace these.
+        write(&result, true)?;
+        next = session.film_seconds() + every;
+    };
     drop(session);
     ui.phase_done();
-
-    let image = result.mean();
-    let mut report = render::report_json(&scene, &settings, &result, &ctx.describe());
-    report["bvh_build_seconds"] = json!(build_seconds);
-    report["light_tree_build_seconds"] = json!(gpu.light_tree_seconds);
-    report["total_seconds"] = json!(started.elapsed().as_secs_f64());
-    let stats = match (&req.save_stats, &result.learned) {
-        (Some(p), Some(l)) => vec![(p.as_path(), l.saved.to_bytes())],
-        _ => Vec::new(),
-    };
-    let extra: Vec<(&std::path::Path, &[u8])> =
-        stats.iter().map(|(p, b)| (*p, b.as_slice())).collect();
-    film::write_outputs_with(&paths, req.width, req.height, &image, &report, &extra)?;
+    let wrote_stats = write(&result, false)?;
     if result.invalid_samples > 0 {
         ui.message(&format!(
             "warning: {} samples were NaN/Inf and were dropped; please report this scene",
@@ -196,7 +227,7 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         msamples_per_second: samples / result.render_seconds.max(1e-9) / 1e6,
         invalid_samples: result.invalid_samples,
         interrupted: result.interrupted,
-        wrote_stats: !extra.is_empty(),
+        wrote_stats,
     })
 }
 

@@ -366,6 +366,28 @@ pub fn run_session(
     on_checkpoint: &mut dyn FnMut(Checkpoint) -> Result<()>,
     progress: &mut dyn FnMut(u32, f64),
 ) -> Result<RenderResult> {
+    run_session_until(
+        session,
+        budget,
+        f64::INFINITY,
+        checkpoints,
+        on_checkpoint,
+        progress,
+    )
+}
+
+/// [`run_session`] that also returns (not interrupted) once the film's render clock reaches
+/// `until` seconds, its batches aimed not to pass it, so that the caller can write the image
+/// so far and call again (`render --checkpoint`). The passes are those of one call: growth
+/// points and learning windows follow the pass counter, not the batches.
+pub fn run_session_until(
+    session: &mut Session,
+    budget: Budget,
+    until: f64,
+    checkpoints: &Checkpoints,
+    on_checkpoint: &mut dyn FnMut(Checkpoint) -> Result<()>,
+    progress: &mut dyn FnMut(u32, f64),
+) -> Result<RenderResult> {
     let _active = crate::interrupt::Active::begin();
     // Checkpoints still ahead, as (seconds, spp) limits; one of the two is infinite.
     let mut pending: std::collections::VecDeque<(f64, u32)> = match checkpoints {
@@ -416,10 +438,13 @@ pub fn run_session(
             interrupted = true;
             break;
         }
+        if elapsed >= until {
+            break;
+        }
         // Aim the next batch at PASS_BATCH_SECONDS, and never past the next time checkpoint
         // or a time budget's end.
         let per_pass = dt / k as f64;
-        let mut target = PASS_BATCH_SECONDS;
+        let mut target = PASS_BATCH_SECONDS.min(until - elapsed);
         if let Budget::Seconds(s) = budget {
             target = target.min(s - elapsed);
         }
