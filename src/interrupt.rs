@@ -2,7 +2,7 @@
 //! it is in, stops, and says so in its result, so the samples taken so far are written
 //! instead of lost. The library installs no handler itself (`main.rs` does).
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 static REQUESTED: AtomicBool = AtomicBool::new(false);
 
@@ -11,7 +11,9 @@ pub fn request() {
     REQUESTED.store(true, Ordering::SeqCst);
 }
 
-static ACTIVE: AtomicBool = AtomicBool::new(false);
+/// How many [`Active`] guards live (they nest: `render --checkpoint` holds one across its
+/// pass loops and the checkpoints' writes between them, each pass loop one more).
+static ACTIVE: AtomicUsize = AtomicUsize::new(0);
 
 /// Marks a pass loop as running while the guard lives: only then can a stop be honoured
 /// after the current batch (elsewhere a Ctrl-C should end the program at once).
@@ -19,20 +21,20 @@ pub struct Active;
 
 impl Active {
     pub fn begin() -> Active {
-        ACTIVE.store(true, Ordering::SeqCst);
+        ACTIVE.fetch_add(1, Ordering::SeqCst);
         Active
     }
 }
 
 impl Drop for Active {
     fn drop(&mut self) {
-        ACTIVE.store(false, Ordering::SeqCst);
+        ACTIVE.fetch_sub(1, Ordering::SeqCst);
     }
 }
 
 /// Whether a pass loop is running.
 pub fn active() -> bool {
-    ACTIVE.load(Ordering::SeqCst)
+    ACTIVE.load(Ordering::SeqCst) > 0
 }
 
 /// Whether a stop was asked for.

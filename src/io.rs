@@ -27,9 +27,12 @@ pub fn temp_path(p: &Path) -> PathBuf {
 
 /// Removes the temporaries of `p` that a killed process left (`render --checkpoint`: a
 /// SIGKILL during a write leaves them, the outputs themselves whole): those named by
-/// [`temp_path`], and the second names of [`commit_all`], for a process id that no longer
-/// runs. Only where /proc tells which do.
+/// [`temp_path`] for a process id that no longer runs here, untouched for 10 minutes (a
+/// writer on another machine of a shared folder looks dead here, and writes its temporary
+/// in seconds). Only where /proc tells which processes run. Never [`commit_all`]'s second
+/// names: after a failed restore one may be the only copy of an old file.
 pub fn remove_stale_temps(p: &Path) {
+    const STALE_SECONDS: u64 = 600;
     let ours = temp_path(p);
     let Some(ours) = ours.file_name().and_then(|n| n.to_str()) else {
         return;
@@ -53,7 +56,7 @@ pub fn remove_stale_temps(p: &Path) {
         let Some(other) = name
             .to_str()
             .and_then(|n| n.strip_prefix(prefix))
-            .and_then(|n| n.strip_suffix(".tmp").or_else(|| n.strip_suffix(".old")))
+            .and_then(|n| n.strip_suffix(".tmp"))
         else {
             continue;
         };
@@ -61,7 +64,13 @@ pub fn remove_stale_temps(p: &Path) {
             && other.bytes().all(|b| b.is_ascii_digit())
             && other != pid
             && !Path::new("/proc").join(other).exists();
-        if dead {
+        let idle = e
+            .metadata()
+            .and_then(|m| m.modified())
+            .ok()
+            .and_then(|t| t.elapsed().ok())
+            .is_some_and(|age| age.as_secs() >= STALE_SECONDS);
+        if dead && idle {
             let _ = std::fs::remove_file(e.path());
         }
     }
@@ -338,27 +347,33 @@ impl Drop for FileSet {
 mod tests {
     use super::*;
 
-    /// A dead process's temporaries and second names of a target go; a live process's (pid 1,
-    /// this one), another target's and other files stay. Without the cleanup every name stays.
+    /// A dead process's temporary of a target, untouched for an hour, goes; a fresh one, a
+    /// live process's (pid 1, this one), a second name (.old), another target's and other
+    /// files stay. Without the cleanup every name stays.
     #[test]
     fn stale_temporaries_of_dead_processes_are_removed() {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
         let me = std::process::id();
+        let hour_ago = std::time::SystemTime::now() - std::time::Duration::from_secs(3600);
         let names = [
-            ".a.exr.999999999.tmp",
-            ".a.exr.999999999.old",
-            ".a.exr.1.tmp",
-            &format!(".a.exr.{me}.tmp"),
-            ".b.exr.999999999.tmp",
-            ".a.exr.x9.tmp",
-            "a.exr",
+            (".a.exr.999999999.tmp", true),
+            (".a.exr.999999998.tmp", false),
+            (".a.exr.999999999.old", true),
+            (".a.exr.1.tmp", true),
+            (&format!(".a.exr.{me}.tmp"), true),
+            (".b.exr.999999999.tmp", true),
+            (".a.exr.x9.tmp", true),
+            ("a.exr", true),
         ];
-        for n in names {
-            std::fs::write(d.join(n), b"x").unwrap();
+        for (n, old) in names {
+            let f = std::fs::File::create(d.join(n)).unwrap();
+            if old {
+                f.set_modified(hour_ago).unwrap();
+            }
         }
         remove_stale_temps(&d.join("a.exr"));
-        let left: Vec<bool> = names.iter().map(|n| d.join(n).exists()).collect();
-        assert_eq!(left, [false, false, true, true, true, true, true]);
+        let left: Vec<bool> = names.iter().map(|(n, _)| d.join(n).exists()).collect();
+        assert_eq!(left, [false, true, true, true, true, true, true, true]);
     }
 }

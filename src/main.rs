@@ -24,7 +24,11 @@ fn main() -> ExitCode {
     // terminal's stop had lost every sample of a long render.
     let _ = ctrlc::set_handler(|| {
         if lightlearn::interrupt::requested() || !lightlearn::interrupt::active() {
-            std::process::exit(130);
+            // _exit, not exit: exit's handlers (the Vulkan driver's among them) would run on
+            // this thread while the main thread is still inside the driver (a review,
+            // 2026-12-06). Status 130 for every signal.
+            // SAFETY: _exit ends the process at once; it touches no Rust state.
+            unsafe { libc::_exit(130) }
         }
         lightlearn::interrupt::request();
         eprintln!("\ninterrupted: finishing the current batch (Ctrl-C again to quit at once)");

@@ -456,7 +456,7 @@ fn buffer_layouts_matrices_and_camera_planes_are_named() {
     });
     refused(&o, &["projective.gltf", "node 0", "last row", "affine"]);
     for (znear, zfar, wants) in [
-        (50.0, None, "znear 50 would hide geometry"),
+        (50.0, None, "znear 50 may hide geometry"),
         (1.0, Some(0.5), "zfar 0.5 ≤ znear 1"),
     ] {
         let o = edited("clip.gltf", &|g| {

@@ -189,6 +189,9 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
     };
     let every = req.checkpoint_seconds;
     let mut next = if every > 0.0 { every } else { f64::INFINITY };
+    // Across the checkpoints' writes too: a stop asked for during one is honoured after
+    // the next batch, with the samples written, instead of ending the program at once.
+    let _active = crate::interrupt::Active::begin();
     let result = loop {
         let result = render::run_session_until(
             &mut session,

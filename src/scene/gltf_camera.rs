@@ -77,11 +77,11 @@ pub struct Clip {
 const MAX_ASPECT: f64 = 2.0;
 
 impl Clip {
-    /// A warning where the planes are invalid or would have cut the scene's triangles in
-    /// front of a camera at `position` looking along unit `forward` with vertical field of
-    /// view `yfov`, else None. Near: a vertex in view closer than `near`; far: any vertex in
-    /// front farther than `far` (a large ground's corners are rarely in view, its far parts
-    /// are).
+    /// A warning where the planes are invalid or may cut the scene's triangles in front of
+    /// a camera at `position` looking along unit `forward` with vertical field of view
+    /// `yfov`, else None: a vertex in view (of a film up to 2:1) closer than `near` or
+    /// farther than `far`. Occlusion is not looked at (hence "may"), nor triangles whose
+    /// vertices all lie outside the view.
     pub fn unapplied(
         &self,
         name: &str,
@@ -107,21 +107,21 @@ impl Clip {
             if depth <= 0.0 {
                 continue;
             }
-            farthest = farthest.max(depth);
             if depth >= cos_cone * d.length() {
                 nearest_in_view = nearest_in_view.min(depth);
+                farthest = farthest.max(depth);
             }
         }
         let mut cut = Vec::new();
         if nearest_in_view < self.near {
             cut.push(format!(
-                "its znear {near} would hide geometry {} in front of it",
+                "its znear {near} may hide geometry {} in front of it",
                 nearest_in_view as f32
             ));
         }
         if let Some(far) = self.far.filter(|f| farthest > *f) {
             cut.push(format!(
-                "its zfar {} would hide geometry up to {} away",
+                "its zfar {} may hide geometry up to {} away",
                 far as f32, farthest as f32
             ));
         }

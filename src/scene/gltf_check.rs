@@ -16,19 +16,29 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (p, prim) in mesh.primitives.iter().enumerate() {
             let at = format!("'{name}': mesh {m} primitive {p}");
-            let mut used: Vec<(String, usize)> = prim
+            // (what, accessor, whether the loader reads its data: only those must lie where
+            // the file says; a damaged attribute it never reads, e.g. _BATCHID, is no reason
+            // to refuse the file).
+            let mut used: Vec<(String, usize, bool)> = prim
                 .attributes
                 .iter()
-                .map(|(k, v)| (format!("attribute {}", k.to_string()), v.value()))
+                .map(|(k, v)| {
+                    use gltf::json::mesh::Semantic;
+                    let read = matches!(
+                        k,
+                        Checked::Valid(Semantic::Positions | Semantic::TexCoords(_))
+                    );
+                    (format!("attribute {}", k.to_string()), v.value(), read)
+                })
                 .collect();
             if let Some(i) = &prim.indices {
-                used.push(("indices".to_string(), i.value()));
+                used.push(("indices".to_string(), i.value(), true));
             }
-            for (what, a) in &used {
+            for (what, a, read) in &used {
                 if *a >= accessors {
                     bail!("{at}: {what} names accessor {a}, but the file has {accessors}; fix the index or export the file again");
                 }
-                check_accessor(root, *a, &at)?;
+                check_accessor(root, *a, &at, *read)?;
             }
             if let Some(i) = &prim.indices {
                 let acc = &root.accessors[i.value()];
@@ -54,7 +64,12 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
                     Checked::Valid(GenericComponentType(ComponentType::F32))
                 );
                 if !float || acc.type_ != Checked::Valid(Type::Vec3) || acc.normalized {
-                    bail!("{at}: its POSITION accessor {} is {}{}, but glTF requires VEC3 of FLOAT (quantized positions, KHR_mesh_quantization, are not supported); export the mesh again", i.value(), accessor_kind(acc), if acc.normalized { " (normalized)" } else { "" });
+                    let quantized = if float {
+                        ""
+                    } else {
+                        " (quantized positions, KHR_mesh_quantization, are not supported)"
+                    };
+                    bail!("{at}: its POSITION accessor {} is {}{}, but glTF requires VEC3 of FLOAT{quantized}; export the mesh again", i.value(), accessor_kind(acc), if acc.normalized { " (normalized)" } else { "" });
                 }
             }
             if let Some(mat) = &prim.material {
@@ -113,14 +128,16 @@ fn check_animations(root: &Root, name: &str) -> Result<()> {
                 if acc >= accessors {
                     bail!("{at}: its {what} names accessor {acc}, but the file has {accessors}; fix the index");
                 }
-                check_accessor(root, acc, &at)?;
+                check_accessor(root, acc, &at, true)?;
             }
         }
     }
     Ok(())
 }
 
-fn check_accessor(root: &Root, a: usize, at: &str) -> Result<()> {
+/// Accessor `a`'s buffer view and buffer exist; where the loader reads it (`read`), its
+/// layout too ([`check_layout`]).
+fn check_accessor(root: &Root, a: usize, at: &str, read: bool) -> Result<()> {
     let Some(view) = &root.accessors[a].buffer_view else {
         return Ok(());
     };
@@ -139,7 +156,10 @@ fn check_accessor(root: &Root, a: usize, at: &str) -> Result<()> {
             root.buffers.len()
         );
     }
-    check_layout(root, a, at)
+    if read {
+        check_layout(root, a, at)?;
+    }
+    Ok(())
 }
 
 /// An accessor's elements lie inside its buffer view, and the view inside its buffer, with a
@@ -311,7 +331,9 @@ fn check_matrices(root: &Root, name: &str) -> Result<()> {
         if let Some(m) = &node.matrix {
             // Column-major: the last row is elements 3, 7, 11 and 15.
             let row = [m[3], m[7], m[11], m[15]];
-            if row[..3].iter().any(|c| c.abs() > 1e-6) || (row[3] - 1.0).abs() > 1e-6 {
+            // Written so that a NaN fails too.
+            let affine = row[..3].iter().all(|c| c.abs() <= 1e-6) && (row[3] - 1.0).abs() <= 1e-6;
+            if !affine {
                 bail!(
                     "'{name}': node {i} ('{}') has a matrix whose last row is {row:?}, not [0, 0, 0, 1]: glTF node matrices are affine (translation, rotation, scale); export it again",
                     node.name.as_deref().unwrap_or("")
@@ -359,29 +381,56 @@ pub fn unsupported_features(doc: &gltf::Document, name: &str) -> Vec<String> {
             SUPPORTED_EXTENSIONS.join(", ")
         ));
     }
+    // One line a kind, however many elements (a file of 500 cutout leaves gave 500 lines).
+    let mut see_through = Vec::new();
     for m in doc.materials() {
         let mode = match m.alpha_mode() {
             gltf::material::AlphaMode::Opaque => continue,
             gltf::material::AlphaMode::Mask => "MASK",
             gltf::material::AlphaMode::Blend => "BLEND",
         };
+        let i = m.index().unwrap_or(0);
+        see_through.push(format!("{i} ('{}', {mode})", m.name().unwrap_or("")));
+    }
+    if !see_through.is_empty() {
         out.push(format!(
-            "'{name}': material {} ('{}') has alphaMode {mode}; lightlearn renders it opaque (no cutouts or transparency)",
-            m.index().unwrap_or(0),
-            m.name().unwrap_or("")
+            "'{name}': {} alphaMode MASK or BLEND; lightlearn renders every surface opaque (no cutouts or transparency)",
+            listed("material", "has", "have", &see_through)
         ));
     }
+    let (mut skinned, mut morphed) = (Vec::new(), Vec::new());
     for node in doc.nodes() {
         let Some(mesh) = node.mesh() else { continue };
-        let label = format!("node {} ('{}')", node.index(), node.name().unwrap_or(""));
+        let label = format!("{} ('{}')", node.index(), node.name().unwrap_or(""));
         if node.skin().is_some() {
-            out.push(format!("'{name}': {label} is skinned; lightlearn renders its mesh as stored (the bind pose), without the skin"));
+            skinned.push(label.clone());
         }
         let morphs = mesh.primitives().any(|p| p.morph_targets().len() > 0);
         let weights = node.weights().or(mesh.weights()).unwrap_or(&[]);
         if morphs && weights.iter().any(|w| *w != 0.0) {
-            out.push(format!("'{name}': {label} has morph-target weights {weights:?}; lightlearn renders its mesh without morph targets"));
+            morphed.push(label);
         }
     }
+    if !skinned.is_empty() {
+        out.push(format!("'{name}': {} skinned; lightlearn renders the meshes as stored (the bind pose), without the skin", listed("node", "is", "are", &skinned)));
+    }
+    if !morphed.is_empty() {
+        out.push(format!("'{name}': {} morph-target weights; lightlearn renders the meshes without morph targets", listed("node", "has", "have", &morphed)));
+    }
     out
+}
+
+/// "node 3 ('a') is" or "nodes 3 ('a'), 4 ('b') and 2 more are": up to three named.
+fn listed(kind: &str, one: &str, many: &str, items: &[String]) -> String {
+    match items {
+        [only] => format!("{kind} {only} {one}"),
+        _ => {
+            let shown = items[..items.len().min(3)].join(", ");
+            let more = match items.len().saturating_sub(3) {
+                0 => String::new(),
+                n => format!(" and {n} more"),
+            };
+            format!("{kind}s {shown}{more} {many}")
+        }
+    }
 }
