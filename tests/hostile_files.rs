@@ -410,12 +410,7 @@ fn buffer_layouts_matrices_and_camera_planes_are_named() {
     let prim = &doc["meshes"][0]["primitives"][0];
     let pos = prim["attributes"]["POSITION"].as_u64().unwrap() as usize;
     let view = doc["accessors"][pos]["bufferView"].as_u64().unwrap() as usize;
-    let edited = |file: &str, edit: &dyn Fn(&mut Value)| {
-        let mut g = doc.clone();
-        edit(&mut g);
-        write_json(&d.join(file), &g);
-        render(file, &["--out", "o.exr"], d)
-    };
+    let edited = |file: &str, edit: &dyn Fn(&mut Value)| render_edited(&doc, d, file, edit);
     for stride in [13u64, 4] {
         let o = edited("stride.gltf", &|g| {
             g["bufferViews"][view]["byteStride"] = stride.into()
@@ -488,10 +483,7 @@ fn features_rendered_without_are_warned_about() {
     let d = dir.path();
     let doc = cornell(d);
     let warned = |file: &str, edit: &dyn Fn(&mut Value), wants: &[&str]| {
-        let mut g = doc.clone();
-        edit(&mut g);
-        write_json(&d.join(file), &g);
-        let o = render(file, &["--out", "o.exr"], d);
+        let o = render_edited(&doc, d, file, edit);
         assert!(o.status.success(), "{}", stderr(&o));
         let e = stderr(&o);
         assert!(
@@ -542,4 +534,17 @@ fn features_rendered_without_are_warned_about() {
             "Unsupported extension",
         ],
     );
+}
+
+/// `doc` changed by `edit`, written as `file` in `d` and rendered (the tiny film) to o.exr.
+fn render_edited(
+    doc: &Value,
+    d: &std::path::Path,
+    file: &str,
+    edit: &dyn Fn(&mut Value),
+) -> std::process::Output {
+    let mut g = doc.clone();
+    edit(&mut g);
+    write_json(&d.join(file), &g);
+    render(file, &["--out", "o.exr"], d)
 }

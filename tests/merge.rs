@@ -26,8 +26,9 @@ fn refused(o: &Output, want: &str) {
     assert!(!err.contains("panicked"), "{err}");
 }
 
-fn part(dir: &Path, name: &str, seed: &str, spp: &str, extra: &[&str]) {
-    let mut a = vec![
+/// `render` of the parts' film (24×16, depth 2) with `seed` into `name`.
+fn render_args<'a>(name: &'a str, seed: &'a str) -> Vec<&'a str> {
+    vec![
         "render",
         "--width",
         "24",
@@ -38,11 +39,14 @@ fn part(dir: &Path, name: &str, seed: &str, spp: &str, extra: &[&str]) {
         "-q",
         "--seed",
         seed,
-        "--spp",
-        spp,
         "--out",
         name,
-    ];
+    ]
+}
+
+fn part(dir: &Path, name: &str, seed: &str, spp: &str, extra: &[&str]) {
+    let mut a = render_args(name, seed);
+    a.extend_from_slice(&["--spp", spp]);
     a.extend_from_slice(extra);
     ok(&run(&a, dir));
 }
@@ -253,25 +257,10 @@ fn chunks_from_one_start_count_it_once() {
 fn a_killed_render_keeps_its_last_checkpoint_and_merges() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
+    let mut args = render_args("a.exr", "1");
+    args.extend_from_slice(&["--time", "120", "--checkpoint", "0.2"]);
     let mut child = Command::new(common::exe())
-        .args([
-            "render",
-            "--width",
-            "24",
-            "--height",
-            "16",
-            "--max-depth",
-            "2",
-            "-q",
-            "--seed",
-            "1",
-            "--time",
-            "120",
-            "--checkpoint",
-            "0.2",
-            "--out",
-            "a.exr",
-        ])
+        .args(&args)
         .current_dir(d)
         .spawn()
         .unwrap();
