@@ -157,7 +157,7 @@ fn check_accessor(root: &Root, a: usize, at: &str, read: bool) -> Result<()> {
         );
     }
     if read {
-        check_layout(root, a, at)?;
+        check_layout(root, a, view.value(), at)?;
     }
     Ok(())
 }
@@ -168,13 +168,11 @@ fn check_accessor(root: &Root, a: usize, at: &str, read: bool) -> Result<()> {
 /// than an element panicked in its reader ("malformed in a way the parser could not
 /// report"), and an accessor of 2^62 elements read as none, blamed on its first index (an
 /// audit, 2026-12-06).
-fn check_layout(root: &Root, a: usize, at: &str) -> Result<()> {
+/// `view`: the accessor's buffer view, which [`check_accessor`] found to exist.
+fn check_layout(root: &Root, a: usize, view: usize, at: &str) -> Result<()> {
     let acc = &root.accessors[a];
-    let Some(view) = &acc.buffer_view else {
-        return Ok(());
-    };
-    let v = &root.buffer_views[view.value()];
-    let view_at = format!("buffer view {}", view.value());
+    let v = &root.buffer_views[view];
+    let view_at = format!("buffer view {view}");
     // Matrices of bytes or shorts pad their columns; unknown enums: the crate's validation.
     let elem = match (acc.component_type, acc.type_) {
         (
