@@ -92,6 +92,25 @@ pub fn check_parent(p: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Creates the output folder `dir` (and missing parents), `what` naming it in errors: a
+/// file, FIFO or link of that name is named as such (it was "File exists (os error 17)"),
+/// and a failure says why where it can.
+pub fn create_output_folder(dir: &Path, what: &str) -> Result<()> {
+    if std::fs::symlink_metadata(dir).is_ok() && !dir.is_dir() {
+        bail!(
+            "cannot create the {what} '{}': something else of that name is there (a file, a FIFO or a link to nothing); name another --out",
+            dir.display()
+        );
+    }
+    std::fs::create_dir_all(dir).map_err(|e| {
+        anyhow::anyhow!(
+            "cannot create the {what} '{}': {} ({e})",
+            dir.display(),
+            why_not_written(&e)
+        )
+    })
+}
+
 /// Runs `f`, which may create the folder `out` (and missing parents); if it fails, the
 /// folders it created are removed again where still empty, so a failed command leaves no
 /// empty output folder behind.
@@ -125,8 +144,15 @@ pub fn write_atomic_with(p: &Path, write: impl FnOnce(&Path) -> Result<()>) -> R
     remove_stale_temps(p);
     let tmp = temp_path(p);
     let result = write(&tmp)
+        .and_then(|_| sync_file(&tmp))
         .and_then(|_| Ok(std::fs::rename(&tmp, p)?))
-        .with_context(|| format!("cannot write '{}'", p.display()));
+        .map_err(|e| {
+            let what = write_failed(p, &e);
+            e.context(what)
+        });
+    if result.is_ok() {
+        sync_folder(p);
+    }
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
@@ -134,8 +160,11 @@ pub fn write_atomic_with(p: &Path, write: impl FnOnce(&Path) -> Result<()>) -> R
 }
 
 /// Fails early, before any work, unless `p` can be written: its folder exists and takes new
-/// files, and `p` itself is not a folder. (Measured before: `--out` naming a folder failed
-/// only after the whole render.)
+/// files, `p` itself is not a folder, a device, a FIFO or a socket (the rename would replace
+/// it: `merge-stats --out /dev/null --force` as root replaced the system's /dev/null), and
+/// its name is not longer than the file system takes. (Measured before: `--out` naming a
+/// folder failed only after the whole render; a 300-byte name, or a 255-byte EXR name whose
+/// JSON is 256, passed the probe and lost the render at its end.)
 pub fn check_writable(p: &Path) -> Result<()> {
     check_parent(p)?;
     if p.is_dir() {
@@ -144,15 +173,60 @@ pub fn check_writable(p: &Path) -> Result<()> {
             p.display()
         );
     }
+    if let Ok(m) = std::fs::symlink_metadata(p) {
+        let t = m.file_type();
+        if !t.is_file() && !t.is_symlink() {
+            bail!(
+                "cannot write '{}': it is not a regular file (a device, FIFO or socket) and would be replaced; name a file instead",
+                p.display()
+            );
+        }
+    }
     let probe = temp_path(p).with_extension("probe");
-    std::fs::write(&probe, b"").with_context(|| {
-        format!(
-            "cannot write '{}': its folder does not take new files (permissions?)",
-            p.display()
+    std::fs::write(&probe, b"").map_err(|e| {
+        anyhow::anyhow!(
+            "cannot write '{}': {} ({e})",
+            p.display(),
+            why_not_written(&e)
         )
     })?;
     let _ = std::fs::remove_file(&probe);
+    // The name's length, with a new file of a name as long (never the target itself).
+    let len = p.file_name().map_or(0, |n| n.len());
+    let stem = format!(".{}.probe-", std::process::id());
+    if len > stem.len() {
+        let probe = p.with_file_name(format!("{stem}{}", "x".repeat(len - stem.len())));
+        match std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&probe)
+        {
+            Ok(_) => {
+                let _ = std::fs::remove_file(&probe);
+            }
+            Err(e) if e.raw_os_error() == Some(libc::ENAMETOOLONG) => bail!(
+                "cannot write '{}': its name is {len} bytes, more than its file system takes (255 on most); shorten --out",
+                p.display()
+            ),
+            Err(_) => {}
+        }
+    }
     Ok(())
+}
+
+/// What a failed write means, and what to do (one clause of an error line).
+pub fn why_not_written(e: &std::io::Error) -> &'static str {
+    match e.raw_os_error() {
+        Some(libc::EROFS) => "its file system is read-only; write elsewhere",
+        Some(libc::ENOSPC) | Some(libc::EDQUOT) => {
+            "the disk is full; free space or write elsewhere"
+        }
+        Some(libc::EACCES) | Some(libc::EPERM) => {
+            "no permission to create files in its folder; write elsewhere"
+        }
+        Some(libc::ENOENT) => "its folder no longer exists",
+        _ => "its folder does not take new files",
+    }
 }
 
 /// Refuses outputs that are one of the command's inputs (`what`, path): a scene named like
@@ -245,6 +319,42 @@ pub fn same_path(a: &Path, b: &Path) -> bool {
     }
 }
 
+/// "cannot write 'p'", with what to do where the cause says (a full disk, a read-only file
+/// system): the audit's disk-full errors named the file but not the fix.
+fn write_failed(p: &Path, e: &anyhow::Error) -> String {
+    let io = e
+        .chain()
+        .find_map(|c| c.downcast_ref::<std::io::Error>())
+        .filter(|io| {
+            matches!(
+                io.raw_os_error(),
+                Some(libc::ENOSPC) | Some(libc::EDQUOT) | Some(libc::EROFS)
+            )
+        });
+    match io {
+        Some(io) => format!("cannot write '{}': {}", p.display(), why_not_written(io)),
+        None => format!("cannot write '{}'", p.display()),
+    }
+}
+
+/// Flushes a written temporary to the disk before it is renamed over an old file: without,
+/// a crash soon after the rename can leave an empty file under the final name on some file
+/// systems, the old one gone.
+fn sync_file(tmp: &Path) -> Result<()> {
+    Ok(std::fs::File::open(tmp)?.sync_all()?)
+}
+
+/// Flushes `p`'s folder (its renames); best effort.
+fn sync_folder(p: &Path) {
+    let dir = match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if let Ok(d) = std::fs::File::open(dir) {
+        let _ = d.sync_all();
+    }
+}
+
 /// Moves every written temporary file onto its target together: each file already there
 /// first gets a second name (a hard link, or a copy where links are not possible), then each
 /// temporary is renamed over its target (an atomic replace, so a target never goes missing,
@@ -252,6 +362,7 @@ pub fn same_path(a: &Path, b: &Path) -> bool {
 /// and the new ones that had no predecessor are removed. So a failure leaves the old set,
 /// never a mix. The temporaries are removed on failure.
 pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
+    let _locks = FolderLocks::take(files.iter().map(|(t, _)| t.as_path()));
     let backup = |p: &Path| temp_path(p).with_extension("old");
     let mut kept: Vec<&Path> = Vec::new(); // targets with a second name of their old file
     let mut moved: Vec<&Path> = Vec::new(); // targets that hold the new file
@@ -270,6 +381,9 @@ pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
             std::fs::rename(tmp, target)
                 .with_context(|| format!("cannot move the result into '{}'", target.display()))?;
             moved.push(target);
+        }
+        for (target, _) in files {
+            sync_folder(target);
         }
         Ok(())
     })();
@@ -304,6 +418,37 @@ pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
     }
 }
 
+/// An exclusive lock (flock) on each target's folder while a set is committed, released
+/// when dropped: two runs writing the same outputs at once committed file by file, both
+/// with exit 0, and the set could end mixed (one run's EXR beside the other's PNG and JSON,
+/// which `merge` would then weigh wrongly; an audit, 2026-12-06). Now the later commit waits
+/// for the earlier one and replaces the whole set. A folder that cannot be locked (a file
+/// system without locks) is committed without.
+struct FolderLocks(#[allow(dead_code)] Vec<std::fs::File>);
+
+impl FolderLocks {
+    fn take<'a>(targets: impl Iterator<Item = &'a Path>) -> FolderLocks {
+        use std::os::fd::AsRawFd;
+        let mut dirs: Vec<PathBuf> = targets
+            .map(|t| match t.parent() {
+                Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+                _ => PathBuf::from("."),
+            })
+            .map(|d| d.canonicalize().unwrap_or(d))
+            .collect();
+        // One order for every run, so two runs never wait on each other's second folder.
+        dirs.sort();
+        dirs.dedup();
+        FolderLocks(
+            dirs.iter()
+                .filter_map(|d| std::fs::File::open(d).ok())
+                // SAFETY: flock on a descriptor this File owns; closing it unlocks.
+                .filter(|f| unsafe { libc::flock(f.as_raw_fd(), libc::LOCK_EX) } == 0)
+                .collect(),
+        )
+    }
+}
+
 /// Files of one run written to temporaries one by one, then committed together
 /// ([`commit_all`]); temporaries of a set that is dropped uncommitted are removed.
 #[derive(Default)]
@@ -321,7 +466,10 @@ impl FileSet {
         remove_stale_temps(target);
         let tmp = temp_path(target);
         self.files.push((target.to_path_buf(), tmp.clone()));
-        write(&tmp).with_context(|| format!("cannot write '{}'", target.display()))
+        write(&tmp).and_then(|_| sync_file(&tmp)).map_err(|e| {
+            let what = write_failed(target, &e);
+            e.context(what)
+        })
     }
 
     pub fn add(&mut self, target: &Path, bytes: &[u8]) -> Result<()> {
@@ -346,6 +494,26 @@ impl Drop for FileSet {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A commit waits while another holds its folder's lock, and then moves the file: without
+    /// the lock the file is in place at once.
+    #[test]
+    fn a_commit_waits_for_the_folder_lock() {
+        use std::os::fd::AsRawFd;
+        let dir = tempfile::tempdir().unwrap();
+        let (target, tmp) = (dir.path().join("a.exr"), dir.path().join(".a.exr.1.tmp"));
+        std::fs::write(&tmp, b"new").unwrap();
+        let held = std::fs::File::open(dir.path()).unwrap();
+        // SAFETY: flock on a descriptor `held` owns.
+        assert_eq!(unsafe { libc::flock(held.as_raw_fd(), libc::LOCK_EX) }, 0);
+        let files = vec![(target.clone(), tmp)];
+        let committing = std::thread::spawn(move || commit_all(&files));
+        std::thread::sleep(std::time::Duration::from_millis(300));
+        assert!(!target.exists(), "committed while the folder was locked");
+        drop(held);
+        committing.join().unwrap().unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), b"new");
+    }
 
     /// A dead process's temporary of a target, untouched for an hour, goes; a fresh one, a
     /// live process's (pid 1, this one), a second name (.old), another target's and other

@@ -16,6 +16,24 @@ use cli::{
 use lightlearn::commands::{self, Ui};
 use lightlearn::gpu::Context;
 
+/// `eprintln!` that ignores a stderr it cannot write (a closed pipe: `2>&1 | head -1`):
+/// eprintln! panicked there, so a render that had one warning to say ended with exit 101
+/// and nothing written (an audit, 2026-12-06).
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
+/// `println!` for results on stdout, likewise (`lightlearn profile … | head -3`).
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     // First Ctrl-C during a render: finish the current batch and write what is done; a
@@ -31,7 +49,7 @@ fn main() -> ExitCode {
             unsafe { libc::_exit(130) }
         }
         lightlearn::interrupt::request();
-        eprintln!("\ninterrupted: finishing the current batch (Ctrl-C again to quit at once)");
+        say!("\ninterrupted: finishing the current batch (Ctrl-C again to quit at once)");
     });
     let result = match cli.command {
         Command::Render(a) => cmd_render(a),
@@ -41,7 +59,7 @@ fn main() -> ExitCode {
             .and_then(|r| lightlearn::preview::run(&r, &mut Terminal::new(false))),
         Command::Farm(a) => a.request().and_then(|r| {
             let o = commands::farm::write(&r)?;
-            eprintln!(
+            say!(
                 "wrote {}: {} steps, {} tasks; run it here with `openjd run {}`",
                 o.template.display(),
                 o.steps,
@@ -54,10 +72,10 @@ fn main() -> ExitCode {
         Command::Reference(a) => cmd_reference(a),
         Command::Scene(a) => cmd_scene(a),
         Command::BenchRays(a) => cmd_bench_rays(a),
-        Command::Profile(a) => a.run(&mut Terminal::new(false)).map(|t| println!("{t}")),
-        Command::Variance(a) => a.run(&mut Terminal::new(false)).map(|t| println!("{t}")),
+        Command::Profile(a) => a.run(&mut Terminal::new(false)).map(|t| out!("{t}")),
+        Command::Variance(a) => a.run(&mut Terminal::new(false)).map(|t| out!("{t}")),
         Command::Merge(a) => commands::merge::images(&a.parts, &a.out).map(|o| {
-            eprintln!(
+            say!(
                 "wrote {} (+ .png, .json): {} parts, {} spp",
                 o.exr.display(),
                 o.parts,
@@ -66,7 +84,7 @@ fn main() -> ExitCode {
         }),
         Command::MergeStats(a) => {
             commands::merge::stats(&a.parts, a.base.as_deref(), &a.out, a.force).map(|m| {
-                eprintln!(
+                say!(
                     "wrote {}: {} files, {} passes learned, {} regions with cuts",
                     a.out.display(),
                     a.parts.len(),
@@ -79,7 +97,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            say!("error: {e:#}");
             ExitCode::FAILURE
         }
     }
@@ -126,8 +144,8 @@ impl Ui for Terminal {
     fn message(&mut self, line: &str) {
         if !self.quiet || line.starts_with("warning:") {
             match &self.bar {
-                Some(b) => b.suspend(|| eprintln!("{line}")),
-                None => eprintln!("{line}"),
+                Some(b) => b.suspend(|| say!("{line}")),
+                None => say!("{line}"),
             }
         }
     }
@@ -244,7 +262,7 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
 
 fn cmd_scene(a: SceneArgs) -> Result<()> {
     let bytes = commands::scene::run(a.family, &a.params(), &a.out)?;
-    eprintln!(
+    say!(
         "wrote {} ({:?}, {} lights, {bytes} bytes)",
         a.out.display(),
         a.family,
@@ -256,9 +274,9 @@ fn cmd_scene(a: SceneArgs) -> Result<()> {
 fn cmd_bench_rays(a: BenchArgs) -> Result<()> {
     lightlearn::bench::rays::check_args(a.triangles, a.width, a.height, a.repeats)?;
     let ctx = Context::new(&a.device.options())?;
-    println!("device: {}", ctx.describe());
+    out!("device: {}", ctx.describe());
     lightlearn::bench::rays::run(&ctx, a.triangles, a.width, a.height, a.repeats, &mut |l| {
-        println!("{l}")
+        out!("{l}")
     })?;
     Ok(())
 }

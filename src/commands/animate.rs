@@ -193,8 +193,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
             crate::scene::animated::MAX_FRAMES
         );
     }
-    std::fs::create_dir_all(&req.out)
-        .with_context(|| format!("cannot create the output folder '{}'", req.out.display()))?;
+    crate::io::create_output_folder(&req.out, "output folder")?;
     // Every file of the run, checked before the first frame's time is spent.
     for k in first..=last {
         let stem = frame_stem(&req.out, k);
@@ -419,20 +418,21 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         prev_gpu = Some(gpu);
     }
     let video = if req.video && !interrupted {
-        encode_video(req, span, ui)?
+        encode_video(req, span, ui)
     } else {
-        None
+        Ok(None)
     };
     let old_video = req.out.join("animation.mp4");
-    if req.video && video.is_none() && old_video.exists() {
-        // A video of other frames (an earlier run's) would pass for this run's.
+    if req.video && !matches!(video, Ok(Some(_))) && old_video.exists() {
+        // A video of an earlier run's frames would pass for this run's.
         std::fs::remove_file(&old_video)
             .with_context(|| format!("cannot remove the earlier '{}'", old_video.display()))?;
         ui.message(&format!(
-            "removed the earlier {} (it showed other frames)",
+            "removed the earlier {} (made from an earlier run's frames)",
             old_video.display()
         ));
     }
+    let video = video?;
     Ok(AnimateOutcome {
         frames: records,
         interrupted,
@@ -575,11 +575,13 @@ fn encode_video(
         .status()
         .context("cannot run ffmpeg")?;
     if !status.success() {
+        // An error, not a warning: the video was asked for (exit 0 on a full disk before;
+        // an audit, 2026-12-06). Without ffmpeg at all, the message above and exit 0.
         let _ = std::fs::remove_file(&tmp);
-        ui.message(&format!(
-            "warning: ffmpeg failed ({status}); no animation.mp4 (the frames are written)"
-        ));
-        return Ok(None);
+        bail!(
+            "ffmpeg failed ({status}) to encode '{}' (its messages are above); the frames are written: free space and run again, or add --no-video",
+            out.display()
+        );
     }
     std::fs::rename(&tmp, &out)
         .with_context(|| format!("cannot move the video into place at '{}'", out.display()))?;

@@ -110,8 +110,7 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
         others.push(("the --reference", r));
     }
     crate::io::check_outputs_spare_scene(&written, a.scene.as_deref(), &others)?;
-    std::fs::create_dir_all(&a.out)
-        .with_context(|| format!("cannot create the output folder '{}'", a.out.display()))?;
+    crate::io::create_output_folder(&a.out, "output folder")?;
     crate::io::write_atomic(&a.out.join(".write-test"), b"")
         .with_context(|| format!("the output folder '{}' is not writable", a.out.display()))?;
     let _ = std::fs::remove_file(a.out.join(".write-test"));

@@ -216,8 +216,7 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
             bail!("{} frames × {} chunks × {} spp carried from frame to frame is {total} passes, more than the 2^30 the random streams hold; fewer frames per job, chunks or spp", b - a + 1, req.chunks, req.spp);
         }
     }
-    std::fs::create_dir_all(&req.job_dir)
-        .with_context(|| format!("cannot create the job folder '{}'", req.job_dir.display()))?;
+    crate::io::create_output_folder(&req.job_dir, "job folder")?;
     let template_path = req.job_dir.join("template.yaml");
     crate::io::check_writable(&template_path)?;
     if std::fs::canonicalize(&req.job_dir)?
@@ -362,17 +361,36 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
         template_path.display(),
         serde_json::to_string_pretty(&template)?
     );
-    // The bundle and the template together: all or none (io::commit_all).
-    let mut set = crate::io::FileSet::default();
-    for (rel, bytes) in &bundle {
-        let target = req.job_dir.join(rel);
-        if let Some(parent) = target.parent() {
-            std::fs::create_dir_all(parent)?;
+    // The bundle and the template together: all or none (io::commit_all). The folders
+    // made for the bundle go again if that fails (a full disk left an empty scene/ in the
+    // job folder; an audit, 2026-12-06).
+    let mut made: Vec<PathBuf> = Vec::new();
+    let result = (|| -> Result<()> {
+        let mut set = crate::io::FileSet::default();
+        for (rel, bytes) in &bundle {
+            let target = req.job_dir.join(rel);
+            if let Some(parent) = target.parent() {
+                made.extend(
+                    parent
+                        .ancestors()
+                        .take_while(|p| !p.as_os_str().is_empty() && !p.exists())
+                        .map(Path::to_path_buf),
+                );
+                std::fs::create_dir_all(parent)
+                    .with_context(|| format!("cannot create the folder '{}'", parent.display()))?;
+            }
+            set.add(&target, bytes)?;
         }
-        set.add(&target, bytes)?;
+        set.add(&template_path, text.as_bytes())?;
+        set.commit()
+    })();
+    if result.is_err() {
+        made.sort_by_key(|d| std::cmp::Reverse(d.components().count()));
+        for d in &made {
+            let _ = std::fs::remove_dir(d); // only if still empty
+        }
     }
-    set.add(&template_path, text.as_bytes())?;
-    set.commit()?;
+    result?;
     Ok(FarmOutcome {
         template: template_path,
         steps: steps.len(),

@@ -168,8 +168,13 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
     }
     let mut session = render::Session::new(&ctx, &scene, &gpu, &settings)?;
     session.skip_passes(skip)?;
-    // Every output of the render as it stands: at each checkpoint, and at the end.
-    let write = |result: &render::RenderResult, checkpoint: bool| -> Result<bool> {
+    // Every output of the render as it stands, to `paths` and the statistics to `stats`: at
+    // each checkpoint, at the end, and to the rescue folder if the end's write fails.
+    let write = |result: &render::RenderResult,
+                 checkpoint: bool,
+                 paths: &OutputPaths,
+                 stats: Option<&std::path::Path>|
+     -> Result<bool> {
         let image = result.mean();
         let mut report = render::report_json(&scene, &settings, result, &ctx.describe());
         report["bvh_build_seconds"] = json!(build_seconds);
@@ -178,13 +183,13 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         if checkpoint {
             report["checkpoint"] = json!(true);
         }
-        let stats = match (&req.save_stats, &result.learned) {
-            (Some(p), Some(l)) => vec![(p.as_path(), l.saved.to_bytes())],
+        let stats = match (stats, &result.learned) {
+            (Some(p), Some(l)) => vec![(p, l.saved.to_bytes())],
             _ => Vec::new(),
         };
         let extra: Vec<(&std::path::Path, &[u8])> =
             stats.iter().map(|(p, b)| (*p, b.as_slice())).collect();
-        film::write_outputs_with(&paths, req.width, req.height, &image, &report, &extra)?;
+        film::write_outputs_with(paths, req.width, req.height, &image, &report, &extra)?;
         Ok(!extra.is_empty())
     };
     let every = req.checkpoint_seconds;
@@ -209,13 +214,55 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
             break result;
         }
         // What an interrupted render would write, so that a render that is killed or loses
-        // its machine keeps its samples; the final outputs replace these.
-        write(&result, true)?;
+        // its machine keeps its samples; the final outputs replace these. A checkpoint that
+        // cannot be written (a full disk) is not a reason to stop: it ended the render,
+        // with only the last checkpoint's samples kept (an audit, 2026-12-06).
+        if let Err(e) = write(&result, true, &paths, req.save_stats.as_deref()) {
+            ui.message(&format!(
+                "warning: checkpoint not written ({e:#}); rendering goes on, and the end writes again"
+            ));
+        }
         next = session.film_seconds() + every;
     };
     drop(session);
     ui.phase_done();
-    let wrote_stats = write(&result, false)?;
+    let wrote_stats = match write(&result, false, &paths, req.save_stats.as_deref()) {
+        Ok(w) => w,
+        Err(e) => {
+            // The samples are not lost with the write: a folder removed or renamed during
+            // the render, a full disk or a name the file system refuses had thrown the whole
+            // render away (an audit, 2026-12-06). They go to a folder of their own in the
+            // system's temporary folder, and the error says where.
+            let rescue = rescue_folder();
+            let saved = (|| -> Result<std::path::PathBuf> {
+                std::fs::create_dir_all(&rescue)?;
+                let name = |p: &std::path::Path| rescue.join(p.file_name().unwrap_or_default());
+                let there = OutputPaths::new(&name(&paths.exr))?;
+                let stats = req.save_stats.as_deref().map(name);
+                write(&result, false, &there, stats.as_deref())?;
+                Ok(there.exr)
+            })();
+            let gone = paths
+                .exr
+                .parent()
+                .filter(|d| !d.as_os_str().is_empty() && !d.is_dir())
+                .map(|d| format!(" (its folder '{}' no longer exists)", d.display()))
+                .unwrap_or_default();
+            return Err(match saved {
+                Ok(exr) => e.context(format!(
+                    "{} spp not written where asked{gone}; they are saved in '{}' (+ .png, .json{}): move them where you want them",
+                    result.spp,
+                    exr.display(),
+                    if req.save_stats.is_some() { ", the statistics" } else { "" }
+                )),
+                Err(e2) => e.context(format!(
+                    "{} spp not written where asked{gone}, nor in '{}' ({e2:#})",
+                    result.spp,
+                    rescue.display()
+                )),
+            });
+        }
+    };
     if result.invalid_samples > 0 {
         ui.message(&format!(
             "warning: {} samples were NaN/Inf and were dropped; please report this scene",
@@ -232,6 +279,16 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         interrupted: result.interrupted,
         wrote_stats,
     })
+}
+
+/// Where a render whose outputs could not be written puts them instead: a new folder in the
+/// system's temporary folder (`TMPDIR`), named by the process.
+fn rescue_folder() -> PathBuf {
+    let stamp = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0);
+    std::env::temp_dir().join(format!("lightlearn-rescue-{}-{stamp}", std::process::id()))
 }
 
 /// The passes a farm chunk skips: chunk K of N samples starts K·N passes on.

@@ -11,7 +11,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use anyhow::{bail, Context as _, Result};
+use anyhow::{bail, Result};
 use rayon::prelude::*;
 
 use super::{check_depth, check_size, prepare, Ui};
@@ -120,8 +120,7 @@ pub fn run(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> {
 
 fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> {
     if let Some(out) = &a.out {
-        std::fs::create_dir_all(out)
-            .with_context(|| format!("cannot create the output folder '{}'", out.display()))?;
+        crate::io::create_output_folder(out, "output folder")?;
         crate::io::check_writable(&out.join("variance.json"))?;
         // The report's files are variance.json and rowN.exr (their count is known only
         // later): none may be the scene or a file it names (a scene named variance.json in

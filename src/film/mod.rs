@@ -105,7 +105,11 @@ pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Resu
         .write()
         .non_parallel()
         .to_file(path)
-        .map_err(|e| anyhow!("EXR write failed: {e}"))
+        .map_err(|e| match e {
+            // Kept as an io::Error, so the caller can say what to do (a full disk).
+            exr::error::Error::Io(io) => anyhow::Error::new(io).context("EXR write failed"),
+            e => anyhow!("EXR write failed: {e}"),
+        })
 }
 
 /// The largest side of an EXR that [`read_exr`] reads: the largest film (16384).
