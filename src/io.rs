@@ -173,15 +173,7 @@ pub fn check_writable(p: &Path) -> Result<()> {
             p.display()
         );
     }
-    if let Ok(m) = std::fs::symlink_metadata(p) {
-        let t = m.file_type();
-        if !t.is_file() && !t.is_symlink() {
-            bail!(
-                "cannot write '{}': it is not a regular file (a device, FIFO or socket) and would be replaced; name a file instead",
-                p.display()
-            );
-        }
-    }
+    check_not_special(p)?;
     let probe = temp_path(p).with_extension("probe");
     std::fs::write(&probe, b"").map_err(|e| {
         anyhow::anyhow!(
@@ -205,11 +197,30 @@ pub fn check_writable(p: &Path) -> Result<()> {
                 let _ = std::fs::remove_file(&probe);
             }
             Err(e) if e.raw_os_error() == Some(libc::ENAMETOOLONG) => bail!(
-                "cannot write '{}': its name is {len} bytes, more than its file system takes (255 on most); shorten --out",
+                "cannot write '{}': its name is {len} bytes, more than its file system takes (255 on most); shorten the name",
                 p.display()
             ),
             Err(_) => {}
         }
+    }
+    Ok(())
+}
+
+/// Refuses an output path that is a device, a FIFO or a socket, or a link to one: the rename
+/// would replace it (`merge-stats --out /dev/null --force`, as root, replaced the system's
+/// /dev/null; through a link, /dev/stdout). Called before any "add --force" advice, which
+/// cannot help here.
+pub fn check_not_special(p: &Path) -> Result<()> {
+    let special = |t: std::fs::FileType| !t.is_file() && !t.is_dir() && !t.is_symlink();
+    let here = std::fs::symlink_metadata(p).is_ok_and(|m| special(m.file_type()));
+    let linked = std::fs::symlink_metadata(p).is_ok_and(|m| m.file_type().is_symlink())
+        && std::fs::metadata(p).is_ok_and(|m| special(m.file_type()));
+    if here || linked {
+        bail!(
+            "cannot write '{}': it is not a regular file (a device, FIFO or socket{}) and would be replaced; name a file instead",
+            p.display(),
+            if linked { ", through a link" } else { "" }
+        );
     }
     Ok(())
 }
@@ -225,6 +236,8 @@ pub fn why_not_written(e: &std::io::Error) -> &'static str {
             "no permission to create files in its folder; write elsewhere"
         }
         Some(libc::ENOENT) => "its folder no longer exists",
+        Some(libc::ENOTDIR) => "part of its path is a file, not a folder",
+        Some(libc::ENAMETOOLONG) => "its name or path is too long; shorten it",
         _ => "its folder does not take new files",
     }
 }
@@ -341,7 +354,11 @@ fn write_failed(p: &Path, e: &anyhow::Error) -> String {
 /// a crash soon after the rename can leave an empty file under the final name on some file
 /// systems, the old one gone.
 fn sync_file(tmp: &Path) -> Result<()> {
-    Ok(std::fs::File::open(tmp)?.sync_all()?)
+    match std::fs::File::open(tmp)?.sync_all() {
+        // A file system that cannot flush (EINVAL, ENOTSUP) has nothing to wait for.
+        Err(e) if matches!(e.raw_os_error(), Some(libc::EINVAL) | Some(libc::ENOTSUP)) => Ok(()),
+        r => Ok(r?),
+    }
 }
 
 /// Flushes `p`'s folder (its renames); best effort.
@@ -382,9 +399,7 @@ pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
                 .with_context(|| format!("cannot move the result into '{}'", target.display()))?;
             moved.push(target);
         }
-        for (target, _) in files {
-            sync_folder(target);
-        }
+        _locks.sync();
         Ok(())
     })();
     let mut failed_restore = Vec::new();
@@ -422,30 +437,57 @@ pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
 /// when dropped: two runs writing the same outputs at once committed file by file, both
 /// with exit 0, and the set could end mixed (one run's EXR beside the other's PNG and JSON,
 /// which `merge` would then weigh wrongly; an audit, 2026-12-06). Now the later commit waits
-/// for the earlier one and replaces the whole set. A folder that cannot be locked (a file
-/// system without locks) is committed without.
-struct FolderLocks(#[allow(dead_code)] Vec<std::fs::File>);
+/// for the earlier one and replaces the whole set. Folders are told apart by device and
+/// inode, so one folder reached by two paths is locked once (a second lock on it would wait
+/// for the first forever), and taken in that order by every run. A folder still locked
+/// after a minute (a writer stopped mid-commit), or that cannot be locked (a file system
+/// without locks), is committed without.
+struct FolderLocks {
+    held: Vec<std::fs::File>,
+}
 
 impl FolderLocks {
     fn take<'a>(targets: impl Iterator<Item = &'a Path>) -> FolderLocks {
         use std::os::fd::AsRawFd;
-        let mut dirs: Vec<PathBuf> = targets
-            .map(|t| match t.parent() {
-                Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-                _ => PathBuf::from("."),
+        use std::os::unix::fs::MetadataExt;
+        let mut dirs: Vec<((u64, u64), std::fs::File)> = targets
+            .filter_map(|t| {
+                let dir = match t.parent() {
+                    Some(d) if !d.as_os_str().is_empty() => d,
+                    _ => Path::new("."),
+                };
+                let f = std::fs::File::open(dir).ok()?;
+                let m = f.metadata().ok()?;
+                Some(((m.dev(), m.ino()), f))
             })
-            .map(|d| d.canonicalize().unwrap_or(d))
             .collect();
-        // One order for every run, so two runs never wait on each other's second folder.
-        dirs.sort();
-        dirs.dedup();
-        FolderLocks(
-            dirs.iter()
-                .filter_map(|d| std::fs::File::open(d).ok())
-                // SAFETY: flock on a descriptor this File owns; closing it unlocks.
-                .filter(|f| unsafe { libc::flock(f.as_raw_fd(), libc::LOCK_EX) } == 0)
-                .collect(),
-        )
+        dirs.sort_by_key(|(id, _)| *id);
+        dirs.dedup_by_key(|(id, _)| *id);
+        let mut held = Vec::new();
+        for (_, f) in dirs {
+            let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+            loop {
+                // SAFETY: flock on a descriptor `f` owns; closing it unlocks.
+                if unsafe { libc::flock(f.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) } == 0 {
+                    held.push(f);
+                    break;
+                }
+                let busy =
+                    std::io::Error::last_os_error().raw_os_error() == Some(libc::EWOULDBLOCK);
+                if !busy || std::time::Instant::now() > deadline {
+                    break;
+                }
+                std::thread::sleep(std::time::Duration::from_millis(10));
+            }
+        }
+        FolderLocks { held }
+    }
+
+    /// Flushes each locked folder (the renames into it) once; best effort.
+    fn sync(&self) {
+        for f in &self.held {
+            let _ = f.sync_all();
+        }
     }
 }
 

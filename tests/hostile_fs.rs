@@ -7,6 +7,7 @@
 mod common;
 
 use std::os::unix::fs::FileTypeExt;
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -28,63 +29,75 @@ fn scene(name: &str) -> String {
     format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"))
 }
 
-/// The render's folder is removed while it renders: the checkpoints that cannot be written
-/// are warnings and the render goes on; its outputs go to a rescue folder, which the error
-/// names, with every sample (before: exit 1 at the first failed checkpoint, the samples
-/// lost).
+fn mkfifo(p: &Path) {
+    use std::os::unix::ffi::OsStrExt;
+    let c = std::ffi::CString::new(p.as_os_str().as_bytes()).unwrap();
+    // SAFETY: a NUL-terminated path that lives across the call.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o644) }, 0, "mkfifo");
+}
+
+fn is_fifo(p: &Path) -> bool {
+    std::fs::symlink_metadata(p).is_ok_and(|m| m.file_type().is_fifo())
+}
+
+/// The render's folder is renamed away while it renders: the checkpoints that cannot be
+/// written give one warning and the render goes on; its outputs go to a rescue folder in
+/// TMPDIR, which the error names, with every sample (before: exit 1 at the first failed
+/// checkpoint, the samples lost).
 #[test]
 fn a_render_whose_folder_is_removed_keeps_its_samples() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     std::fs::create_dir(d.join("out")).unwrap();
-    let scene = scene("cornell.glb");
-    let child = Command::new(common::exe())
-        .arg("render")
-        .args([&scene, "--time", "4", "--checkpoint", "0.3", "--out"])
-        .arg("out/r.exr")
-        .args(["--width", "32", "--height", "24", "--max-depth", "1", "-q"])
+    std::fs::create_dir(d.join("tmp")).unwrap();
+    let mut child = Command::new(common::exe())
+        .args(["render", &scene("cornell.glb"), "--time", "4"])
+        .args(["--checkpoint", "0.3", "--out", "out/r.exr", "-q"])
+        .args(["--width", "32", "--height", "24", "--max-depth", "1"])
+        .env("TMPDIR", d.join("tmp"))
         .current_dir(d)
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    // The first checkpoint (0.3 s of rendering) is written; then the folder goes.
+    // The first checkpoint (0.3 s of rendering) is written; then the folder goes (a rename:
+    // atomic, whatever the render is writing into it at that moment).
     let t = Instant::now();
     while !d.join("out/r.exr").exists() {
-        assert!(t.elapsed() < Duration::from_secs(60), "no checkpoint came");
+        if t.elapsed() > Duration::from_secs(60) {
+            let _ = child.kill();
+            panic!("no checkpoint came");
+        }
         std::thread::sleep(Duration::from_millis(10));
     }
-    std::fs::remove_dir_all(d.join("out")).unwrap();
+    std::fs::rename(d.join("out"), d.join("gone")).unwrap();
     let o = child.wait_with_output().unwrap();
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(!err.contains("panicked"), "{err}");
-    assert!(err.contains("warning: checkpoint not written"), "{err}");
+    assert_eq!(
+        err.matches("warning: checkpoint not written").count(),
+        1,
+        "one warning, not one a checkpoint: {err}"
+    );
     let line = err.lines().find(|l| l.starts_with("error:")).unwrap();
     assert!(line.contains("its folder 'out' no longer exists"), "{line}");
-    let saved = line
-        .split("saved in '")
-        .nth(1)
-        .and_then(|s| s.split('\'').next())
-        .unwrap_or_else(|| panic!("no rescue folder named: {line}"));
-    let saved = std::path::Path::new(saved);
-    let rescue = saved.parent().unwrap().to_path_buf();
+    // The rescue folder is in TMPDIR, and holds the whole render.
+    let rescued = files(&d.join("tmp"));
+    assert_eq!(rescued.len(), 1, "{rescued:?}");
+    let rescue = d.join("tmp").join(&rescued[0]);
+    assert!(line.contains(&rescue.display().to_string()), "{line}");
+    assert_eq!(files(&rescue), ["r.exr", "r.json", "r.png"]);
     let report: Value =
-        serde_json::from_slice(&std::fs::read(saved.with_extension("json")).unwrap()).unwrap();
-    std::fs::remove_dir_all(&rescue).unwrap();
-    assert_eq!(
-        files_of(&report),
-        (true, false),
-        "the rescued report should be the final render's, not a checkpoint's"
+        serde_json::from_slice(&std::fs::read(rescue.join("r.json")).unwrap()).unwrap();
+    assert!(
+        report["render_seconds"].as_f64().unwrap() >= 4.0,
+        "{report}"
+    );
+    assert!(
+        report.get("checkpoint").is_none(),
+        "a checkpoint's: {report}"
     );
     assert!(line.contains(&format!("{} spp", report["spp"])), "{line}");
-}
-
-/// (seconds of film ≥ 4, marked as a checkpoint) of a render's report.
-fn files_of(report: &Value) -> (bool, bool) {
-    (
-        report["render_seconds"].as_f64().unwrap() >= 4.0,
-        report["checkpoint"].as_bool().unwrap_or(false),
-    )
 }
 
 /// A stderr whose reader is gone (`2>&1 | head -1`): the messages are dropped, the render
@@ -95,9 +108,8 @@ fn a_closed_stderr_does_not_end_a_render() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let mut child = Command::new(common::exe())
-        .args(["render", &scene("cornell.glb")])
+        .args(["render", &scene("cornell.glb"), "--out", "r.exr"])
         .args(TINY)
-        .args(["--out", "r.exr"])
         .current_dir(d)
         .stderr(Stdio::piped())
         .spawn()
@@ -117,50 +129,29 @@ fn names_too_long_and_outputs_that_are_not_files_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let cornell = scene("cornell.glb");
-    let long = format!("{}.exr", "a".repeat(251));
-    let o = run_in(&["render", &cornell, "--out", &long], d, &[]);
-    refused(&o, &["256 bytes", "shorten --out"]);
+    let render = |out: &str, more: &[&str]| {
+        let mut args = vec!["render", &cornell, "--out", out];
+        args.extend(more);
+        args.extend(TINY);
+        run_in(&args, d, &[])
+    };
+    let o = render(&format!("{}.exr", "a".repeat(251)), &[]);
+    refused(&o, &["256 bytes", "shorten the name"]);
     assert!(!stderr(&o).contains("device"), "it rendered first");
     assert!(files(d).is_empty(), "{:?}", files(d));
 
-    let fifo = d.join("r.exr");
-    assert!(Command::new("mkfifo")
-        .arg(&fifo)
-        .status()
-        .unwrap()
-        .success());
-    let o = run_in(&["render", &cornell, "--out", "r.exr"], d, &[]);
-    refused(&o, &["'r.exr'", "not a regular file"]);
-    assert!(std::fs::symlink_metadata(&fifo)
-        .unwrap()
-        .file_type()
-        .is_fifo());
-    let stats = d.join("s.stats");
-    assert!(Command::new("mkfifo")
-        .arg(&stats)
-        .status()
-        .unwrap()
-        .success());
-    let mut args = vec![
-        "render",
-        &cornell,
-        "--out",
-        "y.exr",
-        "--save-stats",
-        "s.stats",
-    ];
-    args.extend(["--force"]);
-    args.extend(TINY);
-    let o = run_in(&args, d, &[]);
+    mkfifo(&d.join("r.exr"));
+    refused(&render("r.exr", &[]), &["'r.exr'", "not a regular file"]);
+    assert!(is_fifo(&d.join("r.exr")));
+    mkfifo(&d.join("s.stats"));
+    let o = render("y.exr", &["--save-stats", "s.stats", "--force"]);
     refused(&o, &["'s.stats'", "not a regular file"]);
-    assert!(std::fs::symlink_metadata(&stats)
-        .unwrap()
-        .file_type()
-        .is_fifo());
+    assert!(is_fifo(&d.join("s.stats")));
 }
 
-/// ffmpeg is there but fails (a full disk): an error naming the video, exit 1, the frames
-/// written and no video of an earlier run left beside them (before: a warning and exit 0).
+/// ffmpeg is there, with libx264, but fails (a full disk): an error naming the video and
+/// what to do, exit 1, the frames written and no video of an earlier run left beside them
+/// (before: a warning and exit 0).
 #[test]
 fn a_video_that_cannot_be_encoded_is_an_error() {
     let dir = tempfile::tempdir().unwrap();
@@ -168,25 +159,30 @@ fn a_video_that_cannot_be_encoded_is_an_error() {
     let bin = d.join("bin");
     std::fs::create_dir(&bin).unwrap();
     let ffmpeg = bin.join("ffmpeg");
-    std::fs::write(
-        &ffmpeg,
-        "#!/bin/sh\n[ \"$1\" = -version ] && exit 0\necho 'No space left on device' >&2\nexit 1\n",
-    )
-    .unwrap();
+    let stub = "#!/bin/sh\n\
+                case \"$*\" in\n\
+                  -version) exit 0 ;;\n\
+                  *-encoders*) echo ' V..... libx264'; exit 0 ;;\n\
+                esac\n\
+                echo 'No space left on device' >&2\n\
+                exit 1\n";
+    std::fs::write(&ffmpeg, stub).unwrap();
     use std::os::unix::fs::PermissionsExt;
     std::fs::set_permissions(&ffmpeg, std::fs::Permissions::from_mode(0o755)).unwrap();
     std::fs::create_dir(d.join("an")).unwrap();
     std::fs::write(d.join("an/animation.mp4"), b"an earlier run's video").unwrap();
     let path = format!("{}:{}", bin.display(), std::env::var("PATH").unwrap());
-    let mut args = vec!["animate", "--frames", "0..1", "--out", "an"];
     let walk = scene("city-cars.glb");
-    args.insert(1, &walk);
+    let mut args = vec!["animate", &walk, "--frames", "0..1", "--out", "an"];
     args.extend(TINY);
     let o = run_in(&args, d, &[("PATH", &path)]);
-    refused(
-        &o,
-        &["ffmpeg failed", "animation.mp4", "the frames are written"],
-    );
+    let wants = [
+        "ffmpeg failed",
+        "animation.mp4",
+        "frames are written",
+        "--no-video",
+    ];
+    refused(&o, &wants);
     let names = files(&d.join("an"));
     assert!(names.contains(&"frame-0001.exr".to_string()), "{names:?}");
     assert!(!names.contains(&"animation.mp4".to_string()), "{names:?}");

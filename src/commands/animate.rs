@@ -552,6 +552,15 @@ fn encode_video(
         ui.message("ffmpeg is not installed, so no animation.mp4 was written (ci/setup.sh installs it); the frames are the PNG/EXR files");
         return Ok(None);
     }
+    // Builds without libx264 (e.g. Fedora's ffmpeg-free) are like no ffmpeg: a message.
+    let x264 = std::process::Command::new("ffmpeg")
+        .args(["-hide_banner", "-encoders"])
+        .output()
+        .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).contains("libx264"));
+    if !x264 {
+        ui.message("this ffmpeg has no libx264 encoder, so no animation.mp4 was written; the frames are the PNG/EXR files");
+        return Ok(None);
+    }
     let out = req.out.join("animation.mp4");
     let tmp = crate::io::temp_path(&out).with_extension("tmp.mp4");
     let status = std::process::Command::new("ffmpeg")
@@ -579,7 +588,7 @@ fn encode_video(
         // an audit, 2026-12-06). Without ffmpeg at all, the message above and exit 0.
         let _ = std::fs::remove_file(&tmp);
         bail!(
-            "ffmpeg failed ({status}) to encode '{}' (its messages are above); the frames are written: free space and run again, or add --no-video",
+            "ffmpeg failed ({status}) to encode '{}' (its message is above); the frames are written: encode them yourself (ffmpeg -i frame-%04d.png …), or add --no-video",
             out.display()
         );
     }

@@ -221,6 +221,7 @@ pub fn stats(
             );
         }
     }
+    crate::io::check_not_special(out)?;
     if out.exists() && !out.is_dir() && !crate::learning::stats_file::is_stats_file(out) && !force {
         bail!(
             "--out '{}' exists and is not a lightlearn statistics file; name another file, or add --force to replace it",

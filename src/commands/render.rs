@@ -194,6 +194,7 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
     };
     let every = req.checkpoint_seconds;
     let mut next = if every > 0.0 { every } else { f64::INFINITY };
+    let mut checkpoint_error: Option<String> = None;
     // Across the checkpoints' writes too: a stop asked for during one is honoured after
     // the next batch, with the samples written, instead of ending the program at once.
     let _active = crate::interrupt::Active::begin();
@@ -217,10 +218,16 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         // its machine keeps its samples; the final outputs replace these. A checkpoint that
         // cannot be written (a full disk) is not a reason to stop: it ended the render,
         // with only the last checkpoint's samples kept (an audit, 2026-12-06).
-        if let Err(e) = write(&result, true, &paths, req.save_stats.as_deref()) {
-            ui.message(&format!(
-                "warning: checkpoint not written ({e:#}); rendering goes on, and the end writes again"
-            ));
+        match write(&result, true, &paths, req.save_stats.as_deref()) {
+            // Said once, and again only when the reason changes.
+            Err(e) if checkpoint_error.as_deref() != Some(&format!("{e:#}")) => {
+                ui.message(&format!(
+                    "warning: checkpoint not written ({e:#}); rendering goes on, and the end writes again"
+                ));
+                checkpoint_error = Some(format!("{e:#}"));
+            }
+            Err(_) => {}
+            Ok(_) => checkpoint_error = None,
         }
         next = session.film_seconds() + every;
     };
@@ -233,32 +240,52 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
             // the render, a full disk or a name the file system refuses had thrown the whole
             // render away (an audit, 2026-12-06). They go to a folder of their own in the
             // system's temporary folder, and the error says where.
-            let rescue = rescue_folder();
-            let saved = (|| -> Result<std::path::PathBuf> {
-                std::fs::create_dir_all(&rescue)?;
-                let name = |p: &std::path::Path| rescue.join(p.file_name().unwrap_or_default());
+            let mut rescue = None;
+            let saved = (|| -> Result<(PathBuf, Option<PathBuf>)> {
+                let dir = rescue.insert(rescue_folder()?);
+                let name = |p: &std::path::Path| dir.join(p.file_name().unwrap_or_default());
                 let there = OutputPaths::new(&name(&paths.exr))?;
-                let stats = req.save_stats.as_deref().map(name);
+                // A statistics file named like one of the images (`--save-stats b/r.json`
+                // beside `--out a/r.exr`) takes the image's stem and .stats there.
+                let stats = req.save_stats.as_deref().map(name).map(|s| {
+                    if there.all().contains(&s.as_path()) {
+                        there.exr.with_extension("stats")
+                    } else {
+                        s
+                    }
+                });
                 write(&result, false, &there, stats.as_deref())?;
-                Ok(there.exr)
+                Ok((there.exr, stats))
             })();
+            if saved.is_err() {
+                if let Some(dir) = &rescue {
+                    let _ = std::fs::remove_dir(dir); // only if still empty
+                }
+            }
             let gone = paths
                 .exr
                 .parent()
                 .filter(|d| !d.as_os_str().is_empty() && !d.is_dir())
                 .map(|d| format!(" (its folder '{}' no longer exists)", d.display()))
                 .unwrap_or_default();
-            return Err(match saved {
-                Ok(exr) => e.context(format!(
-                    "{} spp not written where asked{gone}; they are saved in '{}' (+ .png, .json{}): move them where you want them",
+            let stopped = if result.interrupted {
+                " (interrupted)"
+            } else {
+                ""
+            };
+            return Err(match (saved, rescue) {
+                (Ok((exr, stats)), _) => e.context(format!(
+                    "{} spp{stopped} not written where asked{gone}; they are saved in '{}' (+ .png, .json{}): move them where you want them",
                     result.spp,
                     exr.display(),
-                    if req.save_stats.is_some() { ", the statistics" } else { "" }
+                    stats
+                        .map(|s| format!(", the statistics '{}'", s.display()))
+                        .unwrap_or_default()
                 )),
-                Err(e2) => e.context(format!(
-                    "{} spp not written where asked{gone}, nor in '{}' ({e2:#})",
+                (Err(e2), dir) => e.context(format!(
+                    "{} spp{stopped} not written where asked{gone}, nor in a rescue folder{} ({e2:#})",
                     result.spp,
-                    rescue.display()
+                    dir.map(|d| format!(" '{}'", d.display())).unwrap_or_default()
                 )),
             });
         }
@@ -282,13 +309,35 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
 }
 
 /// Where a render whose outputs could not be written puts them instead: a new folder in the
-/// system's temporary folder (`TMPDIR`), named by the process.
-fn rescue_folder() -> PathBuf {
+/// system's temporary folder (`TMPDIR`), named by the process and the time, made fresh here
+/// (never one that is already there, which another user of /tmp could have prepared).
+fn rescue_folder() -> Result<PathBuf> {
     let stamp = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_secs())
         .unwrap_or(0);
-    std::env::temp_dir().join(format!("lightlearn-rescue-{}-{stamp}", std::process::id()))
+    let base =
+        std::env::temp_dir().join(format!("lightlearn-rescue-{}-{stamp}", std::process::id()));
+    let mut last = None;
+    for k in 0..100 {
+        let dir = if k == 0 {
+            base.clone()
+        } else {
+            base.with_file_name(format!(
+                "{}-{k}",
+                base.file_name().unwrap_or_default().to_string_lossy()
+            ))
+        };
+        match std::fs::create_dir(&dir) {
+            Ok(()) => return Ok(dir),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => last = Some(dir),
+            Err(e) => bail!("cannot create '{}': {e}", dir.display()),
+        }
+    }
+    bail!(
+        "cannot create a rescue folder: '{}' and 99 more exist",
+        last.unwrap_or(base).display()
+    )
 }
 
 /// The passes a farm chunk skips: chunk K of N samples starts K·N passes on.

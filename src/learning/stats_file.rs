@@ -145,6 +145,7 @@ pub fn check_save_target(p: &Path, inputs: &[&Path], outputs: &[&Path], force: b
             "--save-stats '{d}' is also one of this render's images or report; name another file"
         );
     }
+    crate::io::check_not_special(p)?;
     if p.exists() && !p.is_dir() && !is_stats_file(p) && !force {
         bail!("--save-stats '{d}' exists and is not a lightlearn statistics file; name another file, or add --force to replace it");
     }
