@@ -151,7 +151,7 @@ fn names_too_long_and_outputs_that_are_not_files_are_refused() {
 
 /// ffmpeg is there, with libx264, but fails (a full disk): an error naming the video and
 /// what to do, exit 1, the frames written and no video of an earlier run left beside them
-/// (before: a warning and exit 0).
+/// (before: a warning and exit 0); a dead encoder's temporary is cleaned up.
 #[test]
 fn a_video_that_cannot_be_encoded_is_an_error() {
     let dir = tempfile::tempdir().unwrap();
@@ -171,6 +171,11 @@ fn a_video_that_cannot_be_encoded_is_an_error() {
     std::fs::set_permissions(&ffmpeg, std::fs::Permissions::from_mode(0o755)).unwrap();
     std::fs::create_dir(d.join("an")).unwrap();
     std::fs::write(d.join("an/animation.mp4"), b"an earlier run's video").unwrap();
+    // What an ffmpeg killed mid-encode an hour ago left (a process id no longer running).
+    let stale = d.join("an/.animation.mp4.999999999.tmp");
+    let f = std::fs::File::create(&stale).unwrap();
+    f.set_modified(std::time::SystemTime::now() - Duration::from_secs(3600))
+        .unwrap();
     let path = format!("{}:{}", bin.display(), std::env::var("PATH").unwrap());
     let walk = scene("city-cars.glb");
     let mut args = vec!["animate", &walk, "--frames", "0..1", "--out", "an"];
@@ -186,4 +191,8 @@ fn a_video_that_cannot_be_encoded_is_an_error() {
     let names = files(&d.join("an"));
     assert!(names.contains(&"frame-0001.exr".to_string()), "{names:?}");
     assert!(!names.contains(&"animation.mp4".to_string()), "{names:?}");
+    assert!(
+        !stale.exists(),
+        "a dead encoder's temporary stayed: {names:?}"
+    );
 }

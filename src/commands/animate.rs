@@ -562,7 +562,11 @@ fn encode_video(
         return Ok(None);
     }
     let out = req.out.join("animation.mp4");
-    let tmp = crate::io::temp_path(&out).with_extension("tmp.mp4");
+    // The io module's temporary name (…PID.tmp, the container given by -f), so that one an
+    // ffmpeg killed mid-encode left is removed like any other stale temporary (a name
+    // ending .tmp.mp4 stayed for good).
+    crate::io::remove_stale_temps(&out);
+    let tmp = crate::io::temp_path(&out);
     let status = std::process::Command::new("ffmpeg")
         .args(["-loglevel", "error", "-y", "-framerate"])
         .arg(format!("{}", req.fps))
@@ -579,6 +583,8 @@ fn encode_video(
             "yuv420p",
             "-c:v",
             "libx264",
+            "-f",
+            "mp4",
         ])
         .arg(&tmp)
         .status()
