@@ -1,7 +1,8 @@
 //! Checks of a glTF document that the `gltf` crate does not make before it indexes with them:
 //! it panicked on a POSITION accessor index out of range (in its own validation) and on
 //! float-typed indices (`unreachable!` in its reader). Each problem becomes one line naming
-//! the element and the fix; the crate's validation runs only after these pass.
+//! the element and the fix; the crate's validation runs only after these pass. A case none
+//! of them knows is caught by [`guarded`] (one line, never a panic's text).
 
 use anyhow::{bail, Result};
 use gltf::json::accessor::{ComponentType, GenericComponentType, Type};
@@ -431,4 +432,41 @@ fn listed(kind: &str, one: &str, many: &str, items: &[String]) -> String {
             format!("{kind}s {shown}{more} {many}")
         }
     }
+}
+
+/// The gltf crate indexes with unwrap in a few places; gltf_check catches the cases we know,
+/// and a malformed file that slips past it must still give one clear line, never a panic's
+/// text (the hook is silenced while the loader runs).
+pub fn guarded<T>(name: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
+    let result = silenced(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)));
+    match result {
+        Ok(r) => r,
+        Err(_) => bail!(
+            "'{name}': the glTF file is malformed in a way the parser could not report; \
+             check it with the Khronos glTF validator"
+        ),
+    }
+}
+
+thread_local! {
+    static SILENT: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f` with panic messages of this thread silenced (other threads' panics still print):
+/// a hook installed once that defers to the previous one unless the panicking thread asked
+/// for silence.
+fn silenced<T>(f: impl FnOnce() -> T) -> T {
+    static INSTALL: std::sync::Once = std::sync::Once::new();
+    INSTALL.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !SILENT.with(|s| s.get()) {
+                previous(info)
+            }
+        }));
+    });
+    SILENT.with(|s| s.set(true));
+    let out = f();
+    SILENT.with(|s| s.set(false));
+    out
 }

@@ -17,13 +17,15 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use anyhow::{anyhow, bail, Result};
-use glam::{DMat4, DQuat, DVec3, DVec4, Quat, Vec3};
+use glam::{DMat4, DQuat, DVec3, Quat, Vec3};
 use gltf::mesh::Mode;
 
 use super::animation::{Animations, Pose};
 pub use super::frame::{Frame, NATIVE_SIZES};
 use super::gltf_camera::{read_camera, Clip, View};
+use super::gltf_check::guarded;
 use super::gltf_data::{load_buffers, Images};
+use super::gltf_light::read_light;
 use super::gltf_material::material_slot;
 use super::{Camera, Light, Material, Scene};
 
@@ -101,43 +103,6 @@ pub fn open_bytes(
             animations,
         })
     })
-}
-
-/// The gltf crate indexes with unwrap in a few places; gltf_check catches the cases we know,
-/// and a malformed file that slips past it must still give one clear line, never a panic's
-/// text (the hook is silenced while the loader runs).
-fn guarded<T>(name: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
-    let result = silenced(|| std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)));
-    match result {
-        Ok(r) => r,
-        Err(_) => bail!(
-            "'{name}': the glTF file is malformed in a way the parser could not report; \
-             check it with the Khronos glTF validator"
-        ),
-    }
-}
-
-thread_local! {
-    static SILENT: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
-}
-
-/// Runs `f` with panic messages of this thread silenced (other threads' panics still print):
-/// a hook installed once that defers to the previous one unless the panicking thread asked
-/// for silence.
-fn silenced<T>(f: impl FnOnce() -> T) -> T {
-    static INSTALL: std::sync::Once = std::sync::Once::new();
-    INSTALL.call_once(|| {
-        let previous = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            if !SILENT.with(|s| s.get()) {
-                previous(info)
-            }
-        }));
-    });
-    SILENT.with(|s| s.set(true));
-    let out = f();
-    SILENT.with(|s| s.set(false));
-    out
 }
 
 /// A parsed and checked glTF file: every pose of it is flattened from this.
@@ -462,64 +427,11 @@ impl Document {
         }
 
         if let Some(light) = node.light() {
-            let label = format!("light {} ('{}')", light.index(), light.name().unwrap_or(""));
-            let intensity = Vec3::from(light.color()) * light.intensity();
-            if !intensity.is_finite() || intensity.min_element() < 0.0 {
-                bail!("'{name}': {label} has a non-finite or negative color × intensity ({intensity}); use finite values ≥ 0");
-            }
-            let position = world.transform_point3(DVec3::ZERO);
-            let direction = (world * DVec4::new(0.0, 0.0, -1.0, 0.0))
-                .truncate()
-                .as_vec3();
             lights_with_range += light.range().is_some() as usize;
-            if intensity.max_element() == 0.0 {
-                warn(format!("'{name}': {label} has zero intensity; skipped"));
-            } else {
-                match light.kind() {
-                    gltf::khr_lights_punctual::Kind::Point => {
-                        light_positions.push(position);
-                        light_labels.push(label.clone());
-                        scene.lights.push(Light::Point {
-                            position: Vec3::ZERO,
-                            intensity,
-                        })
-                    }
-                    gltf::khr_lights_punctual::Kind::Spot {
-                        inner_cone_angle,
-                        outer_cone_angle,
-                    } => {
-                        if direction.length_squared() == 0.0 {
-                            bail!("'{name}': {label} sits on a node with a degenerate transform; its direction is undefined");
-                        }
-                        let outer = outer_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2);
-                        let inner = inner_cone_angle.clamp(0.0, outer);
-                        // KHR_lights_punctual: 0 ≤ inner < outer ≤ π/2 (inner = outer is taken as a hard edge).
-                        if (outer, inner) != (outer_cone_angle, inner_cone_angle) {
-                            warn(format!(
-                                "'{name}': {label} has cone angles inner {inner_cone_angle} / outer {outer_cone_angle} outside 0 ≤ inner ≤ outer ≤ π/2; rendered with inner {inner} / outer {outer}"
-                            ));
-                        }
-                        if outer == 0.0 {
-                            // An empty cone emits nothing: before, it reached the power check
-                            // as "a light's power rounds to 0", which named neither the light
-                            // nor the cause.
-                            warn(format!("'{name}': {label} is a spot with an outer cone angle of 0, which lights nothing; skipped"));
-                        } else {
-                            light_positions.push(position);
-                            light_labels.push(label.clone());
-                            scene.lights.push(Light::Spot {
-                                position: Vec3::ZERO,
-                                direction: direction.normalize(),
-                                intensity,
-                                cos_inner: inner.cos(),
-                                cos_outer: outer.cos(),
-                            })
-                        }
-                    }
-                    gltf::khr_lights_punctual::Kind::Directional => warn(format!(
-                        "'{name}': {label} is directional, which lightlearn does not support yet; skipped (use an emissive quad or point lights)"
-                    )),
-                }
+            if let Some((l, position, label)) = read_light(&light, world, name, warn)? {
+                light_positions.push(position);
+                light_labels.push(label);
+                scene.lights.push(l);
             }
         }
 

@@ -11,6 +11,7 @@ pub mod frame;
 pub mod gltf_camera;
 pub mod gltf_check;
 mod gltf_data;
+mod gltf_light;
 pub use gltf_data::percent_decode;
 pub mod gltf_load;
 mod gltf_material;

@@ -1,0 +1,81 @@
+//! A KHR_lights_punctual light of a glTF node: point and spot lights become [`Light`]s;
+//! directional lights, zero intensity and empty cones are skipped with a warning; `range` is
+//! the caller's to count (one warning for the file).
+
+use anyhow::{bail, Result};
+use glam::{DMat4, DVec3, DVec4, Vec3};
+
+use super::Light;
+
+/// The light `light` on a node with world transform `world` in file `name`: the light (its
+/// position still at the origin: the caller moves it into the scene's frame), its world
+/// position and its label ("light K ('name')"); None where it is skipped (with a warning).
+pub fn read_light(
+    light: &gltf::khr_lights_punctual::Light,
+    world: DMat4,
+    name: &str,
+    warn: &mut dyn FnMut(String),
+) -> Result<Option<(Light, DVec3, String)>> {
+    let label = format!("light {} ('{}')", light.index(), light.name().unwrap_or(""));
+    let intensity = Vec3::from(light.color()) * light.intensity();
+    if !intensity.is_finite() || intensity.min_element() < 0.0 {
+        bail!("'{name}': {label} has a non-finite or negative color × intensity ({intensity}); use finite values ≥ 0");
+    }
+    let position = world.transform_point3(DVec3::ZERO);
+    let direction = (world * DVec4::new(0.0, 0.0, -1.0, 0.0))
+        .truncate()
+        .as_vec3();
+    if intensity.max_element() == 0.0 {
+        warn(format!("'{name}': {label} has zero intensity; skipped"));
+        return Ok(None);
+    }
+    match light.kind() {
+        gltf::khr_lights_punctual::Kind::Point => Ok(Some((
+            Light::Point {
+                position: Vec3::ZERO,
+                intensity,
+            },
+            position,
+            label,
+        ))),
+        gltf::khr_lights_punctual::Kind::Spot {
+            inner_cone_angle,
+            outer_cone_angle,
+        } => {
+            if direction.length_squared() == 0.0 {
+                bail!("'{name}': {label} sits on a node with a degenerate transform; its direction is undefined");
+            }
+            let outer = outer_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2);
+            let inner = inner_cone_angle.clamp(0.0, outer);
+            // KHR_lights_punctual: 0 ≤ inner < outer ≤ π/2 (inner = outer is taken as a hard edge).
+            if (outer, inner) != (outer_cone_angle, inner_cone_angle) {
+                warn(format!(
+                    "'{name}': {label} has cone angles inner {inner_cone_angle} / outer {outer_cone_angle} outside 0 ≤ inner ≤ outer ≤ π/2; rendered with inner {inner} / outer {outer}"
+                ));
+            }
+            if outer == 0.0 {
+                // An empty cone emits nothing: before, it reached the power check as "a
+                // light's power rounds to 0", which named neither the light nor the cause.
+                warn(format!("'{name}': {label} is a spot with an outer cone angle of 0, which lights nothing; skipped"));
+                return Ok(None);
+            }
+            Ok(Some((
+                Light::Spot {
+                    position: Vec3::ZERO,
+                    direction: direction.normalize(),
+                    intensity,
+                    cos_inner: inner.cos(),
+                    cos_outer: outer.cos(),
+                },
+                position,
+                label,
+            )))
+        }
+        gltf::khr_lights_punctual::Kind::Directional => {
+            warn(format!(
+                "'{name}': {label} is directional, which lightlearn does not support yet; skipped (use an emissive quad or point lights)"
+            ));
+            Ok(None)
+        }
+    }
+}
