@@ -97,10 +97,17 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            say!("error: {e:#}");
+            say!("error: {}", one_line(&format!("{e:#}")));
             ExitCode::FAILURE
         }
     }
+}
+
+/// An error or message as one line: a newline or carriage return inside it (a file name may
+/// hold one) is shown as `\n` / `\r`, so each message stays one line of the log (an error
+/// naming such a file spanned two; an audit, 2026-12-06).
+fn one_line(s: &str) -> String {
+    s.replace('\n', "\\n").replace('\r', "\\r")
 }
 
 /// Progress on a terminal (a bar per phase, 0..1000 = fraction done) and messages on
@@ -142,6 +149,7 @@ impl Ui for Terminal {
     }
 
     fn message(&mut self, line: &str) {
+        let line = one_line(line);
         if !self.quiet || line.starts_with("warning:") {
             match &self.bar {
                 Some(b) => b.suspend(|| say!("{line}")),

@@ -123,7 +123,7 @@ fn a_closed_stderr_does_not_end_a_render() {
 /// Names the file system refuses and outputs that are not regular files are refused before
 /// any rendering (before: a 255-byte EXR name, whose JSON is 256, rendered and lost the
 /// render at its end; a FIFO or device under an output's name was replaced, `--force` or
-/// not).
+/// not); a name with a newline gets a one-line error.
 #[test]
 fn names_too_long_and_outputs_that_are_not_files_are_refused() {
     let dir = tempfile::tempdir().unwrap();
@@ -139,6 +139,11 @@ fn names_too_long_and_outputs_that_are_not_files_are_refused() {
     refused(&o, &["256 bytes", "shorten the name"]);
     assert!(!stderr(&o).contains("device"), "it rendered first");
     assert!(files(d).is_empty(), "{:?}", files(d));
+
+    // A newline in a name is shown as \n: the error stays one line (it spanned two).
+    let o = render("new\nline/r.exr", &["-q"]);
+    refused(&o, &["'new\\nline/r.exr'", "does not exist"]);
+    assert_eq!(stderr(&o).lines().count(), 1, "{}", stderr(&o));
 
     mkfifo(&d.join("r.exr"));
     refused(&render("r.exr", &[]), &["'r.exr'", "not a regular file"]);
