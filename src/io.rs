@@ -25,6 +25,14 @@ pub fn temp_path(p: &Path) -> PathBuf {
     p.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
 }
 
+/// The folder `p` is in ("." for a bare name).
+fn folder_of(p: &Path) -> &Path {
+    match p.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
 /// Removes the temporaries of `p` that a killed process left (`render --checkpoint`: a
 /// SIGKILL during a write leaves them, the outputs themselves whole): those named by
 /// [`temp_path`] for a process id that no longer runs here, untouched for 10 minutes (a
@@ -41,10 +49,7 @@ pub fn remove_stale_temps(p: &Path) {
     let Some(prefix) = ours.strip_suffix(&format!("{pid}.tmp")) else {
         return;
     };
-    let dir = match p.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
+    let dir = folder_of(p);
     if !Path::new("/proc/self").exists() {
         return;
     }
@@ -78,10 +83,7 @@ pub fn remove_stale_temps(p: &Path) {
 
 /// Fails early, before any work, when `p`'s folder does not exist.
 pub fn check_parent(p: &Path) -> Result<()> {
-    let dir = match p.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
+    let dir = folder_of(p);
     if !dir.is_dir() {
         bail!(
             "cannot write '{}': folder '{}' does not exist; create it first",
@@ -141,22 +143,34 @@ pub fn write_atomic(p: &Path, bytes: &[u8]) -> Result<()> {
 
 /// Lets `write` fill a temporary file, then renames it to `p`; removes it on failure.
 pub fn write_atomic_with(p: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    remove_stale_temps(p);
-    let tmp = temp_path(p);
-    let result = write(&tmp)
-        .and_then(|_| sync_file(&tmp))
-        .and_then(|_| Ok(std::fs::rename(&tmp, p)?))
-        .map_err(|e| {
-            let what = write_failed(p, &e);
-            e.context(what)
-        });
-    if result.is_ok() {
-        sync_folder(p);
-    }
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
+    let tmp = write_temp(p, write)?;
+    let result = std::fs::rename(&tmp, p).map_err(|e| {
+        let e = anyhow::Error::new(e);
+        let what = write_failed(p, &e);
+        e.context(what)
+    });
+    match result {
+        Ok(()) => sync_folder(p),
+        Err(_) => {
+            let _ = std::fs::remove_file(&tmp);
+        }
     }
     result
+}
+
+/// Lets `write` fill the temporary of `target` (stale ones of dead processes removed first)
+/// and flushes it; its name, or the error with what to do, the temporary removed.
+fn write_temp(target: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<PathBuf> {
+    remove_stale_temps(target);
+    let tmp = temp_path(target);
+    match write(&tmp).and_then(|_| sync_file(&tmp)) {
+        Ok(()) => Ok(tmp),
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            let what = write_failed(target, &e);
+            Err(e.context(what))
+        }
+    }
 }
 
 /// Fails early, before any work, unless `p` can be written: its folder exists and takes new
@@ -212,10 +226,16 @@ pub fn check_writable(p: &Path) -> Result<()> {
 /// cannot help here.
 pub fn check_not_special(p: &Path) -> Result<()> {
     let special = |t: std::fs::FileType| !t.is_file() && !t.is_dir() && !t.is_symlink();
-    let here = std::fs::symlink_metadata(p).is_ok_and(|m| special(m.file_type()));
-    let linked = std::fs::symlink_metadata(p).is_ok_and(|m| m.file_type().is_symlink())
-        && std::fs::metadata(p).is_ok_and(|m| special(m.file_type()));
-    if here || linked {
+    let Ok(m) = std::fs::symlink_metadata(p) else {
+        return Ok(()); // nothing there yet
+    };
+    let linked = m.file_type().is_symlink();
+    let target = if linked {
+        std::fs::metadata(p).ok().map(|m| m.file_type())
+    } else {
+        Some(m.file_type())
+    };
+    if target.is_some_and(special) {
         bail!(
             "cannot write '{}': it is not a regular file (a device, FIFO or socket{}) and would be replaced; name a file instead",
             p.display(),
@@ -320,10 +340,7 @@ pub fn same_path(a: &Path, b: &Path) -> bool {
         if let Ok(c) = p.canonicalize() {
             return Some(c);
         }
-        let dir = match p.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
+        let dir = folder_of(p);
         Some(dir.canonicalize().ok()?.join(p.file_name()?))
     };
     match (full(a), full(b)) {
@@ -363,10 +380,7 @@ fn sync_file(tmp: &Path) -> Result<()> {
 
 /// Flushes `p`'s folder (its renames); best effort.
 fn sync_folder(p: &Path) {
-    let dir = match p.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
+    let dir = folder_of(p);
     if let Ok(d) = std::fs::File::open(dir) {
         let _ = d.sync_all();
     }
@@ -452,11 +466,7 @@ impl FolderLocks {
         use std::os::unix::fs::MetadataExt;
         let mut dirs: Vec<((u64, u64), std::fs::File)> = targets
             .filter_map(|t| {
-                let dir = match t.parent() {
-                    Some(d) if !d.as_os_str().is_empty() => d,
-                    _ => Path::new("."),
-                };
-                let f = std::fs::File::open(dir).ok()?;
+                let f = std::fs::File::open(folder_of(t)).ok()?;
                 let m = f.metadata().ok()?;
                 Some(((m.dev(), m.ino()), f))
             })
@@ -505,13 +515,9 @@ impl FileSet {
         target: &Path,
         write: impl FnOnce(&Path) -> Result<()>,
     ) -> Result<()> {
-        remove_stale_temps(target);
-        let tmp = temp_path(target);
-        self.files.push((target.to_path_buf(), tmp.clone()));
-        write(&tmp).and_then(|_| sync_file(&tmp)).map_err(|e| {
-            let what = write_failed(target, &e);
-            e.context(what)
-        })
+        let tmp = write_temp(target, write)?;
+        self.files.push((target.to_path_buf(), tmp));
+        Ok(())
     }
 
     pub fn add(&mut self, target: &Path, bytes: &[u8]) -> Result<()> {

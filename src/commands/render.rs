@@ -240,28 +240,9 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
             // the render, a full disk or a name the file system refuses had thrown the whole
             // render away (an audit, 2026-12-06). They go to a folder of their own in the
             // system's temporary folder, and the error says where.
-            let mut rescue = None;
-            let saved = (|| -> Result<(PathBuf, Option<PathBuf>)> {
-                let dir = rescue.insert(rescue_folder()?);
-                let name = |p: &std::path::Path| dir.join(p.file_name().unwrap_or_default());
-                let there = OutputPaths::new(&name(&paths.exr))?;
-                // A statistics file named like one of the images (`--save-stats b/r.json`
-                // beside `--out a/r.exr`) takes the image's stem and .stats there.
-                let stats = req.save_stats.as_deref().map(name).map(|s| {
-                    if there.all().contains(&s.as_path()) {
-                        there.exr.with_extension("stats")
-                    } else {
-                        s
-                    }
-                });
-                write(&result, false, &there, stats.as_deref())?;
-                Ok((there.exr, stats))
-            })();
-            if saved.is_err() {
-                if let Some(dir) = &rescue {
-                    let _ = std::fs::remove_dir(dir); // only if still empty
-                }
-            }
+            let (saved, rescue) = rescue(&paths, req.save_stats.as_deref(), |there, stats| {
+                write(&result, false, there, stats)
+            });
             let gone = paths
                 .exr
                 .parent()
@@ -306,6 +287,39 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         interrupted: result.interrupted,
         wrote_stats,
     })
+}
+
+/// Writes the outputs (`write` to the paths and statistics file given) into a fresh rescue
+/// folder under the names of `paths` and `stats`: the EXR and the statistics file written
+/// there, or the error; and the folder, where one was made (removed again if still empty).
+fn rescue(
+    paths: &OutputPaths,
+    stats: Option<&std::path::Path>,
+    write: impl FnOnce(&OutputPaths, Option<&std::path::Path>) -> Result<bool>,
+) -> (Result<(PathBuf, Option<PathBuf>)>, Option<PathBuf>) {
+    let mut folder = None;
+    let saved = (|| -> Result<(PathBuf, Option<PathBuf>)> {
+        let dir = folder.insert(rescue_folder()?);
+        let name = |p: &std::path::Path| dir.join(p.file_name().unwrap_or_default());
+        let there = OutputPaths::new(&name(&paths.exr))?;
+        // A statistics file named like one of the images (`--save-stats b/r.json` beside
+        // `--out a/r.exr`) takes the image's stem and .stats there.
+        let stats = stats.map(name).map(|s| {
+            if there.all().contains(&s.as_path()) {
+                there.exr.with_extension("stats")
+            } else {
+                s
+            }
+        });
+        write(&there, stats.as_deref())?;
+        Ok((there.exr, stats))
+    })();
+    if saved.is_err() {
+        if let Some(dir) = &folder {
+            let _ = std::fs::remove_dir(dir); // only if still empty
+        }
+    }
+    (saved, folder)
 }
 
 /// Where a render whose outputs could not be written puts them instead: a new folder in the
