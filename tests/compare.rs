@@ -192,6 +192,15 @@ fn bad_requests_fail_before_rendering() {
     px[320 * 7 + 5] = [f32::NAN, 0.0, 0.0];
     lightlearn::film::write_exr(&nan_ref, 320, 240, &px).unwrap();
     let nan_ref = nan_ref.display().to_string();
+    // A reference beside another image's report (a split pair): its noise would be wrong.
+    let torn_ref = dir.path().join("torn.exr");
+    lightlearn::film::write_exr(&torn_ref, 320, 240, &vec![[0.5; 3]; 320 * 240]).unwrap();
+    std::fs::write(
+        dir.path().join("torn.json"),
+        r#"{"exr_fnv1a": "0123456789abcdef", "estimated_mse_of_mean": 1e-3}"#,
+    )
+    .unwrap();
+    let torn_ref = torn_ref.display().to_string();
     let out = dir.path().join("rep").display().to_string();
     let file = dir.path().join("afile");
     std::fs::write(&file, "x").unwrap();
@@ -220,6 +229,10 @@ fn bad_requests_fail_before_rendering() {
         (
             vec!["--spp", "4", "--reference", &nan_ref, "--out", &out],
             "NaN or Inf at pixel (5, 7)",
+        ),
+        (
+            vec!["--spp", "4", "--reference", &torn_ref, "--out", &out],
+            "is not the image its report",
         ),
         (vec!["--out", &out], "--time SECONDS"),
         (

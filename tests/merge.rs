@@ -112,6 +112,11 @@ fn parts_that_do_not_belong_together_are_refused() {
     ];
     args.extend_from_slice(&["--seed", "4", "--spp", "2", "--out", "wide.exr"]);
     ok(&run(&args, d));
+    // A pair split apart (a render killed between renaming its EXR and its JSON, or an EXR
+    // copied over another): torn.json says seed 5 and 2 spp, its EXR holds 6 spp of seed 6.
+    part(d, "torn.exr", "5", "2", &[]);
+    part(d, "other.exr", "6", "6", &[]);
+    std::fs::copy(d.join("other.exr"), d.join("torn.exr")).unwrap();
     let before: Vec<_> = std::fs::read_dir(d)
         .unwrap()
         .map(|e| e.unwrap().file_name())
@@ -121,6 +126,10 @@ fn parts_that_do_not_belong_together_are_refused() {
         ("wang.exr", "has sampler"),
         ("grid.exr", "region settings"),
         ("wide.exr", "has width"),
+        (
+            "torn.exr",
+            "is not the image its report 'torn.json' describes",
+        ),
     ] {
         refused(&run(&["merge", "a.exr", other, "--out", "m.exr"], d), want);
     }

@@ -133,7 +133,15 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
                     i as u32 / w
                 );
             }
-            Some((p.clone(), px))
+            // Its report's noise is subtracted from every error below: only this image's.
+            let json = p.with_extension("json");
+            let sidecar: Option<serde_json::Value> = crate::io::read_all(&json)
+                .ok()
+                .and_then(|b| serde_json::from_slice(&b).ok());
+            if let Some(r) = &sidecar {
+                film::check_report(p, &json, r)?;
+            }
+            Some((p.clone(), px, sidecar))
         }
         None => None,
     };
@@ -143,10 +151,7 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
         crate::render::check_region_index_fits(&ctx, &scene, &regions)?;
     }
     let (reference_image, reference_note, reference_noise) = match given {
-        Some((p, px)) => {
-            let sidecar: Option<serde_json::Value> = crate::io::read_all(&p.with_extension("json"))
-                .ok()
-                .and_then(|b| serde_json::from_slice(&b).ok());
+        Some((p, px, sidecar)) => {
             let noise = sidecar.as_ref().and_then(reference::noise);
             let note = noise.map_or(
                 String::from("its own error is unknown (no JSON beside it)"),

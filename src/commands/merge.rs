@@ -69,6 +69,7 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
         })?;
         let r: Value = serde_json::from_slice(&text)
             .with_context(|| format!("the report '{}' is not valid JSON", j.display()))?;
+        film::check_report(p, &j, &r)?;
         reports.push(r);
     }
     let first = &reports[0];

@@ -218,15 +218,15 @@ pub fn store_in_cache(scene: &Scene, settings: &RenderSettings, written: &Output
     }
 }
 
-/// The key of the EXR's checksum in a cache entry's JSON.
-const CHECKSUM: &str = "cache_exr_fnv1a";
+/// The key of the EXR's checksum in the JSON of entries cached before every report carried
+/// one ([`film::EXR_CHECKSUM`]).
+const LEGACY_CHECKSUM: &str = "cache_exr_fnv1a";
 
 /// Writes the cache entry's JSON: the report at `report_path` plus the checksum of the
 /// entry's EXR as it is on disk (the entry counts as whole only once this is written).
 fn seal(report_path: &std::path::Path, entry: &OutputPaths) -> Result<()> {
     let mut report: serde_json::Value = serde_json::from_slice(&crate::io::read_all(report_path)?)?;
-    let sum = crate::learning::stats_file::fnv1a(&crate::io::read_all(&entry.exr)?);
-    report[CHECKSUM] = serde_json::json!(format!("{sum:016x}"));
+    report[film::EXR_CHECKSUM] = serde_json::json!(film::exr_checksum(&entry.exr)?);
     crate::io::write_atomic(
         &entry.json,
         (serde_json::to_string_pretty(&report)? + "\n").as_bytes(),
@@ -247,12 +247,14 @@ fn read_entry(
         &crate::io::read_all(&paths.json).context("its JSON cannot be read")?,
     )
     .context("its JSON is damaged")?;
-    let bytes = crate::io::read_all(&paths.exr).context("its EXR cannot be read")?;
-    let sum = format!("{:016x}", crate::learning::stats_file::fnv1a(&bytes));
+    let sum = film::exr_checksum(&paths.exr).context("its EXR cannot be read")?;
     // Entries cached before the checksum existed have none: checked below by what can be
     // checked, and sealed.
-    let legacy = report[CHECKSUM].is_null();
-    if !legacy && report[CHECKSUM].as_str() != Some(sum.as_str()) {
+    let want = report[film::EXR_CHECKSUM]
+        .as_str()
+        .or(report[LEGACY_CHECKSUM].as_str());
+    let legacy = want.is_none();
+    if !legacy && want != Some(sum.as_str()) {
         bail!("its EXR does not match the checksum in its JSON");
     }
     let (w, h, px) = film::read_exr(&paths.exr)?;
@@ -321,11 +323,9 @@ pub fn cached(
     // entry's place) failed the comparison after the whole reference was rendered.
     let stored = std::fs::create_dir_all(&dir)
         .with_context(|| format!("cannot create the reference cache '{}'", dir.display()))
-        .and_then(|_| film::write_outputs(&paths, settings.width, settings.height, &image, &report))
+        // Its JSON names the EXR's checksum ([`film::write_outputs`]): the entry is whole.
         .and_then(|_| {
-            seal(&paths.json, &paths).with_context(|| {
-                format!("cannot finish the cache entry '{}'", paths.json.display())
-            })
+            film::write_outputs(&paths, settings.width, settings.height, &image, &report)
         });
     if let Err(e) = &stored {
         log(format!(

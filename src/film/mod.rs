@@ -77,11 +77,18 @@ pub fn write_outputs_with(
 ) -> Result<()> {
     let result = (|| -> Result<()> {
         let mut set = crate::io::FileSet::default();
-        set.add_with(&paths.exr, |tmp| write_exr(tmp, width, height, rgb))?;
+        let mut sum = String::new();
+        set.add_with(&paths.exr, |tmp| {
+            write_exr(tmp, width, height, rgb)?;
+            sum = exr_checksum(tmp)?;
+            Ok(())
+        })?;
         set.add_with(&paths.png, |tmp| write_png(tmp, width, height, rgb))?;
+        let mut report = report.clone();
+        report[EXR_CHECKSUM] = serde_json::json!(sum);
         set.add(
             &paths.json,
-            (serde_json::to_string_pretty(report)? + "\n").as_bytes(),
+            (serde_json::to_string_pretty(&report)? + "\n").as_bytes(),
         )?;
         for (p, bytes) in extra {
             set.add(p, bytes)?;
@@ -89,6 +96,54 @@ pub fn write_outputs_with(
         set.commit()
     })();
     result.with_context(|| format!("cannot write the render to '{}'", paths.exr.display()))
+}
+
+/// The report's field that holds its EXR's checksum ([`exr_checksum`]): every report that
+/// [`write_outputs`] writes names the bytes of the EXR written with it, so a reader can tell
+/// a pair that was split apart ([`check_report`]).
+pub const EXR_CHECKSUM: &str = "exr_fnv1a";
+
+/// FNV-1a (64 bit, as 16 hex digits) of the file at `path`, read in blocks (an EXR of the
+/// largest film is 3 GB).
+pub fn exr_checksum(path: &Path) -> Result<String> {
+    use std::io::Read;
+    let mut f = std::fs::File::open(path)
+        .with_context(|| format!("cannot read EXR '{}'", path.display()))?;
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut block = vec![0u8; 1 << 20];
+    loop {
+        let n = f
+            .read(&mut block)
+            .with_context(|| format!("cannot read EXR '{}'", path.display()))?;
+        if n == 0 {
+            return Ok(format!("{h:016x}"));
+        }
+        for b in &block[..n] {
+            h ^= *b as u64;
+            h = h.wrapping_mul(0x100_0000_01b3);
+        }
+    }
+}
+
+/// Checks that `exr` is the image that `report` (read from `json`, the report beside it)
+/// was written with. The EXR, PNG and JSON of a render are renamed into place one after
+/// the other: a render killed between the renames (or a file copied over one of the pair)
+/// left an EXR beside another render's report, which `merge` weighed by the wrong sample
+/// count and `compare` took the wrong noise from, silently. Reports written before the
+/// checksum existed have none and pass.
+pub fn check_report(exr: &Path, json: &Path, report: &serde_json::Value) -> Result<()> {
+    let Some(want) = report[EXR_CHECKSUM].as_str() else {
+        return Ok(());
+    };
+    let got = exr_checksum(exr)?;
+    if got != want {
+        bail!(
+            "'{}' is not the image its report '{}' describes (checksum {got}, the report's {want}): the pair was split apart (a render stopped while it renamed them, or a file was copied over one); render it again",
+            exr.display(),
+            json.display()
+        );
+    }
+    Ok(())
 }
 
 /// Float32 RGB OpenEXR. Written with one thread, so the same pixels give the same bytes
