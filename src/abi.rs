@@ -88,7 +88,7 @@ pub struct AliasEntry {
 /// `LightNode::flags`: some light below emits from both faces.
 pub const LIGHT_NODE_TWO_SIDED: u32 = 1;
 /// `LightNode::flags`: some light below is an area (triangle) light, whose irradiance is
-/// bounded: the importance keeps pbrt-v4's distance clamp there (src/lights/tree.rs
+/// bounded: the importance keeps pbrt-v4's distance clamp there (src/lights/bounds.rs
 /// `d2_floor`).
 pub const LIGHT_NODE_AREA: u32 = 2;
 
@@ -115,7 +115,7 @@ pub struct LightNode {
 
 /// A light-tree node as the kernels read it (`GpuLightNode` in types.glsl): the box as its
 /// centre and bounding-sphere radius, and the cone's sine, computed once on the host
-/// (`lights::tree::gpu_node`) instead of at every importance evaluation. The importance of a cut's
+/// (`lights::bounds::gpu_node`) instead of at every importance evaluation. The importance of a cut's
 /// slots was about a quarter of a `wang` pass on lavapipe (the cut loop with a trivial
 /// importance ran 24 % faster, default scene, depth 8, 320×240); this layout takes three
 /// square roots, two divisions and the box arithmetic out of each evaluation.

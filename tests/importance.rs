@@ -6,7 +6,7 @@ mod common;
 use glam::Vec3;
 use lightlearn::gpu::layout::{LightNode, LightQuery, LIGHT_NODE_AREA, LIGHT_NODE_TWO_SIDED};
 use lightlearn::gpu::{kernels, Buffer, ComputePipeline};
-use lightlearn::lights::tree::{gpu_node, importance};
+use lightlearn::lights::bounds::{gpu_node, importance};
 use lightlearn::rng::SplitMix64;
 
 #[test]

@@ -1,5 +1,5 @@
 // The light tree's importance and the `lightbvh` sampler's stochastic descent. Mirror of
-// src/lights/tree.rs (`importance`, `LightTree::sample`), checked against it by
+// src/lights/bounds.rs (`importance`) and src/lights/tree.rs (`LightTree::sample`), checked against it by
 // tests/light_tree.rs. The including kernel declares `light_node_texels` (usamplerBuffer:
 // GpuLightNode[] as RGBA32UI texels, src/gpu/buffer.rs Buffer::texels) and `light_order`
 // (uint[]).
@@ -50,7 +50,7 @@ float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
     return cos_a > cos_b ? 0.0 : sin_a * cos_b - cos_a * sin_b;
 }
 
-// The least squared distance of the importance (src/lights/tree.rs d2_floor says why):
+// The least squared distance of the importance (src/lights/bounds.rs d2_floor says why):
 // (radius / 2)² for a node of point lights alone, pbrt-v4's radius (half the box diagonal)
 // where an area light is inside; so points inside a node do not blow up.
 float d2_floor(GpuLightNode nd) {
@@ -63,7 +63,7 @@ float node_d2(GpuLightNode nd, vec3 p) {
     return max(dot(to, to), d2_floor(nd));
 }
 
-// Unoccluded importance of a node at p for a receiver with normal n (see tree.rs
+// Unoccluded importance of a node at p for a receiver with normal n (see bounds.rs
 // `node_importance`, operation for operation); also returns its clamped distance² (node_d2),
 // which the learned samplers need. The node's centre, radius and sin θ_o come precomputed
 // (GpuLightNode): one inverse square root gives the direction and the sphere's sine.
@@ -86,7 +86,7 @@ float light_importance_d2(GpuLightNode nd, vec3 p, vec3 n, out float d2) {
     float cos_wo = cos_sub_clamped(sin_w, cos_w, nd.sin_o, nd.cos_o);
     float sin_wo = sin_sub_clamped(sin_w, cos_w, nd.sin_o, nd.cos_o);
     float cos_p = cos_sub_clamped(sin_wo, cos_wo, sin_b, cos_b);
-    if (cos_p < nd.cos_e) return 0.0;  // strict: see tree.rs (a hard-edged spot)
+    if (cos_p < nd.cos_e) return 0.0;  // strict: see bounds.rs (a hard-edged spot)
     float imp = nd.phi * cos_p / d2;
     if (n != vec3(0.0)) {
         float cos_i = dot(n, -wi);

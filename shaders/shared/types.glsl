@@ -50,7 +50,7 @@ struct AliasEntry {
 #define LIGHT_NODE_AREA 2u
 
 // A light-tree node with its box as centre and bounding-sphere radius and its cone's sine
-// precomputed (GpuLightNode in src/abi.rs, made by tree.rs `gpu_node`).
+// precomputed (GpuLightNode in src/abi.rs, made by bounds.rs `gpu_node`).
 struct GpuLightNode {
     vec3 centre; float phi;
     vec3 axis; float cos_o;

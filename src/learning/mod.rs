@@ -457,5 +457,5 @@ pub fn predicted_means(
 
 /// The regression distance² of a node (the same clamp as the importance's).
 pub fn node_d2(nd: &crate::abi::LightNode, p: glam::Vec3) -> f32 {
-    crate::lights::tree::clamped_d2(nd.bmin.into(), nd.bmax.into(), nd.flags, p)
+    crate::lights::bounds::clamped_d2(nd.bmin.into(), nd.bmax.into(), nd.flags, p)
 }

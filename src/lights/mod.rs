@@ -1,6 +1,7 @@
 //! The light list as the kernels see it, and the light-selection pmfs of the non-learning
 //! samplers (`uniform`, `power`; `lightbvh` in [`tree`]).
 
+pub mod bounds;
 pub mod regions;
 pub mod tree;
 

@@ -10,7 +10,8 @@ use std::collections::{BinaryHeap, HashMap};
 
 use glam::Vec3;
 
-use super::tree::{LightBounds, LightTree};
+use super::bounds::LightBounds;
+use super::tree::LightTree;
 use crate::abi::{GridParams, LightNode, LIGHT_NODE_AREA, LIGHT_NODE_TWO_SIDED};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -211,7 +212,7 @@ fn node_bounds(n: &LightNode) -> LightBounds {
 /// A region-conservative importance for building cuts: the node's bounds grown by the
 /// cell's half-size, seen from the cell's centre, with no receiver term (any normal). It only
 /// steers which nodes get refined; sampling uses the point-wise Ĩ_C(x). Its distance clamp is
-/// the point-wise one's (tree.rs d2_floor): with pbrt-v4's clamp kept here, strings' cuts
+/// the point-wise one's (bounds.rs d2_floor): with pbrt-v4's clamp kept here, strings' cuts
 /// grouped near bulbs less finely and `bayes` had 1.7× the variance it has with it (eight
 /// seeds, 256 spp), for 2 % less on city10k and 4 % on cornell40 (docs/results.md, tenth
 /// session).
