@@ -1,9 +1,29 @@
 //! Compiles every `shaders/*.comp` to SPIR-V in OUT_DIR with glslangValidator
 //! (`--target-env vulkan1.2`: vulkan1.3 output needs maintenance4, which lavapipe in Debian 12
-//! and naga do not take).
+//! and naga do not take). render.comp is compiled once per light sampler and per
+//! DIRECT_ONLY (`render_s{S}_d{D}.spv`, src/gpu/mod.rs `kernels::render`), each stripped of the
+//! code the others need by spirv-opt: lavapipe inlines every function a kernel calls before it
+//! drops the branches its specialization constants rule out, so one kernel holding all six
+//! samplers took it ~1.1 s to build in every process, one per sampler ~0.4 s (the same
+//! image; docs/results.md, twenty-second session).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+/// The light samplers (render.comp SAMPLER: src/render/mod.rs `LightSampler::shader_id`).
+const SAMPLERS: u32 = 6;
+
+/// spirv-opt's passes for a render kernel: branches on constants, the code only they reached
+/// and the functions nothing calls any more. No constant folding of values (the arithmetic
+/// stays as glslang wrote it, so the images keep their bits); the bindings and the remaining
+/// specialization constants stay declared, so every variant has the same interface.
+const STRIP: &[&str] = &[
+    "--eliminate-dead-branches",
+    "--eliminate-dead-code-aggressive",
+    "--eliminate-dead-functions",
+    "--preserve-bindings",
+    "--preserve-spec-constants",
+];
 
 fn main() {
     let out = PathBuf::from(std::env::var("OUT_DIR").unwrap());
@@ -25,23 +45,68 @@ fn main() {
     {
         println!("cargo:rerun-if-changed={}", src.display());
         let stem = src.file_stem().unwrap().to_str().unwrap();
-        let dst = out.join(format!("{stem}.spv"));
-        let result = Command::new("glslangValidator")
-            .args(["-V", "--target-env", "vulkan1.2", "-Ishaders/shared", "-o"])
-            .arg(&dst)
-            .arg(src)
-            .output();
-        match result {
-            Err(e) => panic!(
-                "\n\nglslangValidator not found ({e}).\nRun `ci/setup.sh` (it installs glslang-tools), then build again.\n\n"
-            ),
-            Ok(o) if !o.status.success() => panic!(
-                "\n\nshader {} failed to compile:\n{}{}\n",
-                src.display(),
-                String::from_utf8_lossy(&o.stdout),
-                String::from_utf8_lossy(&o.stderr)
-            ),
-            Ok(_) => {}
+        if stem == "render" {
+            for sampler in 0..SAMPLERS {
+                for direct in [false, true] {
+                    let dst = out.join(format!("render_s{sampler}_d{}.spv", direct as u32));
+                    glslang(
+                        src,
+                        &dst,
+                        &[
+                            &format!("-DFIXED_SAMPLER={sampler}u"),
+                            &format!("-DFIXED_DIRECT_ONLY={direct}"),
+                        ],
+                    );
+                    strip(&dst);
+                }
+            }
+        } else {
+            glslang(src, &out.join(format!("{stem}.spv")), &[]);
         }
+    }
+}
+
+/// glslangValidator `src` → `dst` with the preprocessor definitions `defines`.
+fn glslang(src: &Path, dst: &Path, defines: &[&str]) {
+    let result = Command::new("glslangValidator")
+        .args(["-V", "--target-env", "vulkan1.2", "-Ishaders/shared"])
+        .args(defines)
+        .arg("-o")
+        .arg(dst)
+        .arg(src)
+        .output();
+    match result {
+        Err(e) => panic!(
+            "\n\nglslangValidator not found ({e}).\nRun `ci/setup.sh` (it installs glslang-tools), then build again.\n\n"
+        ),
+        Ok(o) if !o.status.success() => panic!(
+            "\n\nshader {} {defines:?} failed to compile:\n{}{}\n",
+            src.display(),
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        ),
+        Ok(_) => {}
+    }
+}
+
+/// spirv-opt [`STRIP`] on `spv` in place.
+fn strip(spv: &Path) {
+    let result = Command::new("spirv-opt")
+        .args(STRIP)
+        .arg(spv)
+        .arg("-o")
+        .arg(spv)
+        .output();
+    match result {
+        Err(e) => panic!(
+            "\n\nspirv-opt not found ({e}).\nRun `ci/setup.sh` (it installs spirv-tools), then build again.\n\n"
+        ),
+        Ok(o) if !o.status.success() => panic!(
+            "\n\nspirv-opt failed on {}:\n{}{}\n",
+            spv.display(),
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        ),
+        Ok(_) => {}
     }
 }

@@ -10,7 +10,7 @@ packages=(
   mesa-vulkan-drivers     # lavapipe: Vulkan on the CPU, the CI device
   vulkan-validationlayers # VK_LAYER_KHRONOS_validation, on in tests
   glslang-tools           # glslangValidator: GLSL -> SPIR-V in build.rs
-  spirv-tools             # spirv-val / spirv-dis, for inspecting kernels
+  spirv-tools             # spirv-opt strips each render kernel in build.rs; spirv-val / spirv-dis
   vulkan-tools            # vulkaninfo, to see which devices the loader finds
   chromium                # headless browser: tests/report_browser.rs checks the HTML report
   python3-pip             # pip for Mitsuba 3, the independent renderer of tests/mitsuba.rs

@@ -22,8 +22,17 @@ layout(local_size_x = 8, local_size_y = 8) in;
 // film (rebound on resize).
 
 // The light sampler, a closed set (src/render/mod.rs LightSampler): 0 uniform, 1 power,
-// 2 lightbvh, 3 wang, 4 donikian, 5 bayes.
+// 2 lightbvh, 3 wang, 4 donikian, 5 bayes. build.rs compiles one kernel per sampler and
+// per DIRECT_ONLY (FIXED_SAMPLER, FIXED_DIRECT_ONLY; src/gpu/mod.rs kernels::render) and
+// strips what the others need with spirv-opt: lavapipe then builds the default render's
+// kernel in ~0.4 s instead of ~1.1 s, as the other samplers' functions no longer reach its
+// inliner, with the same image (docs/results.md, twenty-second session). Without the
+// defines (glslangValidator by hand) they are specialization constants as before.
+#ifdef FIXED_SAMPLER
+const uint SAMPLER = FIXED_SAMPLER;
+#else
 layout(constant_id = 0) const uint SAMPLER = 0u;
+#endif
 // How a cut's cluster picks its light: 0 by power, 1 by importance (RegionSettings).
 layout(constant_id = 1) const uint IN_CLUSTER = 0u;
 // Stages knocked out for the stage profile (`lightlearn profile`, src/bench/stages.rs); 0 in
@@ -49,7 +58,11 @@ const bool SCENE_TEXTURED = (SCENE_FLAGS & 2u) != 0u;
 // --max-depth 1 (RenderSettings::max_depth is fixed for a session): direct light alone, the
 // BSDF sampling and MIS code compiled out (lavapipe runs the code after a uniform `break`
 // too). The push constant max_depth stays the loop's bound.
+#ifdef FIXED_DIRECT_ONLY
+const bool DIRECT_ONLY = FIXED_DIRECT_ONLY;
+#else
 layout(constant_id = 5) const bool DIRECT_ONLY = false;
+#endif
 // Paths traced one bounce per dispatch through queues (main() says why): whenever a path
 // has more than one vertex (src/render/passes.rs `wavefront`); direct light takes its one
 // vertex in one invocation.

@@ -18,7 +18,43 @@ pub use transfer::Transfers;
 
 /// Compiled kernels (build.rs runs glslangValidator on shaders/*.comp).
 pub mod kernels {
-    pub const RENDER: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/render.spv"));
+    /// render.comp for light sampler `sampler` (its SAMPLER, 0–5) and `direct_only` (its
+    /// DIRECT_ONLY), the code of the others stripped (build.rs says why).
+    pub fn render(sampler: u32, direct_only: bool) -> &'static [u8] {
+        RENDER[sampler as usize][direct_only as usize]
+    }
+
+    /// Every variant of [`render`], for the tests that check them all.
+    pub fn render_variants() -> impl Iterator<Item = &'static [u8]> {
+        RENDER.iter().flatten().copied()
+    }
+
+    const RENDER: [[&[u8]; 2]; 6] = [
+        [
+            include_bytes!(concat!(env!("OUT_DIR"), "/render_s0_d0.spv")),
+            include_bytes!(concat!(env!("OUT_DIR"), "/render_s0_d1.spv")),
+        ],
+        [
+            include_bytes!(concat!(env!("OUT_DIR"), "/render_s1_d0.spv")),
+            include_bytes!(concat!(env!("OUT_DIR"), "/render_s1_d1.spv")),
+        ],
+        [
+            include_bytes!(concat!(env!("OUT_DIR"), "/render_s2_d0.spv")),
+            include_bytes!(concat!(env!("OUT_DIR"), "/render_s2_d1.spv")),
+        ],
+        [
+            include_bytes!(concat!(env!("OUT_DIR"), "/render_s3_d0.spv")),
+            include_bytes!(concat!(env!("OUT_DIR"), "/render_s3_d1.spv")),
+        ],
+        [
+            include_bytes!(concat!(env!("OUT_DIR"), "/render_s4_d0.spv")),
+            include_bytes!(concat!(env!("OUT_DIR"), "/render_s4_d1.spv")),
+        ],
+        [
+            include_bytes!(concat!(env!("OUT_DIR"), "/render_s5_d0.spv")),
+            include_bytes!(concat!(env!("OUT_DIR"), "/render_s5_d1.spv")),
+        ],
+    ];
     pub const TRACE: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace.spv"));
     pub const LIGHT_SAMPLE: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/light_sample.spv"));
     pub const FOLD: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/fold.spv"));

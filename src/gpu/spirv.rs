@@ -162,7 +162,7 @@ mod tests {
     /// for a uniform texel buffer or refused.
     #[test]
     fn storage_texel_buffers_are_recognised() {
-        let b = bindings(&words(crate::gpu::kernels::RENDER)).unwrap();
+        let b = bindings(&words(crate::gpu::kernels::render(5, false))).unwrap();
         let kind = |name: &str| b.iter().find(|x| x.name == name).map(|x| x.kind);
         assert_eq!(
             kind("path_image"),
@@ -174,12 +174,15 @@ mod tests {
         );
     }
 
-    /// The render kernel's constants, SAMPLER (0) … STRATIFY (9); the test kernel
-    /// light_sample.comp leaves 2 out. Fails if the decoration were read from another word.
+    /// The render kernel's constants, SAMPLER (0) … STRATIFY (9), less SAMPLER and
+    /// DIRECT_ONLY (5), which build.rs fixes per variant; the test kernel light_sample.comp
+    /// leaves 2 out. Fails if the decoration were read from another word.
     #[test]
     fn specialization_ids_are_read() {
-        let render = spec_ids(&words(crate::gpu::kernels::RENDER)).unwrap();
-        assert_eq!(render, (0..=9).collect::<Vec<_>>());
+        for render in crate::gpu::kernels::render_variants() {
+            let ids = spec_ids(&words(render)).unwrap();
+            assert_eq!(ids, [1, 2, 3, 4, 6, 7, 8, 9]);
+        }
         let sampler = spec_ids(&words(crate::gpu::kernels::LIGHT_SAMPLE)).unwrap();
         assert_eq!(sampler, [0, 1, 3]);
         assert!(spec_ids(&words(crate::gpu::kernels::FOLD))

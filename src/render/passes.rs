@@ -548,9 +548,11 @@ fn render_pipeline(
     ComputePipeline::with_sets(
         ctx,
         "render",
-        kernels::RENDER,
+        kernels::render(settings.sampler.shader_id(), !wavefront(settings)),
         &RENDER_BINDINGS.map(|set| set.len() as u32),
         std::mem::size_of::<RenderParams>() as u32,
+        // Ids 0 (SAMPLER) and 5 (DIRECT_ONLY) are fixed in the kernel chosen above (their
+        // values are ignored there; render.comp compiled by hand still reads them).
         &[
             settings.sampler.shader_id(),
             settings.regions.in_cluster_importance as u32,
