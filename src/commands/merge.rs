@@ -69,7 +69,6 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
         })?;
         let r: Value = serde_json::from_slice(&text)
             .with_context(|| format!("the report '{}' is not valid JSON", j.display()))?;
-        film::check_report(p, &j, &r)?;
         reports.push(r);
     }
     let first = &reports[0];
@@ -145,6 +144,9 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
                 p.display()
             );
         }
+        // After the header's size (read_exr refuses sizes no render writes), before the
+        // pixels are weighed by the report's spp.
+        film::check_report(p, &p.with_extension("json"), r)?;
         let (first_sample, end) = sample_range(r, p)?;
         let spp = end - first_sample;
         if let Some(i) = px.iter().position(|v| !v.iter().all(|c| c.is_finite())) {
