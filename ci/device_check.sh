@@ -45,7 +45,7 @@ if [ "$mode" = prepare ]; then
   while IFS=$'\t' read -r name exe; do cp "$exe" "$pack/bin/test-$name"; done <"$pack/tests.tsv"
   [ "$(cut -f1 "$pack/tests.tsv" | sort | uniq -d)" = "" ] || { echo "device_check: two test targets share a name" >&2; exit 1; }
   strip "$pack"/bin/*
-  # tests/layout.rs compiles three kernels again for naga; the device machine has no
+  # tests/layout.rs compiles two kernels again for naga; the device machine has no
   # glslangValidator (it needs only libstdc++), so it travels too.
   mkdir -p "$pack/tools" && cp "$(command -v glslangValidator)" "$pack/tools/"
   # The binaries have this folder compiled in (CARGO_MANIFEST_DIR, CARGO_BIN_EXE_lightlearn).

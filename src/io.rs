@@ -15,7 +15,7 @@ pub fn temp_path(p: &Path) -> PathBuf {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     if name.len() > 128 {
-        let hash = crate::learning::stats_file::fnv1a(name.as_bytes());
+        let hash = crate::fnv::fnv1a(name.as_bytes());
         let cut = (0..=96)
             .rev()
             .find(|&i| name.is_char_boundary(i))

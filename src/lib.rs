@@ -7,6 +7,7 @@ pub mod bench;
 pub mod commands;
 pub mod compare;
 pub mod film;
+pub mod fnv;
 pub mod gpu;
 pub mod interrupt;
 pub mod io;

@@ -36,7 +36,7 @@ fn glsl_and_rust_importance_agree_on_random_inputs() {
             right: 0,
             begin: 0,
             count: 2,
-            // Both distance clamps (tree.rs d2_floor): point lights alone, an area light inside.
+            // Both distance clamps (bounds.rs d2_floor): point lights alone, an area light inside.
             flags: (if i % 5 == 0 { LIGHT_NODE_TWO_SIDED } else { 0 })
                 | (if i % 4 < 2 { LIGHT_NODE_AREA } else { 0 }),
         });
@@ -122,7 +122,7 @@ fn cpu_importance(nd: &LightNode, q: &LightQuery) -> f32 {
 }
 
 /// A spot with innerConeAngle = outerConeAngle (legal glTF: a hard edge) has no falloff
-/// ramp. Its bounds (tree.rs LightBounds::of) had cos θ_e = 1, and inside its cone cos θ_p is
+/// ramp. Its bounds (bounds.rs LightBounds::of) had cos θ_e = 1, and inside its cone cos θ_p is
 /// 1: the importance returned 0 where cos θ_p ≤ cos θ_e, so every sampler that reads Ĩ
 /// (bayes, the default, wang, donikian, lightbvh) never chose the light, a black image where
 /// `uniform` lit the floor (found by an audit, 2026-12-06; the old comparison fails the

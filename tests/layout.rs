@@ -6,7 +6,7 @@
 //! A small SPIR-V reader, cross-checked by naga where naga can read a kernel: naga 30.0.2's
 //! SPIR-V front end parses none of our kernels as compiled (`OpSpecConstantOp` in
 //! render.comp and light_sample.comp, the specialization-constant expressions of the
-//! sampler switch; `OpCopyLogical`, SPIR-V 1.4, in trace.comp, fold.comp and bsdf.comp), so
+//! learning's switches; `OpCopyLogical`, SPIR-V 1.4, in trace.comp, fold.comp and bsdf.comp), so
 //! `naga_agrees_with_our_reader` compiles bsdf.comp and texels.comp (without its texel
 //! buffers) for SPIR-V 1.0 and compares; trace.comp and fold.comp read texel buffers, which
 //! naga refuses.
@@ -439,15 +439,22 @@ fn named_sets(sets: &[&[&str]]) -> Vec<((u32, u32), String)> {
 
 #[test]
 fn kernels_bind_what_the_session_binds() {
-    // Every variant (build.rs strips each sampler's kernel, keeping its bindings).
-    for (i, render) in kernels::render_variants().enumerate() {
-        assert_eq!(
-            bindings(render),
-            named_sets(&lightlearn::render::RENDER_BINDINGS),
-            "render.comp's storage blocks and the session's binding list differ (variant {i}: sampler {}, direct only {})",
-            i / 2,
-            i % 2 == 1
-        );
+    // Every sampler's two kernels (build.rs strips each, keeping its bindings), and no
+    // sampler without them (a seventh would index past build.rs's table).
+    use lightlearn::render::LightSampler;
+    assert_eq!(
+        kernels::render_variants().count(),
+        2 * LightSampler::ALL.len()
+    );
+    for s in LightSampler::ALL {
+        for direct in [false, true] {
+            assert_eq!(
+                bindings(kernels::render(s.shader_id(), direct)),
+                named_sets(&lightlearn::render::RENDER_BINDINGS),
+                "render.comp's storage blocks and the session's binding list differ ({}, direct only {direct})",
+                s.name()
+            );
+        }
     }
     assert_eq!(
         bindings(kernels::FOLD),

@@ -18,7 +18,7 @@ use std::time::Instant;
 use anyhow::{bail, Context as _, Result};
 use serde_json::{json, Value};
 
-use crate::learning::stats_file::fnv1a;
+use crate::fnv::fnv1a;
 
 use super::Ui;
 use crate::accel::Bvh;

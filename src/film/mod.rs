@@ -54,7 +54,8 @@ impl OutputPaths {
     }
 }
 
-/// Writes EXR, PNG and JSON atomically (all three or none).
+/// Writes EXR, PNG and JSON together ([`crate::io::commit_all`]: all three or the old set;
+/// only a kill between their renames can split them, which [`check_report`] then tells).
 pub fn write_outputs(
     paths: &OutputPaths,
     width: u32,
@@ -103,26 +104,18 @@ pub fn write_outputs_with(
 /// a pair that was split apart ([`check_report`]).
 pub const EXR_CHECKSUM: &str = "exr_fnv1a";
 
-/// FNV-1a (64 bit, as 16 hex digits) of the file at `path`, read in blocks (an EXR of the
-/// largest film is 3 GB).
+/// FNV-1a (64 bit, as 16 hex digits) of the file at `path`, streamed (an EXR of the
+/// largest film is 3 GB). Regular files only: a FIFO would block the open, a link to
+/// /dev/zero would never end.
 pub fn exr_checksum(path: &Path) -> Result<String> {
-    use std::io::Read;
-    let mut f = std::fs::File::open(path)
-        .with_context(|| format!("cannot read EXR '{}'", path.display()))?;
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let mut block = vec![0u8; 1 << 20];
-    loop {
-        let n = f
-            .read(&mut block)
-            .with_context(|| format!("cannot read EXR '{}'", path.display()))?;
-        if n == 0 {
-            return Ok(format!("{h:016x}"));
-        }
-        for b in &block[..n] {
-            h ^= *b as u64;
-            h = h.wrapping_mul(0x100_0000_01b3);
-        }
+    if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+        bail!("cannot read EXR '{}': not a regular file", path.display());
     }
+    let mut hash = crate::fnv::Fnv1a::default();
+    std::fs::File::open(path)
+        .and_then(|mut f| std::io::copy(&mut f, &mut hash))
+        .with_context(|| format!("cannot read EXR '{}'", path.display()))?;
+    Ok(format!("{:016x}", hash.0))
 }
 
 /// Checks that `exr` is the image that `report` (read from `json`, the report beside it)
@@ -138,7 +131,7 @@ pub fn check_report(exr: &Path, json: &Path, report: &serde_json::Value) -> Resu
     let got = exr_checksum(exr)?;
     if got != want {
         bail!(
-            "'{}' is not the image its report '{}' describes (checksum {got}, the report's {want}): the pair was split apart (a render stopped while it renamed them, or a file was copied over one); render it again",
+            "'{}' is not the image its report '{}' describes (checksum {got}, the report's {want}): the pair was split apart (a render killed while it renamed them, whose own report may wait beside them as a hidden .NAME.json.PID.tmp, or a file copied over one); use the matching report or render it again",
             exr.display(),
             json.display()
         );
@@ -247,4 +240,35 @@ pub fn png_bytes(width: u32, height: u32, rgb8: &[u8]) -> Result<Vec<u8>> {
 pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<()> {
     std::fs::write(path, png_bytes(width, height, &tonemap_srgb8(rgb))?)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The checksum reads regular files only: a FIFO where a cached reference's EXR goes
+    /// blocked its open for good (a review, twenty-second session). The call runs on a
+    /// thread so that a regression fails here instead of hanging the suite.
+    #[test]
+    fn checksums_refuse_fifos_without_blocking() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("f.exr");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            eprintln!("skipped: mkfifo is not available");
+            return;
+        }
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || tx.send(exr_checksum(&fifo).map_err(|e| e.to_string())));
+        let got = rx
+            .recv_timeout(std::time::Duration::from_secs(20))
+            .expect("the checksum of a FIFO blocked");
+        assert!(got.unwrap_err().contains("not a regular file"));
+        let file = dir.path().join("x.exr");
+        std::fs::write(&file, b"abc").unwrap();
+        assert_eq!(
+            exr_checksum(&file).unwrap(),
+            format!("{:016x}", crate::fnv::fnv1a(b"abc"))
+        );
+    }
 }

@@ -18,6 +18,7 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 
 use crate::abi::{GridParams, SlotStats};
+use crate::fnv::fnv1a;
 use crate::lights::tree::LightTree;
 
 const MAGIC: &[u8; 8] = b"LLSTATS\0";
@@ -79,16 +80,6 @@ impl SavedStats {
             s.sum_sq *= g;
         }
     }
-}
-
-/// FNV-1a, 64 bit, of `bytes`.
-pub fn fnv1a(bytes: &[u8]) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in bytes {
-        h ^= *b as u64;
-        h = h.wrapping_mul(0x100_0000_01b3);
-    }
-    h
 }
 
 /// FNV-1a over the light tree's bytes: equal for the same lights in the same order.

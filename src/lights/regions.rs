@@ -10,8 +10,7 @@ use std::collections::{BinaryHeap, HashMap};
 
 use glam::Vec3;
 
-use super::bounds::LightBounds;
-use super::tree::LightTree;
+use super::{bounds::LightBounds, tree::LightTree};
 use crate::abi::{GridParams, LightNode, LIGHT_NODE_AREA, LIGHT_NODE_TWO_SIDED};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
