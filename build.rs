@@ -73,42 +73,39 @@ fn main() {
 
 /// glslangValidator `src` → `dst` with the preprocessor definitions `defines`.
 fn glslang(src: &Path, dst: &Path, defines: &[&str]) {
-    let result = Command::new("glslangValidator")
-        .args(["-V", "--target-env", "vulkan1.2", "-Ishaders/shared"])
+    let mut cmd = Command::new("glslangValidator");
+    cmd.args(["-V", "--target-env", "vulkan1.2", "-Ishaders/shared"])
         .args(defines)
         .arg("-o")
         .arg(dst)
-        .arg(src)
-        .output();
-    match result {
-        Err(e) => panic!(
-            "\n\nglslangValidator not found ({e}).\nRun `ci/setup.sh` (it installs glslang-tools), then build again.\n\n"
-        ),
-        Ok(o) if !o.status.success() => panic!(
-            "\n\nshader {} {defines:?} failed to compile:\n{}{}\n",
-            src.display(),
-            String::from_utf8_lossy(&o.stdout),
-            String::from_utf8_lossy(&o.stderr)
-        ),
-        Ok(_) => {}
-    }
+        .arg(src);
+    run(
+        cmd,
+        "glslang-tools",
+        &format!("shader {} {defines:?}", src.display()),
+    );
 }
 
 /// spirv-opt [`STRIP`] on `spv` in place.
 fn strip(spv: &Path) {
-    let result = Command::new("spirv-opt")
-        .args(STRIP)
-        .arg(spv)
-        .arg("-o")
-        .arg(spv)
-        .output();
-    match result {
+    let mut cmd = Command::new("spirv-opt");
+    cmd.args(STRIP).arg(spv).arg("-o").arg(spv);
+    run(
+        cmd,
+        "spirv-tools",
+        &format!("spirv-opt on {}", spv.display()),
+    );
+}
+
+/// Runs a tool of the Debian package `package`; the build stops with what it printed.
+fn run(mut cmd: Command, package: &str, what: &str) {
+    let tool = cmd.get_program().to_string_lossy().into_owned();
+    match cmd.output() {
         Err(e) => panic!(
-            "\n\nspirv-opt not found ({e}).\nRun `ci/setup.sh` (it installs spirv-tools), then build again.\n\n"
+            "\n\n{tool} not found ({e}).\nRun `ci/setup.sh` (it installs {package}), then build again.\n\n"
         ),
         Ok(o) if !o.status.success() => panic!(
-            "\n\nspirv-opt failed on {}:\n{}{}\n",
-            spv.display(),
+            "\n\n{what} failed:\n{}{}\n",
             String::from_utf8_lossy(&o.stdout),
             String::from_utf8_lossy(&o.stderr)
         ),

@@ -29,31 +29,23 @@ pub mod kernels {
         RENDER.iter().flatten().copied()
     }
 
+    /// A sampler's two kernels (build.rs `render_s{S}_d{0,1}.spv`).
+    macro_rules! render_pair {
+        ($s:literal) => {
+            [
+                include_bytes!(concat!(env!("OUT_DIR"), "/render_s", $s, "_d0.spv")),
+                include_bytes!(concat!(env!("OUT_DIR"), "/render_s", $s, "_d1.spv")),
+            ]
+        };
+    }
+
     const RENDER: [[&[u8]; 2]; 6] = [
-        [
-            include_bytes!(concat!(env!("OUT_DIR"), "/render_s0_d0.spv")),
-            include_bytes!(concat!(env!("OUT_DIR"), "/render_s0_d1.spv")),
-        ],
-        [
-            include_bytes!(concat!(env!("OUT_DIR"), "/render_s1_d0.spv")),
-            include_bytes!(concat!(env!("OUT_DIR"), "/render_s1_d1.spv")),
-        ],
-        [
-            include_bytes!(concat!(env!("OUT_DIR"), "/render_s2_d0.spv")),
-            include_bytes!(concat!(env!("OUT_DIR"), "/render_s2_d1.spv")),
-        ],
-        [
-            include_bytes!(concat!(env!("OUT_DIR"), "/render_s3_d0.spv")),
-            include_bytes!(concat!(env!("OUT_DIR"), "/render_s3_d1.spv")),
-        ],
-        [
-            include_bytes!(concat!(env!("OUT_DIR"), "/render_s4_d0.spv")),
-            include_bytes!(concat!(env!("OUT_DIR"), "/render_s4_d1.spv")),
-        ],
-        [
-            include_bytes!(concat!(env!("OUT_DIR"), "/render_s5_d0.spv")),
-            include_bytes!(concat!(env!("OUT_DIR"), "/render_s5_d1.spv")),
-        ],
+        render_pair!("0"),
+        render_pair!("1"),
+        render_pair!("2"),
+        render_pair!("3"),
+        render_pair!("4"),
+        render_pair!("5"),
     ];
     pub const TRACE: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/trace.spv"));
     pub const LIGHT_SAMPLE: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/light_sample.spv"));
