@@ -4,7 +4,7 @@
 //! DIRECT_ONLY (`render_s{S}_d{D}.spv`, src/gpu/mod.rs `kernels::render`), each stripped of the
 //! code the others need by spirv-opt: lavapipe inlines every function a kernel calls before it
 //! drops the branches its specialization constants rule out, so one kernel holding all six
-//! samplers took it 0.85–0.96 s to build in every process, one sampler's 0.3–0.4 s (the same
+//! samplers took it 0.8–1.1 s to build in every process, one sampler's 0.3–0.4 s (the same
 //! images; docs/results.md, twenty-second session).
 
 use std::path::{Path, PathBuf};
@@ -45,11 +45,13 @@ fn main() {
     {
         println!("cargo:rerun-if-changed={}", src.display());
         let stem = src.file_stem().unwrap().to_str().unwrap();
-        if stem == "render" {
-            // Twelve compiler runs of ~0.4 s each, side by side.
+        let result = if stem == "render" {
+            // Twelve compiler runs of ~0.4 s each, side by side; the first error stops the
+            // build (once, not once a kernel).
             std::thread::scope(|s| {
-                for sampler in 0..SAMPLERS {
-                    for direct in [false, true] {
+                let jobs: Vec<_> = (0..SAMPLERS)
+                    .flat_map(|sampler| [false, true].map(|direct| (sampler, direct)))
+                    .map(|(sampler, direct)| {
                         let dst = out.join(format!("render_s{sampler}_d{}.spv", direct as u32));
                         s.spawn(move || {
                             glslang(
@@ -59,56 +61,60 @@ fn main() {
                                     &format!("-DFIXED_SAMPLER={sampler}u"),
                                     &format!("-DFIXED_DIRECT_ONLY={direct}"),
                                 ],
-                            );
-                            strip(&dst);
-                        });
-                    }
-                }
-            });
+                            )?;
+                            strip(&dst)
+                        })
+                    })
+                    .collect();
+                // The scope waits for every job; the first error is the one reported.
+                jobs.into_iter()
+                    .try_for_each(|j| j.join().expect("a compiler job"))
+            })
         } else {
-            glslang(src, &out.join(format!("{stem}.spv")), &[]);
+            glslang(src, &out.join(format!("{stem}.spv")), &[])
+        };
+        if let Err(e) = result {
+            panic!("{e}");
         }
     }
 }
 
 /// glslangValidator `src` → `dst` with the preprocessor definitions `defines`.
-fn glslang(src: &Path, dst: &Path, defines: &[&str]) {
+fn glslang(src: &Path, dst: &Path, defines: &[&str]) -> Result<(), String> {
     let mut cmd = Command::new("glslangValidator");
     cmd.args(["-V", "--target-env", "vulkan1.2", "-Ishaders/shared"])
         .args(defines)
         .arg("-o")
         .arg(dst)
         .arg(src);
-    run(
-        cmd,
-        "glslang-tools",
-        &format!("shader {} {defines:?}", src.display()),
-    );
+    let what = format!("shader {} {defines:?}", src.display());
+    run(cmd, "glslang-tools", &what)
 }
 
 /// spirv-opt [`STRIP`] on `spv` in place.
-fn strip(spv: &Path) {
+fn strip(spv: &Path) -> Result<(), String> {
     let mut cmd = Command::new("spirv-opt");
     cmd.args(STRIP).arg(spv).arg("-o").arg(spv);
     run(
         cmd,
         "spirv-tools",
         &format!("spirv-opt on {}", spv.display()),
-    );
+    )
 }
 
-/// Runs a tool of the Debian package `package`; the build stops with what it printed.
-fn run(mut cmd: Command, package: &str, what: &str) {
+/// Runs a tool of the Debian package `package`: Err with what to install, or with what the
+/// tool printed.
+fn run(mut cmd: Command, package: &str, what: &str) -> Result<(), String> {
     let tool = cmd.get_program().to_string_lossy().into_owned();
     match cmd.output() {
-        Err(e) => panic!(
+        Err(e) => Err(format!(
             "\n\n{tool} not found ({e}).\nRun `ci/setup.sh` (it installs {package}), then build again.\n\n"
-        ),
-        Ok(o) if !o.status.success() => panic!(
+        )),
+        Ok(o) if !o.status.success() => Err(format!(
             "\n\n{what} failed:\n{}{}\n",
             String::from_utf8_lossy(&o.stdout),
             String::from_utf8_lossy(&o.stderr)
-        ),
-        Ok(_) => {}
+        )),
+        Ok(_) => Ok(()),
     }
 }

@@ -25,7 +25,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 // 2 lightbvh, 3 wang, 4 donikian, 5 bayes. build.rs compiles one kernel per sampler and
 // per DIRECT_ONLY (FIXED_SAMPLER, FIXED_DIRECT_ONLY; src/gpu/mod.rs kernels::render) and
 // strips what the others need with spirv-opt: lavapipe then builds the default render's
-// kernel in 0.3–0.4 s instead of 0.85–0.96 s, as the other samplers' functions no longer reach
+// kernel in 0.3–0.4 s instead of 0.8–1.1 s, as the other samplers' functions no longer reach
 // its inliner, with the same images (docs/results.md, twenty-second session). Without the
 // defines (glslangValidator by hand) they are specialization constants as before.
 #ifdef FIXED_SAMPLER

@@ -5,8 +5,8 @@
 //!
 //! A small SPIR-V reader, cross-checked by naga where naga can read a kernel: naga 30.0.2's
 //! SPIR-V front end parses none of our kernels as compiled (`OpSpecConstantOp` in
-//! render.comp and light_sample.comp, the specialization-constant expressions of the
-//! learning's switches; `OpCopyLogical`, SPIR-V 1.4, in trace.comp, fold.comp and bsdf.comp), so
+//! render.comp and light_sample.comp, from the learned samplers' and the scene's flags and
+//! the light-sample counts; `OpCopyLogical`, SPIR-V 1.4, in trace.comp, fold.comp and bsdf.comp), so
 //! `naga_agrees_with_our_reader` compiles bsdf.comp and texels.comp (without its texel
 //! buffers) for SPIR-V 1.0 and compares; trace.comp and fold.comp read texel buffers, which
 //! naga refuses.

@@ -294,6 +294,7 @@ fn a_killed_render_keeps_its_last_checkpoint_and_merges() {
     assert!(a.iter().flatten().all(|v| v.is_finite()) && a.iter().flatten().any(|&v| v > 0.0));
     part(d, "b.exr", "2", "4", &[]);
     let exr_sum = lightlearn::film::exr_checksum(&d.join("a.exr")).unwrap();
+    assert!(report["exr_fnv1a"].is_string(), "{report}");
     if report["exr_fnv1a"].as_str() == Some(exr_sum.as_str()) {
         ok(&run(&["merge", "a.exr", "b.exr", "--out", "m.exr"], d));
         let merged: serde_json::Value =
