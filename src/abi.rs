@@ -164,7 +164,7 @@ pub struct LightChoice {
     pub pmf_query: f32,
 }
 
-/// The region grid (src/lights/regions.rs): cubic cells of size `cell` from `lo`,
+/// The region grid (src/lights/grid.rs): cubic cells of size `cell` from `lo`,
 /// `dims` cells per axis, `bins` normal bins per cell (6, or 1 when off).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]

@@ -145,7 +145,7 @@ fn grids_beyond_their_range_or_the_device_are_refused_by_name() {
     let d = dir.path();
     let cornell = scene("cornell.glb");
     let c = cornell.to_str().unwrap();
-    // 6·895³ overflowed u32 and panicked in src/lights/regions.rs.
+    // 6·895³ overflowed u32 and panicked in src/lights/grid.rs (then regions.rs).
     let o = run_render(&[c, "--grid", "895", "--out", "g.exr"], d);
     refused(&o, &["--grid 895", "1..=512"]);
     // In range, but the region index exceeds the device: the advice names --grid and the

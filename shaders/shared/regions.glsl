@@ -1,5 +1,5 @@
 // Region lookup and the `wang` sampler (cluster of the region's cut ∝ Ĩ_C(x), light inside
-// by power). Mirror of src/lights/regions.rs. The including kernel declares the learned
+// by power). Mirror of src/lights/grid.rs and src/lights/regions.rs. The including kernel declares the learned
 // state's texel buffers (learned_texels.glsl) and the light tree buffers.
 #ifndef REGIONS_GLSL
 #define REGIONS_GLSL

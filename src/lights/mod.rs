@@ -2,6 +2,7 @@
 //! samplers (`uniform`, `power`; `lightbvh` in [`tree`]).
 
 pub mod bounds;
+pub mod grid;
 pub mod regions;
 pub mod tree;
 
