@@ -277,11 +277,10 @@ pub fn check_outputs_spare_inputs(outputs: &[&Path], inputs: &[(&str, &Path)]) -
     Ok(())
 }
 
-/// The first `max` bytes of the regular file at `path`: anything else (a folder, a FIFO that
+/// The regular file at `path`, opened, and its length: anything else (a folder, a FIFO that
 /// would block, a device such as /dev/zero that never ends) is refused before it is opened
-/// (each of these hung or filled memory as a scene, buffer, statistics file or report).
-pub fn read_regular(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
-    use std::io::Read;
+/// (each of these hung or filled memory as a scene, buffer, statistics file, report or EXR).
+pub fn open_regular(path: &Path) -> std::io::Result<(std::fs::File, u64)> {
     let meta = std::fs::metadata(path)?;
     if !meta.is_file() {
         return Err(std::io::Error::new(
@@ -289,14 +288,19 @@ pub fn read_regular(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
             "not a regular file",
         ));
     }
+    Ok((std::fs::File::open(path)?, meta.len()))
+}
+
+/// The first `max` bytes of the regular file at `path` ([`open_regular`]).
+pub fn read_regular(path: &Path, max: u64) -> std::io::Result<Vec<u8>> {
+    use std::io::Read;
+    let (file, len) = open_regular(path)?;
     let mut bytes = Vec::new();
     // A sparse file of a terabyte aborted the process in `with_capacity`: an error instead.
     bytes
-        .try_reserve_exact(meta.len().min(max) as usize)
+        .try_reserve_exact(len.min(max) as usize)
         .map_err(|_| std::io::Error::new(std::io::ErrorKind::OutOfMemory, "too large to read"))?;
-    std::fs::File::open(path)?
-        .take(max)
-        .read_to_end(&mut bytes)?;
+    file.take(max).read_to_end(&mut bytes)?;
     Ok(bytes)
 }
 

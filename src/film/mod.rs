@@ -108,16 +108,15 @@ pub const EXR_CHECKSUM: &str = "exr_fnv1a";
 /// largest film is 3 GB). Regular files only: a FIFO would block the open, a link to
 /// /dev/zero would never end.
 pub fn exr_checksum(path: &Path) -> Result<String> {
-    regular_exr(path)?;
     let mut hash = crate::fnv::Fnv1a::default();
-    std::fs::File::open(path)
-        .and_then(|f| {
+    crate::io::open_regular(path)
+        .and_then(|(f, _)| {
             std::io::copy(
                 &mut std::io::BufReader::with_capacity(1 << 20, f),
                 &mut hash,
             )
         })
-        .with_context(|| format!("cannot read EXR '{}'", path.display()))?;
+        .map_err(|e| anyhow!("cannot read EXR '{}': {e}", path.display()))?;
     Ok(format!("{:016x}", hash.0))
 }
 
@@ -163,17 +162,6 @@ pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Resu
         })
 }
 
-/// Err unless `path` is a regular file (or a link to one): a missing file says so, a FIFO or
-/// device is refused before it is opened (a FIFO would block the open).
-fn regular_exr(path: &Path) -> Result<()> {
-    let m =
-        std::fs::metadata(path).with_context(|| format!("cannot read EXR '{}'", path.display()))?;
-    if !m.is_file() {
-        bail!("cannot read EXR '{}': not a regular file", path.display());
-    }
-    Ok(())
-}
-
 /// The largest side of an EXR that [`read_exr`] reads: the largest film (16384).
 const MAX_EXR_SIDE: usize = 16384;
 
@@ -183,7 +171,8 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
     // The header first: its size decides the allocation below (a 1-KB file that claimed
     // 100000×100000 asked for 120 GB and aborted `merge` and `compare`), and a FIFO would
     // block the reader.
-    regular_exr(path)?;
+    crate::io::open_regular(path)
+        .map_err(|e| anyhow!("cannot read EXR '{}': {e}", path.display()))?;
     let meta = exr::meta::MetaData::read_from_file(path, false)
         .map_err(|e| anyhow!("cannot read EXR '{}': {e}", path.display()))?;
     for h in &meta.headers {
