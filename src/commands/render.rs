@@ -220,13 +220,15 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         // with only the last checkpoint's samples kept (an audit, 2026-12-06).
         match write(&result, true, &paths, req.save_stats.as_deref()) {
             // Said once, and again only when the reason changes.
-            Err(e) if checkpoint_error.as_deref() != Some(&format!("{e:#}")) => {
-                ui.message(&format!(
-                    "warning: checkpoint not written ({e:#}); rendering goes on, and the end writes again"
-                ));
-                checkpoint_error = Some(format!("{e:#}"));
+            Err(e) => {
+                let why = format!("{e:#}");
+                if checkpoint_error.as_deref() != Some(why.as_str()) {
+                    ui.message(&format!(
+                        "warning: checkpoint not written ({why}); rendering goes on, and the end writes again"
+                    ));
+                    checkpoint_error = Some(why);
+                }
             }
-            Err(_) => {}
             Ok(_) => checkpoint_error = None,
         }
         next = session.film_seconds() + every;
