@@ -23,7 +23,7 @@ uint region_of(vec3 p, vec3 n) {
 
 // The offset in `cuts` of the cut of the region of (p, n) (0: the shared fallback). A kernel
 // that defines FLAG_MISSING_REGIONS (render.comp) also reports a region that has no cut yet,
-// so the host builds one between frames (src/render/session/mod.rs).
+// so the host builds one between frames (src/render/session/growth.rs).
 uint region_cut(vec3 p, vec3 n) {
     uint r = region_of(p, n);
     uint o = region_index_at(r);

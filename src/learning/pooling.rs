@@ -17,7 +17,7 @@
 //! region sees); cold slots alone cost it 7–9 % (without each run's ten worst pixels) while
 //! city gained 1.14× at 256 spp and 1.29× at 64 (docs/results.md, 2026-12-04). A slot's own
 //! data replace the borrowed ones at the next pooling (until then both count): the host
-//! recomputes them at every growth point (src/render/session/mod.rs).
+//! recomputes them at every growth point (src/render/session/growth.rs).
 //!
 //! The priors are a pure function of the totals, so a continuation of a render saved at a
 //! growth point pools what the uninterrupted render pooled there, and they never touch the

@@ -1,6 +1,6 @@
 //! The learned state of a render session: the region grid's index, the cuts, the
 //! statistics and window sums, the bitset of regions reached without a cut, and the
-//! learning pass counter; and how it grows between frames (src/render/session/mod.rs).
+//! learning pass counter; and how it grows between frames (src/render/session/growth.rs).
 
 use std::sync::Arc;
 use std::time::Instant;

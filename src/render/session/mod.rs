@@ -17,6 +17,8 @@
 //! a bias), and a `--load-stats` continuation goes on exactly where the saved render
 //! stopped (tested bit for bit in tests/learning.rs).
 
+mod film;
+mod growth;
 mod inspect;
 
 use std::sync::Arc;
@@ -29,60 +31,16 @@ use super::cuts::{check_region_index_fits, stats_header};
 use super::learned_state::LearnedState;
 use super::passes::PassKernels;
 use super::timeline::Event;
-use super::{
-    camera_vectors, GpuScene, Learned, LightSampler, RegionStats, RenderResult, RenderSettings,
-};
+use super::{camera_vectors, GpuScene, Learned, RegionStats, RenderResult, RenderSettings};
 use crate::gpu::layout::{PixelAccum, RenderParams, SlotDelta, SlotStats};
-use crate::gpu::{Buffer, Context, Transfers};
+use crate::gpu::Context;
 use crate::learning::stats_file::{SavedStats, StatsHeader};
 use crate::learning::LearningClock;
 use crate::scene::{Camera, Scene};
 
-/// The film: per-pixel sums and counters since the last reset.
-struct Film {
-    width: u32,
-    height: u32,
-    accum: Buffer,
-    /// [0]: samples dropped as NaN/Inf; [1]: learned samples in regions without a cut.
-    counters: Buffer,
-    spp: u32,
-    /// Seconds spent in passes since the reset.
-    seconds: f64,
-}
-
-impl Film {
-    fn new(ctx: &Arc<Context>, width: u32, height: u32) -> Result<Film> {
-        if width == 0 || height == 0 || width > 16384 || height > 16384 {
-            bail!("image size {width}×{height} is out of range; use 1..=16384 for --width and --height");
-        }
-        let pixels = width as u64 * height as u64;
-        // Two texels a pixel (render.comp film_read): the device's texel-buffer limit bounds
-        // the film as its storage-buffer limit does (Buffer::new).
-        let max = ctx.properties.limits.max_texel_buffer_elements as u64;
-        if 2 * pixels > max {
-            bail!(
-                "a {width}×{height} film needs {} texels but this device allows texel buffers of at most {max}; use a smaller --width/--height",
-                2 * pixels
-            );
-        }
-        Ok(Film {
-            width,
-            height,
-            accum: Buffer::scratch_texels(
-                ctx,
-                "pixel accumulators",
-                pixels * std::mem::size_of::<PixelAccum>() as u64,
-            )?,
-            counters: Buffer::zeroed(ctx, "counters", 16)?,
-            spp: 0,
-            seconds: 0.0,
-        })
-    }
-
-    fn pixels(&self) -> usize {
-        self.width as usize * self.height as usize
-    }
-}
+use film::Film;
+use growth::next_growth_point;
+pub use growth::{growth_point, POOL_AGE_MAX};
 
 /// One scene on one device with its learned state and film; see the module comment.
 pub struct Session<'a> {
@@ -346,101 +304,9 @@ impl<'a> Session<'a> {
         }
     }
 
-    /// Whether cold slots borrow observations now: `bayes` learning with `--pool-priors` > 0
-    /// while the learning is young ([`POOL_AGE_MAX`]).
-    fn pools_now(&self) -> bool {
-        self.pools_priors() && self.clock().age <= POOL_AGE_MAX
-    }
-
-    /// Whether cold slots borrow observations at all (`bayes` learning with `--pool-priors` > 0).
-    fn pools_priors(&self) -> bool {
-        self.is_learning()
-            && self.settings.sampler == LightSampler::Bayes
-            && self.settings.learn.pool_priors > 0.0
-    }
-
     /// Whether the window is empty (samplers that do not learn: always).
     fn at_fold_boundary(&self) -> bool {
         !self.window_open
-    }
-
-    /// Builds cuts (and, for the learned samplers, starting statistics) for the regions
-    /// that samples reached without one since the last frame, appends them and rebinds:
-    /// the regions a moved camera reaches then learn instead of using the shared fallback
-    /// cut. Only at a fold boundary (the window is empty), so the statistics grow by
-    /// appending totals alone; the new slots get their coefficients. Returns how many
-    /// regions got a cut.
-    fn grow_regions(&mut self) -> Result<usize> {
-        if !self.settings.sampler.uses_cuts() || !self.at_fold_boundary() {
-            return Ok(0);
-        }
-        // Two submissions a growth point: one read-back (the missing regions' bits, and the
-        // totals when pooling), then the uploads with the folds after them
-        // (src/gpu/transfer.rs says why). --refine-cuts reads and writes on its own.
-        let before = self.learned.slots;
-        let t0 = Instant::now();
-        let pools = self.pools_now();
-        // Past the young age the borrowed observations are dropped, once.
-        let drops = !pools && self.pools_priors() && self.learned.borrowing();
-        let refining = self.settings.learn.refine_cuts > 0;
-        let (words, stats) = self
-            .learned
-            .read_growth_inputs(&self.ctx, pools && !refining)?;
-        let t_read = t0.elapsed().as_secs_f64();
-        let mut up = Transfers::new();
-        let added =
-            self.learned
-                .grow(&self.ctx, &self.gpu.tree, &self.settings, &words, &mut up)?;
-        let t_cuts = t0.elapsed().as_secs_f64();
-        let mut refined = 0;
-        if refining {
-            std::mem::take(&mut up).submit(&self.ctx, |_| {})?;
-            refined = self
-                .learned
-                .refine(&self.ctx, &self.gpu.tree, &self.settings)?;
-        }
-        if added + refined > 0 {
-            self.bind_learned()?;
-        }
-        let mut listed = 0;
-        if drops {
-            // Budget 0: nothing borrowed; the slots that borrowed get their coefficients again.
-            listed = self
-                .learned
-                .pool_priors_into(0.0, before, Vec::new(), &mut up)?;
-        } else if pools {
-            // Every slot's borrowed observations anew from the totals; the old slots whose
-            // borrowed observations changed get their coefficients again.
-            let stats = if refining {
-                self.learned.read_stats()?
-            } else {
-                stats
-            };
-            listed = self.learned.pool_priors_into(
-                self.settings.learn.pool_priors,
-                before,
-                stats,
-                &mut up,
-            )?;
-        }
-        // The new slots' coefficients (the others' totals did not change): over all slots
-        // this fold was 4-5 ms of a growth's 6-9 ms (city, 128x96).
-        let fold_new = (added + refined > 0 && self.is_learning()).then_some(before);
-        let t_pool = t0.elapsed().as_secs_f64();
-        if !up.is_empty() || listed > 0 || fold_new.is_some() {
-            self.kernels
-                .submit_growth(&self.ctx, up, listed > 0, fold_new, &self.learned)?;
-        }
-        if let Some(events) = &mut self.timeline {
-            events.push(Event::Growth {
-                added,
-                read: t_read,
-                cuts: t_cuts - t_read,
-                pool: t_pool - t_cuts,
-                submit: t0.elapsed().as_secs_f64() - t_pool,
-            });
-        }
-        Ok(added)
     }
 
     /// Moves the learning pass counter on by `k` passes without rendering them, before the
@@ -603,28 +469,3 @@ impl<'a> Session<'a> {
 /// Most passes a session takes (learned ones included): the random streams are indexed by
 /// a u32 and must never repeat.
 pub const MAX_PASSES: u32 = 1 << 31;
-
-/// Cold slots borrow their neighbours' observations (`--pool-priors`) at the growth points of
-/// the learning's first passes, up to this age (the film's passes after a camera move, else
-/// the learned passes, as `--update-every auto` counts them); at the first growth point past
-/// it every slot's borrowed observations are dropped. Why: pooling paid at 64–256 passes
-/// (city 1.29× less variance at 64 spp, 1.14× at 256), while each pooling reads the totals
-/// back and uploads the priors: on an NVIDIA H200 it took bayes from 0.14 to 0.21 s for
-/// 1024 passes at 512×384 (city; docs/results.md, 2026-12-04, fifth session). A pure function
-/// of the clock, so a `--load-stats` continuation pools (or not) as the render it continues.
-pub const POOL_AGE_MAX: u32 = 256;
-
-/// Whether regions reached without a cut get one after `n` passes: 1, 2, 4, 8, 16, 32,
-/// then every 64th (soon after the start or a camera move, rarely once settled).
-pub fn growth_point(n: u32) -> bool {
-    n > 0 && (n <= 32 && n.is_power_of_two() || n.is_multiple_of(64))
-}
-
-/// The first growth point after `spp`.
-fn next_growth_point(spp: u32) -> u32 {
-    if spp < 32 {
-        (spp + 1).next_power_of_two()
-    } else {
-        (spp / 64 + 1).saturating_mul(64)
-    }
-}

@@ -1,0 +1,55 @@
+//! The session's film: per-pixel sums and counters since the last reset (the third
+//! lifetime of [`super::Session`]).
+
+use std::sync::Arc;
+
+use anyhow::{bail, Result};
+
+use crate::gpu::layout::PixelAccum;
+use crate::gpu::{Buffer, Context};
+
+/// The film: per-pixel sums and counters since the last reset.
+pub(super) struct Film {
+    pub(super) width: u32,
+    pub(super) height: u32,
+    pub(super) accum: Buffer,
+    /// [0]: samples dropped as NaN/Inf; [1]: learned samples in regions without a cut.
+    pub(super) counters: Buffer,
+    pub(super) spp: u32,
+    /// Seconds spent in passes since the reset.
+    pub(super) seconds: f64,
+}
+
+impl Film {
+    pub(super) fn new(ctx: &Arc<Context>, width: u32, height: u32) -> Result<Film> {
+        if width == 0 || height == 0 || width > 16384 || height > 16384 {
+            bail!("image size {width}×{height} is out of range; use 1..=16384 for --width and --height");
+        }
+        let pixels = width as u64 * height as u64;
+        // Two texels a pixel (render.comp film_read): the device's texel-buffer limit bounds
+        // the film as its storage-buffer limit does (Buffer::new).
+        let max = ctx.properties.limits.max_texel_buffer_elements as u64;
+        if 2 * pixels > max {
+            bail!(
+                "a {width}×{height} film needs {} texels but this device allows texel buffers of at most {max}; use a smaller --width/--height",
+                2 * pixels
+            );
+        }
+        Ok(Film {
+            width,
+            height,
+            accum: Buffer::scratch_texels(
+                ctx,
+                "pixel accumulators",
+                pixels * std::mem::size_of::<PixelAccum>() as u64,
+            )?,
+            counters: Buffer::zeroed(ctx, "counters", 16)?,
+            spp: 0,
+            seconds: 0.0,
+        })
+    }
+
+    pub(super) fn pixels(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+}
