@@ -18,6 +18,7 @@ pub mod pooling;
 mod schedule;
 mod settings;
 pub mod stats_file;
+mod stats_merge;
 
 pub use schedule::{LearningClock, UpdateEvery};
 pub use settings::*;

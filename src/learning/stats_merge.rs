@@ -1,0 +1,211 @@
+//! `merge-stats`: the statistics of several renders of one scene (farm chunks, other seeds,
+//! other machines) added into one [`SavedStats`].
+
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+
+use super::stats_file::SavedStats;
+use crate::abi::SlotStats;
+
+impl SavedStats {
+    /// The statistics learned by `parts` together (renders of one scene with the same
+    /// settings: other seeds, other machines, other cameras). Every region with a cut in any
+    /// part gets that cut (a pure function of the region, the light tree and the settings, so
+    /// parts that share a region have the same cut, which is checked) and the sum of the
+    /// parts' totals: counts and sums add (in f64, rounded once), the window scale becomes
+    /// the merged root mean square as `fold.comp` sets it, and the weight coefficients are
+    /// recomputed when the file is loaded. `samples_done` is the parts' total. Parts of
+    /// another scene or other settings are refused naming the field.
+    pub fn merge(parts: &[(SavedStats, String)]) -> Result<SavedStats> {
+        let Some(((first, first_name), rest)) = parts.split_first() else {
+            bail!("nothing to merge: give at least one statistics file");
+        };
+        for (p, name) in rest {
+            p.check_matches(&first.header, Path::new(name))
+                .with_context(|| format!("cannot merge '{name}' with '{first_name}'"))?;
+            if p.index.len() != first.index.len() {
+                bail!("'{name}' has {} regions but '{first_name}' has {}; they were saved for other region grids", p.index.len(), first.index.len());
+            }
+        }
+        let cut_of = |s: &SavedStats, o: u32| {
+            let o = o as usize;
+            s.cuts[o..o + 1 + s.cuts[o] as usize].to_vec()
+        };
+        for (p, name) in rest {
+            if cut_of(p, 0) != cut_of(first, 0) {
+                bail!("'{name}' has another fallback cut than '{first_name}': other settings or lights; save both with the same version and settings");
+            }
+        }
+        let mut cuts = cut_of(first, 0);
+        let mut stats = first.stats[..cuts.len()].to_vec();
+        let mut index = vec![0u32; first.index.len()];
+        for (r, slot) in index.iter_mut().enumerate() {
+            let holders: Vec<&(SavedStats, String)> =
+                parts.iter().filter(|(p, _)| p.index[r] != 0).collect();
+            let Some(((h, _), others)) = holders.split_first() else {
+                continue;
+            };
+            let cut = cut_of(h, h.index[r]);
+            let holder = &holders[0].1;
+            for (p, name) in others {
+                if cut_of(p, p.index[r]) != cut {
+                    bail!("'{name}' has another cut for region {r} than '{holder}': other cut settings, or cuts refined apart (--refine-cuts); they cannot be merged");
+                }
+            }
+            *slot = cuts.len() as u32;
+            for k in 0..cut.len() {
+                let slots: Vec<&SlotStats> = holders
+                    .iter()
+                    .map(|(p, _)| &p.stats[p.index[r] as usize + k])
+                    .collect();
+                stats.push(if k == 0 { *slots[0] } else { sum_slots(&slots) });
+            }
+            cuts.extend_from_slice(&cut);
+        }
+        let mut header = first.header.clone();
+        // The passes learned from together (a chunk's skipped passes are not its own), and
+        // never below the last pass any part drew: a continuation must start after both.
+        let learned = parts
+            .iter()
+            .try_fold(0u32, |a, (p, _)| {
+                a.checked_add(p.header.samples_done - p.header.skipped_passes.unwrap_or(0))
+            })
+            .ok_or_else(|| anyhow::anyhow!("the parts have learned from more passes together than a statistics file counts (2^32)"))?;
+        let last = parts
+            .iter()
+            .map(|(p, _)| p.header.samples_done)
+            .max()
+            .unwrap_or(0);
+        header.samples_done = learned.max(last);
+        header.skipped_passes = None;
+        header.regions = index.len() as u32;
+        header.cuts_len = cuts.len() as u32;
+        Ok(SavedStats {
+            header,
+            index,
+            cuts,
+            stats,
+        })
+    }
+
+    /// The statistics of farm chunks that each started from `base` (tempered by the factor
+    /// each part records, `start_forget`) and learned apart: the base once plus every part's
+    /// own learning, Σ (part − start), so N chunks do not count the base N times.
+    /// `samples_done` is the largest part's (the chunks' sample ranges follow each other).
+    pub fn merge_onto(base: &SavedStats, parts: &[(SavedStats, String)]) -> Result<SavedStats> {
+        for (p, name) in parts {
+            base.check_matches(&p.header, Path::new(name))
+                .with_context(|| format!("'{name}' did not start from the --base file"))?;
+            if p.header.samples_done <= base.header.samples_done
+                || p.index.len() != base.index.len()
+            {
+                bail!("'{name}' did not start from the --base file (it has learned no more passes than the base, or over another region grid)");
+            }
+        }
+        let mut merged = SavedStats::merge(parts)?;
+        let cut_len = |s: &SavedStats, o: u32| 1 + s.cuts[o as usize] as usize;
+        // Regions with a cut in the base (the fallback cut, offset 0, is the first part's in
+        // `merge`, as for any merge).
+        for (r, &bo) in base.index.iter().enumerate() {
+            if bo == 0 {
+                continue;
+            }
+            let mo = merged.index[r];
+            if mo == 0 {
+                bail!("region {r} has a cut in the --base file but in none of the parts: they did not start from it");
+            }
+            fn cut(s: &SavedStats, o: u32) -> &[u32] {
+                &s.cuts[o as usize..o as usize + 1 + s.cuts[o as usize] as usize]
+            }
+            if cut(base, bo) != cut(&merged, mo) {
+                bail!("region {r} has another cut in the --base file than in the parts: they did not start from it (give the statistics the chunks loaded)");
+            }
+            let (bo, mo) = (bo as usize, mo as usize);
+            for k in 1..cut_len(base, bo as u32) {
+                // Every part started from the tempered base: take out all but one copy.
+                let mut start_total = SlotStats::default();
+                for (p, _) in parts {
+                    let g = p.header.start_forget.unwrap_or(1.0);
+                    let b = &base.stats[bo + k];
+                    start_total.n_zero += g * b.n_zero;
+                    start_total.n_nonzero += g * b.n_nonzero;
+                    start_total.sum += g * b.sum;
+                    start_total.sum_sq += g * b.sum_sq;
+                }
+                let g0 = parts[0].0.header.start_forget.unwrap_or(1.0);
+                let b = base.stats[bo + k];
+                let m = &mut merged.stats[mo + k];
+                let sub = |total: f32, all: f32, once: f32| (total - all + once).max(0.0);
+                m.n_zero = sub(m.n_zero, start_total.n_zero, g0 * b.n_zero);
+                m.n_nonzero = sub(m.n_nonzero, start_total.n_nonzero, g0 * b.n_nonzero);
+                m.sum = sub(m.sum, start_total.sum, g0 * b.sum);
+                m.sum_sq = sub(m.sum_sq, start_total.sum_sq, g0 * b.sum_sq);
+                if m.n_nonzero == 0.0 {
+                    (m.sum, m.sum_sq) = (0.0, 0.0);
+                }
+                if m.sum_sq > 0.0 && m.n_nonzero > 0.0 {
+                    m.scale = (m.sum_sq / m.n_nonzero).sqrt();
+                }
+            }
+        }
+        merged.header.samples_done = parts
+            .iter()
+            .map(|(p, _)| p.header.samples_done)
+            .max()
+            .unwrap_or(0);
+        merged.header.start_forget = None;
+        Ok(merged)
+    }
+}
+
+/// The totals of several parts' copies of one slot, added.
+fn sum_slots(slots: &[&SlotStats]) -> SlotStats {
+    // A slot one part alone holds is that part's, bit for bit: the scale below in f32 on the
+    // CPU differs by an ulp from the one fold.comp took on an NVIDIA H200 (its sqrt and
+    // division are not correctly rounded), which made a merged region differ from its only
+    // part there (tests/session.rs, 2026-12-04).
+    if let [one] = slots {
+        return **one;
+    }
+    let add = |f: fn(&SlotStats) -> f32| slots.iter().map(|s| f(s) as f64).sum::<f64>() as f32;
+    let mut s = SlotStats {
+        n_zero: add(|s| s.n_zero),
+        n_nonzero: add(|s| s.n_nonzero),
+        sum: add(|s| s.sum),
+        sum_sq: add(|s| s.sum_sq),
+        ..*slots[0]
+    };
+    if s.sum_sq > 0.0 && s.n_nonzero > 0.0 {
+        s.scale = (s.sum_sq / s.n_nonzero).sqrt();
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_slot_is_taken_as_it_is_and_two_add() {
+        // A scale one ulp off sqrt(sum_sq / n_nonzero), as a GPU's fold may leave it.
+        let scale = f32::from_bits(2.0f32.to_bits() + 1);
+        let a = SlotStats {
+            n_zero: 1.0,
+            n_nonzero: 2.0,
+            sum: 4.0,
+            sum_sq: 8.0,
+            scale,
+            coef_a: 0.5,
+            coef_b: 0.0,
+            coef_c: 0.25,
+        };
+        assert_eq!(sum_slots(&[&a]), a);
+        let two = sum_slots(&[&a, &a]);
+        assert_eq!(
+            (two.n_zero, two.n_nonzero, two.sum, two.sum_sq),
+            (2.0, 4.0, 8.0, 16.0)
+        );
+        assert_eq!(two.scale, 2.0);
+    }
+}
