@@ -262,6 +262,67 @@ fn triangles_lost_to_an_object_out_of_scale_are_named() {
         &render("all.gltf", &["--out", "all.exr"], d),
         &["all.gltf", "too small to keep in 32-bit floats"],
     );
+    // A copy translated to 3e38: even f64 cannot hold a triangle's size there, so its
+    // triangles lost their area before the f32 frame saw them, without a word (an audit,
+    // 2026-12-06). A copy scaled by 0 is hidden on purpose and goes without one.
+    write_json(&d.join("far.gltf"), &with_copy(1.0, 3e38));
+    let o = render("far.gltf", &["--out", "far.exr"], d);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("lose their area") && err.contains("left out"),
+        "{err}"
+    );
+    write_json(&d.join("hidden.gltf"), &with_copy(0.0, 0.3));
+    let o = render("hidden.gltf", &["--out", "hidden.exr"], d);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        !err.contains("lose their area") && !err.contains("too small"),
+        "{err}"
+    );
+}
+
+/// A camera at 3e38 made the CPU rays that pick the regions for cuts meet boxes at t = ∞,
+/// and the traversal took an empty child slot for a node: a panic in `render` for `wang`,
+/// `donikian` and `bayes` (an audit, 2026-12-06). It renders now (what it sees is the
+/// file's business).
+#[test]
+fn a_camera_near_the_float_limit_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut doc = cornell(d);
+    let cam = doc["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .position(|n| n.get("camera").is_some())
+        .expect("a camera node");
+    doc["nodes"][cam]["translation"] = serde_json::json!([3e38, 3e38, 3e38]);
+    write_json(&d.join("camfar.gltf"), &doc);
+    // 16×12: at 8×8 no pixel-centre ray met such a box.
+    for sampler in ["wang", "bayes"] {
+        let exr = format!("{sampler}.exr");
+        let o = run(
+            &[
+                "render",
+                "camfar.gltf",
+                "--width",
+                "16",
+                "--height",
+                "12",
+                "--spp",
+                "2",
+                "-q",
+                "--sampler",
+                sampler,
+                "--out",
+                &exr,
+            ],
+            d,
+        );
+        assert!(o.status.success(), "{sampler}: {}", stderr(&o));
+    }
 }
 
 /// A 1-KB EXR whose header claimed 100000×100000 pixels made `merge` and `compare` ask for

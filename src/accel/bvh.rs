@@ -144,7 +144,11 @@ impl Bvh {
         };
         let inv = Vec3::new(nudge(d.x), nudge(d.y), nudge(d.z)).recip();
         let oi = o * inv;
-        let mut best_t = tmax;
+        // A box entered at t = ∞ (an origin near f32's limit: a camera at 3e38 reached this
+        // from build_cuts) must not pass for an interior child: it sorts among the empty
+        // slots, and one of those was then taken for a node (an out-of-range index, a panic).
+        // The kernel's rays end at 3e38 (render.comp), so no key of theirs is ∞ either.
+        let mut best_t = tmax.min(f32::MAX);
         let mut best = u32::MAX;
         let mut stack = [(0u32, 0f32); STACK_SIZE];
         let mut sp = 0usize;
@@ -466,6 +470,22 @@ mod tests {
                 [v(), v(), v()]
             })
             .collect()
+    }
+
+    /// A ray from near f32's limit (a glTF camera at 3e38) meets boxes at t = ∞: it must
+    /// miss or hit, never take an empty child slot for a node (it panicked in build_cuts).
+    #[test]
+    fn rays_from_near_the_float_limit_do_not_panic() {
+        let bvh = Bvh::build(&random_soup(64, 5));
+        for o in [
+            Vec3::splat(3e38),
+            Vec3::new(3e38, -3e38, 3e38),
+            Vec3::splat(-3.4e38),
+        ] {
+            let d = (-o).normalize();
+            let _ = bvh.intersect(o, d, 0.0, f32::INFINITY);
+            let _ = bvh.occluded(o, d, 0.0, f32::INFINITY);
+        }
     }
 
     /// The BVH must find exactly what testing every triangle finds.

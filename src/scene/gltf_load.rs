@@ -284,11 +284,18 @@ impl Document {
         let mut light_labels: Vec<String> = Vec::new();
         let mut skipped_primitives = 0usize;
         let mut lights_with_range = 0usize;
+        // Triangles with an area in the file that their node's transform left without one:
+        // a far translation rounds them away even in f64 (walls moved to 3e38 vanished
+        // without a word: an audit, 2026-12-06). A singular transform (a scale of 0, which
+        // hides an object on purpose) is not counted.
+        let (mut lost_to_position, mut lost_emitters) = (0usize, 0usize);
 
         self.walk(pose, &mut |node, world| {
         if let Some(mesh) = node.mesh() {
             // Negative determinant mirrors the mesh and flips its winding (glTF 2.0 §3.7.4).
-            let flip = world.determinant() < 0.0;
+            let det = world.determinant();
+            let flip = det < 0.0;
+            let regular = det != 0.0 && det.is_finite();
             for prim in mesh.primitives() {
                 let mesh_label = format!(
                     "mesh {} ('{}') primitive {}",
@@ -394,6 +401,12 @@ impl Document {
                     // Degenerate triangles can never be hit and have no area to emit from
                     // (those that become degenerate in f32 are dropped below).
                     if (tri[1] - tri[0]).cross(tri[2] - tri[0]).length_squared() == 0.0 {
+                        let file = [a, b, c].map(|i| Vec3::from(positions[i as usize]).as_dvec3());
+                        let had_area = (file[1] - file[0]).cross(file[2] - file[0]).length_squared() > 0.0;
+                        let lost = regular && had_area;
+                        lost_to_position += lost as usize;
+                        lost_emitters +=
+                            (lost && materials[mat as usize].emission.max_element() > 0.0) as usize;
                         continue;
                     }
                     triangles.push(tri);
@@ -489,13 +502,24 @@ impl Document {
             .map(|&i| scene.triangle_material[i])
             .collect();
         scene.triangles.extend(local.triangles);
-        let (collapsed, collapsed_emitters) = (local.collapsed, local.collapsed_emitters);
-        let collapse_note = (collapsed > 0).then(|| {
-            format!(
-                "{collapsed} of {} triangles are too small to keep in 32-bit floats beside the scene's extent of {extent:.3e} units (an object or light far out of scale with the rest?)",
-                triangles.len()
-            )
-        });
+        let (collapsed, collapsed_emitters) = (
+            local.collapsed + lost_to_position,
+            local.collapsed_emitters + lost_emitters,
+        );
+        let total = triangles.len() + lost_to_position;
+        let notes: Vec<String> = [
+            (local.collapsed > 0).then(|| format!(
+                "{} of {total} triangles are too small to keep in 32-bit floats beside the scene's extent of {extent:.3e} units (an object or light far out of scale with the rest?)",
+                local.collapsed
+            )),
+            (lost_to_position > 0).then(|| format!(
+                "{lost_to_position} of {total} triangles lose their area where their node's transform puts them: floating point cannot hold their size that far out (a translation far out of range?)"
+            )),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        let collapse_note = (collapsed > 0).then(|| notes.join("; "));
         let out_of_scale = |what: &str| {
             match &collapse_note {
             Some(note) => anyhow!("'{name}' has no {what} left: {note}; bring every node's scale and position within a few orders of magnitude"),
