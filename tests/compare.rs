@@ -201,6 +201,34 @@ fn bad_requests_fail_before_rendering() {
     )
     .unwrap();
     let torn_ref = torn_ref.display().to_string();
+    // Real references with their reports, of direct light (the comparison is path traced)
+    // and of another scene: metrics against them were written with exit 0.
+    let real_ref = |scene: &str, name: &str| {
+        let exr = dir.path().join(name).display().to_string();
+        let o = run(
+            &[
+                "render",
+                scene,
+                "--max-depth",
+                "1",
+                "--spp",
+                "1",
+                "--width",
+                "320",
+                "--height",
+                "240",
+                "-q",
+                "--out",
+                &exr,
+            ],
+            &dir.path().join("unused-cache"),
+        );
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        exr
+    };
+    let direct_ref = real_ref(&s, "direct.exr");
+    let other = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/strings.glb");
+    let other_ref = real_ref(&other.display().to_string(), "other.exr");
     let out = dir.path().join("rep").display().to_string();
     let file = dir.path().join("afile");
     std::fs::write(&file, "x").unwrap();
@@ -233,6 +261,23 @@ fn bad_requests_fail_before_rendering() {
         (
             vec!["--spp", "4", "--reference", &torn_ref, "--out", &out],
             "is not the image its report",
+        ),
+        (
+            vec!["--spp", "4", "--reference", &direct_ref, "--out", &out],
+            "was rendered with --max-depth 1 but this comparison uses 8",
+        ),
+        (
+            vec![
+                "--spp",
+                "4",
+                "--max-depth",
+                "1",
+                "--reference",
+                &other_ref,
+                "--out",
+                &out,
+            ],
+            "is an image of another scene",
         ),
         (vec!["--out", &out], "--time SECONDS"),
         (

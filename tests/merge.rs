@@ -117,6 +117,14 @@ fn parts_that_do_not_belong_together_are_refused() {
     part(d, "torn.exr", "5", "2", &[]);
     part(d, "other.exr", "6", "6", &[]);
     std::fs::copy(d.join("other.exr"), d.join("torn.exr")).unwrap();
+    // Other estimators of the same image, and a merge's own output: each was merged with
+    // exit 0 (the estimator's switch named nowhere) or refused for a wrong reason (an
+    // audit, 2026-12-06).
+    part(d, "sa.exr", "7", "2", &["--light-point", "solid-angle"]);
+    part(d, "coarse.exr", "8", "2", &["--coarse-blocks", "off"]);
+    part(d, "m1.exr", "9", "2", &[]);
+    part(d, "m2.exr", "10", "2", &[]);
+    ok(&run(&["merge", "m1.exr", "m2.exr", "--out", "m0.exr"], d));
     let before: Vec<_> = std::fs::read_dir(d)
         .unwrap()
         .map(|e| e.unwrap().file_name())
@@ -126,6 +134,9 @@ fn parts_that_do_not_belong_together_are_refused() {
         ("wang.exr", "has sampler"),
         ("grid.exr", "region settings"),
         ("wide.exr", "has width"),
+        ("sa.exr", "has light_point"),
+        ("coarse.exr", "region settings"),
+        ("m0.exr", "is itself a merge (of m1.exr, m2.exr)"),
         (
             "torn.exr",
             "is not the image its report 'torn.json' describes",

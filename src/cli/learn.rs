@@ -142,6 +142,7 @@ impl RegionArgs {
             ("--tau", self.tau.to_string()),
             ("--k-max", self.k_max.to_string()),
             ("--in-cluster", self.in_cluster.clone()),
+            ("--coarse-blocks", self.coarse_blocks.clone()),
         ]
         .into_iter()
         .flat_map(|(k, v)| [k.to_string(), v])
@@ -213,5 +214,45 @@ impl LearnArgs {
         };
         s.check()?;
         Ok(s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::{CommandFactory, Parser};
+
+    #[derive(Parser)]
+    struct Both {
+        #[command(flatten)]
+        regions: RegionArgs,
+        #[command(flatten)]
+        learn: LearnArgs,
+    }
+
+    /// The farm's tasks get these options through `to_args`: every flag must be there
+    /// (`farm --coarse-blocks off` rendered its chunks with coarse blocks on: an audit,
+    /// 2026-12-06). Flags that are optional or switches are set, so they are written too.
+    #[test]
+    fn to_args_names_every_flag() {
+        let b = Both::parse_from([
+            "x",
+            "--prior-scale",
+            "0.5",
+            "--brdf-aware",
+            "--control-variates",
+        ]);
+        let given = [b.regions.to_args(), b.learn.to_args()].concat();
+        for a in Both::command().get_arguments() {
+            let Some(long) = a.get_long() else { continue };
+            if long == "help" {
+                continue;
+            }
+            let flag = format!("--{long}");
+            assert!(
+                given.contains(&flag),
+                "to_args leaves out {flag}: {given:?}"
+            );
+        }
     }
 }

@@ -147,6 +147,9 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
     };
 
     let (scene, ctx, gpu, _) = prepare(a.scene.as_deref(), &a.device, ui)?;
+    if let Some((p, _, Some(r))) = &given {
+        check_reference_matches(p, r, &reference::scene_hash(&scene), a.max_depth)?;
+    }
     if samplers.iter().any(|s| s.uses_cuts()) {
         crate::render::check_region_index_fits(&ctx, &scene, &regions)?;
     }
@@ -249,4 +252,33 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
         comparisons,
         report: a.out.join("index.html"),
     })
+}
+
+/// A given reference must be an image of this scene at this depth where its report says
+/// (reports without the fields pass): one of another scene, or of direct light for a path
+/// traced comparison, gave metrics against the wrong image with exit 0 (an audit,
+/// 2026-12-06).
+fn check_reference_matches(
+    p: &std::path::Path,
+    report: &serde_json::Value,
+    scene_hash: &str,
+    max_depth: u32,
+) -> Result<()> {
+    if let Some(h) = report["scene_hash"].as_str() {
+        if h != scene_hash {
+            bail!(
+                "reference '{}' is an image of another scene (its report's scene_hash {h}, this scene's {scene_hash}); give a reference of this scene, or leave out --reference to have one made",
+                p.display()
+            );
+        }
+    }
+    if let Some(d) = report["max_depth"].as_u64() {
+        if d != max_depth as u64 {
+            bail!(
+                "reference '{}' was rendered with --max-depth {d} but this comparison uses {max_depth}; pass --max-depth {d}, or give another reference",
+                p.display()
+            );
+        }
+    }
+    Ok(())
 }

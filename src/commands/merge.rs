@@ -10,8 +10,11 @@ use serde_json::{json, Value};
 use crate::film::{self, OutputPaths};
 use crate::learning::stats_file::SavedStats;
 
-/// Report fields that every part of one image must share: what was rendered, and how.
-const SAME: [&str; 7] = [
+/// Report fields that every part of one image must share: what was rendered, and how
+/// (the estimator's switches too: parts with another `--light-point`, `--stratify` or
+/// light-sample count were merged without a word and the merged report named none of them:
+/// an audit, 2026-12-06).
+const SAME: [&str; 11] = [
     "scene_hash",
     "width",
     "height",
@@ -19,6 +22,10 @@ const SAME: [&str; 7] = [
     "sampler",
     "integrator",
     "lightlearn_version",
+    "light_point",
+    "stratify",
+    "first_light_samples",
+    "indirect_light_samples",
 ];
 
 /// The region settings of a report (its `regions` block without the per-run statistics).
@@ -69,6 +76,16 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
         })?;
         let r: Value = serde_json::from_slice(&text)
             .with_context(|| format!("the report '{}' is not valid JSON", j.display()))?;
+        // A merge's own output holds no seed or learning block of one render, so it was
+        // refused for the wrong reason ("other settings", "the same samples").
+        if let Some(from) = r["merged_from"].as_array() {
+            let names: Vec<&str> = from.iter().filter_map(|f| f["exr"].as_str()).collect();
+            bail!(
+                "part '{}' is itself a merge (of {}); merge its parts together with the others instead",
+                p.display(),
+                names.join(", ")
+            );
+        }
         reports.push(r);
     }
     let first = &reports[0];

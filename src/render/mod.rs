@@ -503,6 +503,7 @@ pub fn report_json(
                 "tau": settings.regions.tau,
                 "k_max": settings.regions.k_max,
                 "in_cluster": if settings.regions.in_cluster_importance { "importance" } else { "power" },
+                "coarse_blocks": settings.regions.coarse_blocks,
                 "stats": result.regions,
             })
         } else {
