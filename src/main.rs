@@ -269,7 +269,7 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
 }
 
 fn cmd_scene(a: SceneArgs) -> Result<()> {
-    let bytes = commands::scene::run(a.family, &a.params(), &a.out)?;
+    let bytes = commands::scene::run(a.family, &a.params()?, &a.out)?;
     say!(
         "wrote {} ({:?}, {} lights, {bytes} bytes)",
         a.out.display(),

@@ -139,6 +139,18 @@ fn scene_command_refuses_bad_requests() {
     );
     fail(
         &[
+            "rooms",
+            "--lights",
+            "20",
+            "--resolution",
+            "3",
+            "--out",
+            "x.glb",
+        ],
+        "--resolution applies to the strings family only",
+    );
+    fail(
+        &[
             "city", "--lights", "100000", "--blocks", "1", "--out", "x.glb",
         ],
         "window slots",

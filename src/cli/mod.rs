@@ -336,9 +336,9 @@ pub struct SceneArgs {
     /// city: blocks per side (1..=100) [default: enough for about half the windows lit].
     #[arg(long, value_name = "N")]
     pub blocks: Option<usize>,
-    /// strings: segments around each curved object (3..=512).
-    #[arg(long, default_value_t = 24)]
-    pub resolution: u32,
+    /// strings: segments around each curved object (3..=512) [default: 24].
+    #[arg(long, value_name = "N")]
+    pub resolution: Option<u32>,
     /// Glossy variant: floors (cornell: the tall box, white) become a glTF metal
     /// (metallic 1, GGX) with this roughness in [0, 1]; all else stays Lambertian.
     #[arg(long, value_name = "ROUGHNESS")]
@@ -456,15 +456,24 @@ impl ReferenceArgs {
 }
 
 impl SceneArgs {
-    pub fn params(&self) -> FamilyParams {
-        FamilyParams {
+    pub fn params(&self) -> Result<FamilyParams> {
+        // An option of another family is refused, as families::generate does for --rooms and
+        // --blocks (`rooms --resolution 3` wrote the same file as without it: an audit,
+        // 2026-12-06).
+        if self.resolution.is_some() && self.family != Family::Strings {
+            anyhow::bail!(
+                "--resolution applies to the strings family only; {:?} has no curved objects",
+                self.family
+            );
+        }
+        Ok(FamilyParams {
             animate: self.animate,
             lights: self.lights,
             seed: self.seed,
             rooms: self.rooms,
             blocks: self.blocks,
-            resolution: self.resolution,
+            resolution: self.resolution.unwrap_or(24),
             glossy: self.glossy,
-        }
+        })
     }
 }

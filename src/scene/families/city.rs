@@ -143,8 +143,10 @@ pub fn build(p: &FamilyParams) -> Result<GltfBuilder> {
         w.emit(&mut g, &format!("windows{k}"), window_m[k]);
     }
 
-    // Animated: cars (two spot headlights each) taken from the lamp budget.
-    let cars = if p.animate { lamps / 4 } else { 0 };
+    // Animated: cars (two spot headlights each) taken from the lamp budget, at least one:
+    // with none, 16 or 17 lights wrote a file without animation, with exit 0 (an audit,
+    // 2026-12-06). City's 16 lights or more leave 2 lamps or more.
+    let cars = if p.animate { (lamps / 4).max(1) } else { 0 };
     for c in 0..cars {
         let line = (rng.next_u64() % (blocks as u64 + 1)) as f32 * PITCH - 0.5 * STREET;
         let (along_x, reverse) = (rng.f32() < 0.5, rng.f32() < 0.5);

@@ -307,6 +307,24 @@ mod tests {
         }
     }
 
+    /// `scene city --animate` with 16 or 17 lights had no car and wrote a still scene with
+    /// exit 0 (an audit, 2026-12-06): every light count city takes gets an animation.
+    #[test]
+    fn animated_city_always_moves() {
+        let (lo, _) = Family::City.light_range();
+        for n in lo..lo + 24 {
+            let mut p = params(n);
+            p.animate = true;
+            let doc: serde_json::Value =
+                serde_json::from_str(&generate(Family::City, &p).unwrap().to_gltf_embedded())
+                    .unwrap();
+            assert!(
+                doc["animations"].as_array().is_some_and(|a| !a.is_empty()),
+                "city with {n} lights has no animation"
+            );
+        }
+    }
+
     #[test]
     fn out_of_range_requests_are_refused() {
         assert!(generate(Family::Cornell, &params(65)).is_err());
