@@ -81,9 +81,26 @@ pub fn remove_stale_temps(p: &Path) {
     }
 }
 
+/// The nearest part of `dir` that exists (`dir` itself or a folder above it), where that is
+/// not a folder: a path under it can never be created.
+fn not_a_folder(dir: &Path) -> Option<&Path> {
+    dir.ancestors()
+        .find(|a| !a.as_os_str().is_empty() && std::fs::symlink_metadata(a).is_ok())
+        .filter(|a| !a.is_dir())
+}
+
 /// Fails early, before any work, when `p`'s folder does not exist.
 pub fn check_parent(p: &Path) -> Result<()> {
     let dir = folder_of(p);
+    // A file where a folder of the path should be was reported as a missing folder, and
+    // `--mkdir` then failed with "File exists" (an audit, 2026-12-06).
+    if let Some(f) = not_a_folder(&dir) {
+        bail!(
+            "cannot write '{}': '{}' is not a folder (a file or something else of that name is there); name another path",
+            p.display(),
+            f.display()
+        );
+    }
     if !dir.is_dir() {
         bail!(
             "cannot write '{}': folder '{}' does not exist; create it first",
@@ -98,10 +115,11 @@ pub fn check_parent(p: &Path) -> Result<()> {
 /// file, FIFO or link of that name is named as such (it was "File exists (os error 17)"),
 /// and a failure says why where it can.
 pub fn create_output_folder(dir: &Path, what: &str) -> Result<()> {
-    if std::fs::symlink_metadata(dir).is_ok() && !dir.is_dir() {
+    if let Some(f) = not_a_folder(dir) {
         bail!(
-            "cannot create the {what} '{}': something else of that name is there (a file, a FIFO or a link to nothing); name another --out",
-            dir.display()
+            "cannot create the {what} '{}': '{}' is something else than a folder (a file, a FIFO or a link to nothing); name another --out",
+            dir.display(),
+            f.display()
         );
     }
     std::fs::create_dir_all(dir).map_err(|e| {

@@ -256,6 +256,11 @@ fn bad_farm_requests_are_refused() {
         (vec!["--chunks", "1"], "--chunks must be 2"),
         (vec!["--spp", "0"], "at least 1"),
         (vec!["--forget", "0"], "--forget"),
+        // It blamed "--chunk 3", a flag of the tasks, not of farm.
+        (
+            vec!["--spp", "4294967295"],
+            "--chunks 4 × --spp 4294967295: the last chunk would start",
+        ),
     ] {
         let mut a = vec![
             "farm",

@@ -424,6 +424,8 @@ fn sample_counts_past_the_random_streams_are_refused_at_once() {
         vec!["animate", "--spp", too_many],
         vec!["compare", "--spp", too_many, "--out", "cmp"],
         vec!["reference", "--spp", too_many, "--out", "ref.exr"],
+        // Named as --spp before (the references' renders took it as theirs).
+        vec!["animate", "--spp", "1", "--reference-spp", too_many],
     ] {
         let mut args = cmd.clone();
         args.extend(tiny);
@@ -446,9 +448,14 @@ fn sample_counts_past_the_random_streams_are_refused_at_once() {
             }
             std::thread::sleep(Duration::from_millis(50));
         }
+        let flag = if cmd.contains(&"--reference-spp") {
+            "--reference-spp"
+        } else {
+            "spp"
+        };
         refused(
             &child.wait_with_output().unwrap(),
-            &[too_many, "2147483648"],
+            &[&format!("{flag} {too_many}"), "2147483648"],
         );
     }
     assert!(files(d).is_empty(), "wrote {:?}", files(d));

@@ -174,6 +174,28 @@ fn a_failed_farm_run_leaves_the_job_it_found() {
     );
 }
 
+/// A file where a folder of `--out` should be was called a missing folder ("create it
+/// first"), and with `--mkdir` the error was "File exists (os error 17)" (an audit,
+/// 2026-12-06): both now name the file in the way.
+#[test]
+fn a_file_in_the_way_of_the_output_folder_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    cornell(d);
+    std::fs::write(d.join("afile"), "x").unwrap();
+    refused(
+        &render("c.gltf", &["--out", "afile/o.exr"], d),
+        &["'afile' is not a folder"],
+    );
+    for out in ["afile/o.exr", "afile/deeper/o.exr"] {
+        refused(
+            &render("c.gltf", &["--mkdir", "--out", out], d),
+            &["'afile' is something else than a folder"],
+        );
+    }
+    assert_eq!(std::fs::read(d.join("afile")).unwrap(), b"x");
+}
+
 /// Refused runs left the folders they had made: `render --mkdir` before its checks, and
 /// `animate` before its first frame.
 #[test]

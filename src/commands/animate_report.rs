@@ -100,9 +100,9 @@ pub fn run(
     variants: &[Variant],
     ui: &mut dyn Ui,
 ) -> Result<Vec<VariantErrors>> {
-    if reference_spp == 0 {
-        bail!("--reference-spp must be at least 1");
-    }
+    // Before the references' renders take it as their --spp, which the error then named
+    // (an audit, 2026-12-06).
+    super::check_spp("--reference-spp", reference_spp)?;
     animate::check(req)?;
     let reference_dir = req.out.join("reference");
     ui.message(&format!(

@@ -189,7 +189,15 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
     if req.spp == 0 {
         bail!("--spp (samples per chunk) must be at least 1");
     }
-    super::render::chunk_offset(Some(req.chunks - 1), Some(req.spp))?;
+    // In farm's own flags: the task's "--chunk K" is not one of them (an audit, 2026-12-06).
+    if super::render::chunk_offset(Some(req.chunks - 1), Some(req.spp)).is_err() {
+        bail!(
+            "--chunks {} × --spp {}: the last chunk would start at pass {}, past the first 2^30 passes of the random streams, where a chunk must start; use fewer chunks or fewer samples a chunk",
+            req.chunks,
+            req.spp,
+            (req.chunks as u64 - 1) * req.spp as u64
+        );
+    }
     super::check_depth(req.max_depth)?;
     super::check_size(req.width, req.height)?;
     super::animate::check_timing(req.fps, req.forget)?;

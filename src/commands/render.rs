@@ -115,8 +115,7 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         .parent()
         .filter(|d| req.mkdir && !d.as_os_str().is_empty())
     {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| anyhow::anyhow!("cannot create the folder '{}': {e}", dir.display()))?;
+        crate::io::create_output_folder(dir, "folder")?;
     }
     let paths = OutputPaths::new(&req.out)?;
     let mut others: Vec<(&str, &std::path::Path)> = Vec::new();
@@ -362,7 +361,7 @@ pub fn chunk_offset(chunk: Option<u32>, spp: Option<u32>) -> Result<u32> {
         (None, _) => Ok(0),
         (Some(_), None) => bail!("--chunk needs --spp (each chunk renders a fixed sample range)"),
         (Some(k), Some(n)) => k.checked_mul(n).filter(|&o| o <= render::MAX_PASSES / 2).ok_or_else(|| {
-            anyhow::anyhow!("--chunk {k} × --spp {n} starts past the random streams (2^30 passes); use fewer or smaller chunks")
+            anyhow::anyhow!("--chunk {k} × --spp {n} starts at pass {}, past the first 2^30 passes of the random streams, where a chunk must start; use fewer or smaller chunks", k as u64 * n as u64)
         }),
     }
 }
