@@ -94,7 +94,7 @@ pub fn check_parent(p: &Path) -> Result<()> {
     let dir = folder_of(p);
     // A file where a folder of the path should be was reported as a missing folder, and
     // `--mkdir` then failed with "File exists" (an audit, 2026-12-06).
-    if let Some(f) = not_a_folder(&dir) {
+    if let Some(f) = not_a_folder(dir) {
         bail!(
             "cannot write '{}': '{}' is not a folder (a file or something else of that name is there); name another path",
             p.display(),
