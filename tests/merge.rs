@@ -157,7 +157,8 @@ fn parts_that_do_not_belong_together_are_refused() {
             &["merge-stats", "a.stats", "grid.stats", "--out", "m.stats"],
             d,
         ),
-        "--grid",
+        // It said "this render uses --grid 32 … or drop --load-stats" (an audit, 2026-12-06).
+        "'grid.stats' was saved with --grid 16 but 'a.stats' has --grid 32; merge only",
     );
     refused(
         &run(

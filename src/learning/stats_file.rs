@@ -317,10 +317,32 @@ impl SavedStats {
     /// Errors unless these statistics can be used by a render with `want` (every field but the
     /// sample count and sizes must match), naming the field and the fix.
     pub fn check_matches(&self, want: &StatsHeader, path: &Path) -> Result<()> {
+        self.check_against(want, path, None)
+    }
+
+    /// [`SavedStats::check_matches`] for `merge-stats`: `want` is the header of `other` (a
+    /// quoted file name, or "the --base file"), and the messages say so (they spoke of "this render" and `--load-stats`: an audit,
+    /// 2026-12-06).
+    pub fn check_merges_with(&self, want: &StatsHeader, path: &Path, other: &str) -> Result<()> {
+        self.check_against(want, path, Some(other))
+    }
+
+    fn check_against(&self, want: &StatsHeader, path: &Path, part: Option<&str>) -> Result<()> {
         let h = &self.header;
         let p = path.display();
+        let (them, scene_fix) = match part {
+            None => (
+                "this render uses".to_string(),
+                "load it only with the scene it was saved from",
+            ),
+            Some(o) => (format!("{o} has"), "merge only statistics of one scene"),
+        };
         if h.scene != want.scene {
-            bail!("'{p}' was learned on other lights (scene fingerprint {} vs {}); load it only with the scene it was saved from", h.scene, want.scene);
+            bail!(
+                "'{p}' was learned on other lights (scene fingerprint {} vs {}); {scene_fix}",
+                h.scene,
+                want.scene
+            );
         }
         let fields = [
             ("--sampler", h.sampler.clone(), want.sampler.clone()),
@@ -354,11 +376,15 @@ impl SavedStats {
         }
         for (flag, saved, now) in fields {
             if saved != now {
-                bail!("'{p}' was saved with {flag} {saved} but this render uses {flag} {now}; render with {flag} {saved} or drop --load-stats");
+                let fix = match part {
+                    None => format!("render with {flag} {saved} or drop --load-stats"),
+                    Some(_) => "merge only statistics saved with the same settings".to_string(),
+                };
+                bail!("'{p}' was saved with {flag} {saved} but {them} {flag} {now}; {fix}");
             }
         }
         if (h.grid_params, h.grid_dims) != (want.grid_params, want.grid_dims) {
-            bail!("'{p}' was saved for other scene bounds (region grid differs); load it only with the scene it was saved from");
+            bail!("'{p}' was saved for other scene bounds (region grid differs); {scene_fix}");
         }
         Ok(())
     }

@@ -28,7 +28,7 @@ impl SavedStats {
             bail!("nothing to merge: give at least one statistics file");
         };
         for (p, name) in rest {
-            p.check_matches(&first.header, Path::new(name))
+            p.check_merges_with(&first.header, Path::new(name), &format!("'{first_name}'"))
                 .with_context(|| format!("cannot merge '{name}' with '{first_name}'"))?;
             if p.index.len() != first.index.len() {
                 bail!("'{name}' has {} regions but '{first_name}' has {}; they were saved for other region grids", p.index.len(), first.index.len());
@@ -130,7 +130,7 @@ impl SavedStats {
     /// `samples_done` is the largest part's (the chunks' sample ranges follow each other).
     pub fn merge_onto(base: &SavedStats, parts: &[(SavedStats, String)]) -> Result<SavedStats> {
         for (p, name) in parts {
-            base.check_matches(&p.header, Path::new(name))
+            p.check_merges_with(&base.header, Path::new(name), "the --base file")
                 .with_context(|| format!("'{name}' did not start from the --base file"))?;
             if p.header.samples_done <= base.header.samples_done
                 || p.index.len() != base.index.len()
