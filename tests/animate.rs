@@ -99,6 +99,45 @@ fn animated_nodes_move_as_keyed() {
     );
 }
 
+/// Frames past the animation's end (49 frames at 24 fps here) hold its last pose; that went
+/// without a word (an audit, 2026-12-06), and a warning says so now, also under -q.
+#[test]
+fn frames_past_the_end_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("moving.glb");
+    std::fs::write(&path, moving_light().to_glb()).unwrap();
+    let out = dir.path().join("frames");
+    let args = |frames: &'static str| {
+        vec![
+            "animate".to_string(),
+            path.display().to_string(),
+            "--out".into(),
+            out.display().to_string(),
+            "--width".into(),
+            "8".into(),
+            "--height".into(),
+            "8".into(),
+            "--spp".into(),
+            "1".into(),
+            "--no-video".into(),
+            "-q".into(),
+            "--frames".into(),
+            frames.into(),
+        ]
+    };
+    let run_s = |a: Vec<String>| run(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    let o = run_s(args("47..50"));
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("ends at frame 48 at 24 fps; frames 49..=50 hold its last pose"),
+        "{err}"
+    );
+    let o = run_s(args("40..48"));
+    ok(&o);
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("last pose"));
+}
+
 #[test]
 fn malformed_animations_are_named() {
     let dir = tempfile::tempdir().unwrap();

@@ -187,6 +187,19 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
             anim.doc.name()
         ),
     };
+    // Frames past the animation's end hold its last pose: said once, not silently (an audit,
+    // 2026-12-06; a still scene given --frames has no end).
+    if anim.is_animated() {
+        let end = anim.frame_count(req.fps).unwrap_or(u32::MAX) - 1;
+        if last > end {
+            ui.message(&format!(
+                "warning: '{}' ends at frame {end} at {} fps; frames {}..={last} hold its last pose",
+                anim.doc.name(),
+                req.fps,
+                first.max(end + 1)
+            ));
+        }
+    }
     if last - first >= crate::scene::animated::MAX_FRAMES {
         bail!(
             "--frames {first}..{last} is more than {} frames; render it in parts",
