@@ -58,29 +58,6 @@ pub struct StatsHeader {
     /// its learning does not.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub skipped_passes: Option<u32>,
-    /// The renders whose observations these statistics hold (a continuation: those of the
-    /// file it loaded and its own; a merge: all its parts'), so `merge-stats` can refuse to
-    /// count one twice (absent in files of older versions).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
-    pub sources: Vec<StatsSource>,
-}
-
-/// A render's learning inside a statistics file: its seed and its passes [first, end), the
-/// random streams its observations came from. Two files whose sources overlap hold the same
-/// observations (`merge` refuses image parts by the same rule).
-#[derive(
-    Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, serde::Serialize, serde::Deserialize,
-)]
-pub struct StatsSource {
-    pub seed: u32,
-    pub first: u32,
-    pub end: u32,
-}
-
-impl StatsSource {
-    pub fn overlaps(&self, other: &StatsSource) -> bool {
-        self.seed == other.seed && self.first < other.end && other.first < self.end
-    }
 }
 
 #[derive(Clone, Debug)]
@@ -454,7 +431,6 @@ mod tests {
             k_max: None,
             start_forget: None,
             skipped_passes: None,
-            sources: Vec::new(),
         };
         let mut json = serde_json::to_value(&new).unwrap();
         json.as_object_mut()

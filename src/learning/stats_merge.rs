@@ -5,7 +5,7 @@ use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 
-use super::stats_file::{SavedStats, StatsSource};
+use super::stats_file::SavedStats;
 use crate::abi::SlotStats;
 
 impl SavedStats {
@@ -18,12 +18,6 @@ impl SavedStats {
     /// recomputed when the file is loaded. `samples_done` is the parts' total. Parts of
     /// another scene or other settings are refused naming the field.
     pub fn merge(parts: &[(SavedStats, String)]) -> Result<SavedStats> {
-        Self::merge_sharing(parts, &[])
-    }
-
-    /// [`SavedStats::merge`] of parts that may share the renders in `shared` (the start they
-    /// all continued from: `merge_onto` takes it out) and no other.
-    fn merge_sharing(parts: &[(SavedStats, String)], shared: &[StatsSource]) -> Result<SavedStats> {
         let Some(((first, first_name), rest)) = parts.split_first() else {
             bail!("nothing to merge: give at least one statistics file");
         };
@@ -41,28 +35,6 @@ impl SavedStats {
         for (p, name) in rest {
             if cut_of(p, 0) != cut_of(first, 0) {
                 bail!("'{name}' has another fallback cut than '{first_name}': other settings or lights; save both with the same version and settings");
-            }
-        }
-        // A render's observations in two parts would count twice: two continuations of one
-        // file merged without it as --base, or a merge merged again with one of its parts
-        // (both were summed with exit 0: an audit, 2026-12-06).
-        for (i, (a, an)) in parts.iter().enumerate() {
-            for (b, bn) in &parts[i + 1..] {
-                for sa in a.header.sources.iter().filter(|s| !shared.contains(s)) {
-                    if let Some(sb) = b
-                        .header
-                        .sources
-                        .iter()
-                        .find(|sb| !shared.contains(sb) && sa.overlaps(sb))
-                    {
-                        bail!(
-                            "'{an}' and '{bn}' both hold the observations of seed {}, passes {}..{}, which would count twice: if both continued from the same statistics, give those as --base; if one is a merge that holds the other, leave the other out",
-                            sa.seed,
-                            sa.first.max(sb.first),
-                            sa.end.min(sb.end)
-                        );
-                    }
-                }
             }
         }
         let mut cuts = cut_of(first, 0);
@@ -107,13 +79,6 @@ impl SavedStats {
             .unwrap_or(0);
         header.samples_done = learned.max(last);
         header.skipped_passes = None;
-        let mut sources: Vec<StatsSource> = parts
-            .iter()
-            .flat_map(|(p, _)| p.header.sources.iter().copied())
-            .collect();
-        sources.sort_unstable();
-        sources.dedup();
-        header.sources = sources;
         header.regions = index.len() as u32;
         header.cuts_len = cuts.len() as u32;
         Ok(SavedStats {
@@ -137,18 +102,8 @@ impl SavedStats {
             {
                 bail!("'{name}' did not start from the --base file (it has learned no more passes than the base, or over another region grid)");
             }
-            // Files that name their sources: a part holds every render the base holds.
-            if !p.header.sources.is_empty()
-                && !base
-                    .header
-                    .sources
-                    .iter()
-                    .all(|s| p.header.sources.contains(s))
-            {
-                bail!("'{name}' did not start from the --base file (it does not hold the renders the base holds); give the statistics the chunks loaded");
-            }
         }
-        let mut merged = SavedStats::merge_sharing(parts, &base.header.sources)?;
+        let mut merged = SavedStats::merge(parts)?;
         let cut_len = |s: &SavedStats, o: u32| 1 + s.cuts[o as usize] as usize;
         // Regions with a cut in the base (the fallback cut, offset 0, is the first part's in
         // `merge`, as for any merge).

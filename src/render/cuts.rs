@@ -97,7 +97,6 @@ pub fn stats_header(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) ->
         k_max: Some(settings.regions.k_max),
         start_forget: None,
         skipped_passes: None,
-        sources: Vec::new(),
     }
 }
 

@@ -34,7 +34,7 @@ use super::timeline::Event;
 use super::{camera_vectors, GpuScene, Learned, RegionStats, RenderResult, RenderSettings};
 use crate::gpu::layout::{PixelAccum, RenderParams, SlotDelta, SlotStats};
 use crate::gpu::Context;
-use crate::learning::stats_file::{SavedStats, StatsHeader, StatsSource};
+use crate::learning::stats_file::{SavedStats, StatsHeader};
 use crate::learning::LearningClock;
 use crate::scene::{Camera, Scene};
 
@@ -411,25 +411,12 @@ impl<'a> Session<'a> {
             }
         }
         let cuts = &self.learned.cuts;
-        // What the loaded file holds, and this session's own passes after it (a farm chunk's
-        // after those it skipped).
-        let loaded = self.settings.resume.as_deref();
-        let first = loaded.map_or(0, |l| l.header.samples_done) + self.skipped;
-        let mut sources = loaded.map_or(Vec::new(), |l| l.header.sources.clone());
-        if self.learned.passes > first {
-            sources.push(StatsSource {
-                seed: self.settings.seed,
-                first,
-                end: self.learned.passes,
-            });
-        }
         Ok(Some(SavedStats {
             header: StatsHeader {
                 samples_done: self.learned.passes,
                 regions: cuts.index.len() as u32,
                 cuts_len: cuts.cuts.len() as u32,
                 skipped_passes: (self.skipped > 0).then_some(self.skipped),
-                sources,
                 ..stats_header(self.scene, self.gpu, &self.settings)
             },
             index: cuts.index.clone(),
