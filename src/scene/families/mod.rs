@@ -307,7 +307,7 @@ mod tests {
         }
     }
 
-    /// `scene city --animate` with 16 or 17 lights had no car and wrote a still scene with
+    /// `scene city --animate` with 16, 17, 19, 21 or 23 lights had no car and wrote a still scene with
     /// exit 0 (an audit, 2026-12-06): every light count city takes gets an animation.
     #[test]
     fn animated_city_always_moves() {
