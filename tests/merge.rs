@@ -132,10 +132,13 @@ fn parts_that_do_not_belong_together_are_refused() {
     for (other, want) in [
         ("same.exr", "share seed 1"),
         ("wang.exr", "has sampler"),
-        ("grid.exr", "region settings"),
+        (
+            "grid.exr",
+            "other region settings than 'a.exr' (grid: 16 vs 32)",
+        ),
         ("wide.exr", "has width"),
         ("sa.exr", "has light_point"),
-        ("coarse.exr", "region settings"),
+        ("coarse.exr", "(coarse_blocks: false vs true)"),
         ("m0.exr", "is itself a merge (of m1.exr, m2.exr)"),
         (
             "torn.exr",

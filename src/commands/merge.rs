@@ -37,6 +37,24 @@ fn region_settings(r: &Value) -> Value {
     v
 }
 
+/// The first field in which two settings blocks differ, as "field: a vs b" (a field one
+/// lacks shows as null: a report of a build before the field), so a refusal says which
+/// (it said "other region settings (--grid, --tau, --k-max, …)": a review, 2026-12-06).
+fn first_difference(a: &Value, b: &Value) -> String {
+    let keys = |v: &Value| v.as_object().map(|m| m.keys().cloned().collect::<Vec<_>>());
+    let (Some(ka), Some(kb)) = (keys(a), keys(b)) else {
+        return format!("{a} vs {b}");
+    };
+    let mut all: Vec<String> = ka.into_iter().chain(kb).collect();
+    all.sort();
+    all.dedup();
+    all.iter()
+        .find(|k| a[k.as_str()] != b[k.as_str()])
+        .map_or_else(String::new, |k| {
+            format!("{k}: {} vs {}", a[k.as_str()], b[k.as_str()])
+        })
+}
+
 /// What a merge wrote.
 pub struct MergeOutcome {
     pub exr: PathBuf,
@@ -103,16 +121,18 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
         }
         if region_settings(r) != region_settings(first) {
             bail!(
-                "part '{}' used other region settings (--grid, --tau, --k-max, …) than '{}'",
+                "part '{}' used other region settings than '{}' ({})",
                 p.display(),
-                parts[0].display()
+                parts[0].display(),
+                first_difference(&region_settings(r), &region_settings(first))
             );
         }
         if r["learning"]["settings"] != first["learning"]["settings"] {
             bail!(
-                "part '{}' was learned with other settings than '{}'",
+                "part '{}' was learned with other settings than '{}' ({})",
                 p.display(),
-                parts[0].display()
+                parts[0].display(),
+                first_difference(&r["learning"]["settings"], &first["learning"]["settings"])
             );
         }
     }
