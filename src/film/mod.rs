@@ -168,13 +168,14 @@ const MAX_EXR_SIDE: usize = 16384;
 /// Reads a float RGB EXR written by [`write_exr`] (tests, `compare`).
 pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
     use exr::prelude::*;
-    // The header first: its size decides the allocation below (a 1-KB file that claimed
-    // 100000×100000 asked for 120 GB and aborted `merge` and `compare`), and a FIFO would
-    // block the reader.
-    crate::io::open_regular(path)
-        .map_err(|e| anyhow!("cannot read EXR '{}': {e}", path.display()))?;
-    let meta = exr::meta::MetaData::read_from_file(path, false)
-        .map_err(|e| anyhow!("cannot read EXR '{}': {e}", path.display()))?;
+    use std::io::{Seek, SeekFrom};
+    let fail = |e: &dyn std::fmt::Display| anyhow!("cannot read EXR '{}': {e}", path.display());
+    // One open of a regular file (a FIFO would block the reader) for the header and the
+    // pixels. The header first: its size decides the allocation below (a 1-KB file that
+    // claimed 100000×100000 asked for 120 GB and aborted `merge` and `compare`).
+    let (file, _) = crate::io::open_regular(path).map_err(|e| fail(&e))?;
+    let mut reader = std::io::BufReader::new(file);
+    let meta = exr::meta::MetaData::read_from_buffered(&mut reader, false).map_err(|e| fail(&e))?;
     for h in &meta.headers {
         let size = h.layer_size;
         if size.width() > MAX_EXR_SIDE || size.height() > MAX_EXR_SIDE {
@@ -186,17 +187,24 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
             );
         }
     }
-    let image = read_first_rgba_layer_from_file(
-        path,
-        |res, _| {
-            let w = res.width();
-            (w, vec![[0f32; 3]; w * res.height()])
-        },
-        |(w, px), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-            px[pos.y() * *w + pos.x()] = [r, g, b];
-        },
-    )
-    .map_err(|e| anyhow!("cannot read EXR '{}': {e}", path.display()))?;
+    reader.seek(SeekFrom::Start(0)).map_err(|e| fail(&e))?;
+    // read_first_rgba_layer_from_file's reader, on the file already open.
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(
+            |res, _| {
+                let w = res.width();
+                (w, vec![[0f32; 3]; w * res.height()])
+            },
+            |(w, px): &mut (usize, Vec<[f32; 3]>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                px[pos.y() * *w + pos.x()] = [r, g, b];
+            },
+        )
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(reader)
+        .map_err(|e| fail(&e))?;
     let size = image.layer_data.size;
     let (_, px) = image.layer_data.channel_data.pixels;
     Ok((size.width() as u32, size.height() as u32, px))

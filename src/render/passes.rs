@@ -545,10 +545,11 @@ fn render_pipeline(
     settings: &RenderSettings,
     knock_out: u32,
 ) -> Result<ComputePipeline> {
+    let direct_only = !wavefront(settings);
     ComputePipeline::with_sets(
         ctx,
         "render",
-        kernels::render(settings.sampler.shader_id(), !wavefront(settings)),
+        kernels::render(settings.sampler.shader_id(), direct_only),
         &RENDER_BINDINGS.map(|set| set.len() as u32),
         std::mem::size_of::<RenderParams>() as u32,
         // Ids 0 (SAMPLER) and 5 (DIRECT_ONLY) are fixed in the kernel chosen above (their
@@ -560,7 +561,7 @@ fn render_pipeline(
             settings.learn.gpu_params().flags,
             gpu.kernel_flags,
             // DIRECT_ONLY; render.comp derives WAVEFRONT from it.
-            !wavefront(settings) as u32,
+            direct_only as u32,
             // LIGHT_POINT_SOLID_ANGLE.
             (settings.light_point == LightPoint::SolidAngle) as u32,
             // INDIRECT_LIGHT_SAMPLES.

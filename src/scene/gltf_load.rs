@@ -502,10 +502,7 @@ impl Document {
             .map(|&i| scene.triangle_material[i])
             .collect();
         scene.triangles.extend(local.triangles);
-        let (collapsed, collapsed_emitters) = (
-            local.collapsed + lost_to_position,
-            local.collapsed_emitters + lost_emitters,
-        );
+        let collapsed_emitters = local.collapsed_emitters + lost_emitters;
         let total = triangles.len() + lost_to_position;
         let notes: Vec<String> = [
             (local.collapsed > 0).then(|| format!(
@@ -519,7 +516,7 @@ impl Document {
         .into_iter()
         .flatten()
         .collect();
-        let collapse_note = (collapsed > 0).then(|| notes.join("; "));
+        let collapse_note = (!notes.is_empty()).then(|| notes.join("; "));
         let out_of_scale = |what: &str| {
             match &collapse_note {
             Some(note) => anyhow!("'{name}' has no {what} left: {note}; bring every node's scale and position within a few orders of magnitude"),
