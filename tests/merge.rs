@@ -298,7 +298,7 @@ fn a_killed_render_keeps_its_last_checkpoint_and_merges() {
     child.kill().unwrap();
     child.wait().unwrap();
     // The outputs are whole; the kill may have left hidden temporaries, which a later write
-    // of a.exr removes once they are 10 minutes old (src/io.rs remove_stale_temps).
+    // of a.exr removes once they are 10 minutes old (src/io/mod.rs remove_stale_temps).
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.join("a.json")).unwrap()).unwrap();
     assert_eq!(report["checkpoint"], true, "{report}");
