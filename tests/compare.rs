@@ -302,3 +302,75 @@ fn bad_requests_fail_before_rendering() {
         );
     }
 }
+
+/// compare's own reference.exr, given back as --reference, is checked by the report written
+/// beside it (an audit, 2026-12-06: another scene's reference was compared against with
+/// exit 0, as compare wrote no report); without a report a warning says nothing is checked.
+#[test]
+fn a_reference_written_by_compare_is_checked_when_given_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let cornell = scene();
+    let strings = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes/strings.glb")
+        .display()
+        .to_string();
+    let first = dir.path().join("first");
+    let compare = |scene: &str, depth: &str, reference: Option<&Path>, out: &str| {
+        let out = dir.path().join(out).display().to_string();
+        let mut args = vec![
+            "compare",
+            scene,
+            "--samplers",
+            "power",
+            "--spp",
+            "2",
+            "--reference-spp",
+            "16",
+            "--max-depth",
+            depth,
+            "--width",
+            "20",
+            "--height",
+            "16",
+            "--out",
+            &out,
+        ];
+        let r = reference.map(|r| r.display().to_string());
+        if let Some(r) = &r {
+            args.extend(["--reference", r.as_str()]);
+        }
+        run(&args, &cache)
+    };
+    let o = compare(&cornell, "1", None, "first");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(first.join("reference.json")).unwrap()).unwrap();
+    assert_eq!(report["max_depth"], 1);
+    assert!(report["scene_hash"].is_string() && report["exr_fnv1a"].is_string());
+    let given = first.join("reference.exr");
+    for (scene, depth, want) in [
+        (&strings, "1", "is an image of another scene"),
+        (
+            &cornell,
+            "2",
+            "was rendered with --max-depth 1 but this comparison uses 2",
+        ),
+    ] {
+        let o = compare(scene, depth, Some(&given), "second");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(want), "{want}: {err}");
+    }
+    // The same reference checked and accepted where it matches.
+    let o = compare(&cornell, "1", Some(&given), "third");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && !err.contains("warning"), "{err}");
+    // Without its report: compared against, with a warning.
+    std::fs::remove_file(first.join("reference.json")).unwrap();
+    let o = compare(&strings, "1", Some(&given), "fourth");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success() && err.contains("has no report beside it"),
+        "{err}"
+    );
+}

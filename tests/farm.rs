@@ -104,6 +104,19 @@ fn every_template_passes_openjd_check() {
         let o = openjd(&["check", job.join("template.yaml").to_str().unwrap()]).unwrap();
         ok(&o);
     }
+    // A scene whose file name holds an OpenJD format string, a newline and a long tail:
+    // the template failed `openjd check` (farm said nothing). Its bundled copy renders.
+    let odd = dir.path().join(format!(
+        "it's {{{{Param.X}}}} \"q\"\nline{}.glb",
+        "x".repeat(120)
+    ));
+    std::fs::copy(root().join("scenes/cornell.glb"), &odd).unwrap();
+    let job = dir.path().join("odd job");
+    farm(&odd, &job, &["--chunks", "2", "--spp", "2"]);
+    let template = job.join("template.yaml");
+    ok(&openjd(&["check", template.to_str().unwrap()]).unwrap());
+    ok(&openjd(&["run", template.to_str().unwrap()]).unwrap());
+    assert!(job.join("output/render.exr").exists());
 }
 
 #[test]
@@ -256,6 +269,11 @@ fn bad_farm_requests_are_refused() {
         (vec!["--chunks", "1"], "--chunks must be 2"),
         (vec!["--spp", "0"], "at least 1"),
         (vec!["--forget", "0"], "--forget"),
+        // 2000 frames × 10000 chunks (each within its limit) ran out of memory and aborted.
+        (
+            vec!["--frames", "0..1999", "--chunks", "51"],
+            "is 102000 render tasks, more than the 100000",
+        ),
         // It blamed "--chunk 3", a flag of the tasks, not of farm.
         (
             vec!["--spp", "4294967295"],

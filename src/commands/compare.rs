@@ -1,6 +1,6 @@
 //! `lightlearn compare`: samplers side by side on one scene at equal time and/or equal
-//! samples against a reference; writes the EXRs, `metrics.json`, `convergence.csv` and the
-//! HTML report together. Everything that can be wrong with the request is checked before
+//! samples against a reference; writes the EXRs (the reference's with `reference.json`),
+//! `metrics.json`, `convergence.csv` and the HTML report together. Everything that can be wrong with the request is checked before
 //! any rendering, and a refused request leaves no folder behind.
 
 use std::path::PathBuf;
@@ -92,6 +92,7 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
         .is_none_or(|r| !crate::io::same_path(r, &a.out.join("reference.exr")))
     {
         written.push("reference.exr".into());
+        written.push("reference.json".into());
     }
     for prefix in budgets.iter().map(|b| match b {
         Budget::Seconds(_) => "time",
@@ -147,8 +148,28 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
     };
 
     let (scene, ctx, gpu, _) = prepare(a.scene.as_deref(), &a.device, ui)?;
-    if let Some((p, _, Some(r))) = &given {
-        check_reference_matches(p, r, &reference::scene_hash(&scene), a.max_depth)?;
+    let scene_hash = reference::scene_hash(&scene);
+    // Whether the reference is known to be of this scene at this depth: made here, or given
+    // with a report that says so (checked below). Only then does reference.json say so.
+    let mut verified = given.is_none();
+    if let Some((p, _, sidecar)) = &given {
+        if let Some(r) = sidecar {
+            check_reference_matches(p, r, &scene_hash, a.max_depth)?;
+        }
+        verified = sidecar
+            .as_ref()
+            .is_some_and(|r| r["scene_hash"].is_string() && r["max_depth"].is_u64());
+        if !verified {
+            // Not an error: a reference from another renderer (Mitsuba) has no report. But
+            // an EXR of another scene was compared against with no word (an audit,
+            // 2026-12-06: compare's own reference.exr, given back without its report).
+            ui.message(&format!(
+                "warning: the reference '{}' has no report beside it that names its scene and depth ({}), so neither is checked: make sure it is an image of this scene at --max-depth {}",
+                p.display(),
+                p.with_extension("json").display(),
+                a.max_depth
+            ));
+        }
     }
     if samplers.iter().any(|s| s.uses_cuts()) {
         crate::render::check_region_index_fits(&ctx, &scene, &regions)?;
@@ -204,10 +225,36 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
     // Outputs: EXRs, metrics.json, convergence.csv, index.html, moved into place together.
     let (w, h) = (a.width, a.height);
     let mut out = crate::io::FileSet::default();
+    // The reference with a report of its own, so that given back as --reference it is
+    // checked like any render's (its scene and depth only where they are known).
+    let mut reference_sum = String::new();
+    out.add_with(&a.out.join("reference.exr"), |tmp| {
+        film::write_exr(tmp, w, h, &reference_image)?;
+        reference_sum = film::exr_checksum(tmp)?;
+        Ok(())
+    })?;
+    let mut reference_report = json!({
+        "what": "the reference of a lightlearn compare",
+        "width": w,
+        "height": h,
+        "reference": reference_note,
+        film::EXR_CHECKSUM: reference_sum,
+    });
+    if verified {
+        reference_report["scene_hash"] = json!(scene_hash);
+        reference_report["max_depth"] = json!(a.max_depth);
+    }
+    if let Some(n) = &reference_noise {
+        reference_report["estimated_mse_of_mean"] = json!(n.mse);
+        reference_report["estimated_rel_mse_of_mean"] = json!(n.rel_mse);
+    }
+    out.add(
+        &a.out.join("reference.json"),
+        (serde_json::to_string_pretty(&reference_report)? + "\n").as_bytes(),
+    )?;
     let mut exr = |name: String, img: &[[f32; 3]]| {
         out.add_with(&a.out.join(name), |tmp| film::write_exr(tmp, w, h, img))
     };
-    exr("reference.exr".into(), &reference_image)?;
     for c in &comparisons {
         let prefix = if c.budget_seconds.is_some() {
             "time"

@@ -58,6 +58,8 @@ pub struct FarmOutcome {
 
 /// Most steps a job may have (two or three per frame); OpenJD's own limit is far above.
 const MAX_FRAMES: u32 = 2000;
+/// The most (frame, chunk) render tasks a job takes: 2000 frames of 50 chunks.
+const MAX_RENDER_TASKS: u64 = 100_000;
 
 /// A job bundle's files: (path relative to the job folder, bytes).
 type Bundle = Vec<(PathBuf, Vec<u8>)>;
@@ -119,7 +121,29 @@ fn bundle_files(scene: &Path) -> Result<(String, Bundle)> {
         })?;
         read.push((scene_dir.join(target), bytes));
     }
-    Ok((path(&scene_dir.join(name))?, read))
+    // The bundled scene under a name a template can hold: its SceneFile default may not
+    // hold a control character (the scene's own name is not referred to by its buffers).
+    let bundled = plain(&name.to_string_lossy());
+    if let Some(first) = read.first_mut() {
+        first.0 = scene_dir.join(&bundled);
+    }
+    Ok((path(&scene_dir.join(bundled))?, read))
+}
+
+/// `s` with its control characters and braces replaced by `_`: a job's name is an OpenJD
+/// format string (`{{Param.X}}` in a scene's file name made the template fail `openjd
+/// check`, exit 0 from farm; an audit, 2026-12-06), and neither it nor a path default may
+/// hold a newline.
+fn plain(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_control() || c == '{' || c == '}' {
+                '_'
+            } else {
+                c
+            }
+        })
+        .collect()
 }
 
 fn path(p: &Path) -> Result<String> {
@@ -216,6 +240,16 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
     if let Some((a, b)) = frames {
         if b - a >= MAX_FRAMES {
             bail!("--frames {a}..{b}: at most {MAX_FRAMES} frames per job; write several jobs");
+        }
+        // Each flag within its limit, 2000 frames × 10000 chunks made 20 M tasks: the
+        // template (it lists each chunk's files for the merges) ran out of memory and
+        // aborted (an audit, 2026-12-06).
+        let tasks = (b - a + 1) as u64 * req.chunks as u64;
+        if tasks > MAX_RENDER_TASKS {
+            bail!(
+                "--frames {a}..{b} × --chunks {} is {tasks} render tasks, more than the {MAX_RENDER_TASKS} one job holds (its template lists every chunk's files); use fewer chunks, or split the frames over several jobs",
+                req.chunks
+            );
         }
         // Carried statistics count every frame's chunks: the last frame's sample ranges
         // must stay within the random streams a continuation may use.
@@ -344,10 +378,16 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
             }
         }
     }
-    let name = scene
-        .file_name()
-        .map(|n| n.to_string_lossy().to_string())
-        .unwrap_or_default();
+    // Job names hold at most 128 characters.
+    let name: String = plain(
+        &scene
+            .file_name()
+            .map(|n| n.to_string_lossy().to_string())
+            .unwrap_or_default(),
+    )
+    .chars()
+    .take(64)
+    .collect();
     let what = match frames {
         Some((a, b)) => format!("frames {a}..{b}"),
         None => "still".to_string(),
