@@ -74,7 +74,7 @@ fn animated_nodes_move_as_keyed() {
     // 2 s at 24 fps, both ends included.
     assert_eq!(anim.frame_count(24.0).unwrap(), 49);
     assert_eq!(anim.time(12, 24.0), 0.5);
-    let at = |t: f32| match anim.scene_at(t, &mut |_| {}).unwrap().lights[0] {
+    let at = |t: f64| match anim.scene_at(t, &mut |_| {}).unwrap().lights[0] {
         Light::Point { position, .. } => position,
         l => panic!("{l:?}"),
     };
@@ -339,7 +339,7 @@ fn mean_and_variance(exr: &Path) -> (f64, f64) {
 }
 
 /// A reference of frame k's scene: lightbvh at many samples, through the library.
-fn reference(scene: &Path, t: f32) -> (f64, f64) {
+fn reference(scene: &Path, t: f64) -> (f64, f64) {
     let anim = AnimatedScene::open(Some(scene), &mut |_| {}).unwrap();
     let s = anim.scene_at(t, &mut |_| {}).unwrap();
     let ctx = common::ctx();
@@ -446,7 +446,7 @@ fn moving_lights_with_stale_statistics_stay_unbiased() {
         ],
     );
     for k in 0..4u32 {
-        let want = reference(&scene, k as f32);
+        let want = reference(&scene, k as f64);
         let got = mean_and_variance(&out.join(format!("frame-{k:04}.exr")));
         assert_unbiased(&format!("bayes, frame {k}"), got, want);
         let got = mean_and_variance(&wang.join(format!("frame-{k:04}.exr")));

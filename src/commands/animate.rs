@@ -70,7 +70,7 @@ pub struct AnimateRequest {
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct FrameRecord {
     pub frame: u32,
-    pub time: f32,
+    pub time: f64,
     pub spp: u32,
     pub render_seconds: f64,
     /// What changed since the previous frame.
@@ -112,8 +112,9 @@ pub fn frame_seed(seed: u32, k: u32) -> u32 {
 
 /// The frame rate and the forgetting factor of a sequence (`animate`, `farm`).
 pub fn check_timing(fps: f64, forget: f32) -> Result<()> {
-    // A frame's time k / fps is an f32 in the scene: below 0.001 fps (a frame each 17
-    // minutes) frame 1's time became infinite and was "not moved" from frame 0.
+    // When a frame's time was an f32, below 0.001 fps (a frame each 17 minutes) frame 1's
+    // time became infinite and was "not moved" from frame 0; times are f64 since, and the
+    // range stays.
     if !(fps.is_finite() && (0.001..=1000.0).contains(&fps)) {
         bail!("--fps must be a number of frames per second in [0.001, 1000]");
     }

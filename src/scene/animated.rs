@@ -43,8 +43,8 @@ impl AnimatedScene {
         let span = doc.animations.span().unwrap_or((0.0, 0.0));
         let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
         for i in 0..BOUND_SAMPLES {
-            let s = i as f32 / (BOUND_SAMPLES - 1) as f32;
-            let t = span.0 + s * (span.1 - span.0);
+            let s = i as f64 / (BOUND_SAMPLES - 1) as f64;
+            let t = span.0 as f64 + s * (span.1 as f64 - span.0 as f64);
             let (a, b) = doc.pose_bounds(&doc.animations.pose(t))?;
             lo = lo.min(a);
             hi = hi.max(b);
@@ -70,8 +70,8 @@ impl AnimatedScene {
     }
 
     /// The time of frame `k` at `fps`.
-    pub fn time(&self, k: u32, fps: f64) -> f32 {
-        (self.span.0 as f64 + k as f64 / fps) as f32
+    pub fn time(&self, k: u32, fps: f64) -> f64 {
+        self.span.0 as f64 + k as f64 / fps
     }
 
     /// Frames in the whole span at `fps`, both ends included (a tiny tolerance keeps an end
@@ -88,7 +88,7 @@ impl AnimatedScene {
     }
 
     /// The scene at time `t`, in the animation's frame and grid box. Warnings go to `warn`.
-    pub fn scene_at(&self, t: f32, warn: &mut dyn FnMut(String)) -> Result<Scene> {
+    pub fn scene_at(&self, t: f64, warn: &mut dyn FnMut(String)) -> Result<Scene> {
         let pose = self.doc.animations.pose(t);
         let mut scene = self.doc.scene(&pose, Some(self.frame), warn)?;
         scene.grid_box = Some(self.grid_box);

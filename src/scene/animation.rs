@@ -10,8 +10,9 @@ use std::collections::BTreeMap;
 use anyhow::{bail, Result};
 use glam::{Quat, Vec3, Vec4};
 
-/// Key times beyond this many seconds are refused: frame times are computed in f32 from
-/// the span, which must stay finite and precise.
+/// Key times beyond this many seconds are refused (glTF stores them as f32, whose steps
+/// there are a second). Frame times are f64: in f32 an animation keyed at 9e6 s froze for
+/// 12 frames at a time at 24 fps (an audit, 2026-12-06).
 pub const MAX_TIME: f32 = 1e7;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -93,7 +94,7 @@ impl Channel {
     }
 
     /// The channel's value at time `t` (a rotation comes back normalised).
-    pub fn sample(&self, t: f32) -> Vec4 {
+    pub fn sample(&self, t: f64) -> Vec4 {
         let n = self.times.len();
         let cubic = self.interpolation == Interpolation::CubicSpline;
         let value = |k: usize| {
@@ -110,17 +111,18 @@ impl Channel {
                 v
             }
         };
-        if n == 1 || !t.is_finite() || t <= self.times[0] {
+        if n == 1 || !t.is_finite() || t <= self.times[0] as f64 {
             return unit(value(0));
         }
-        if t >= self.times[n - 1] {
+        if t >= self.times[n - 1] as f64 {
             return unit(value(n - 1));
         }
-        // The key interval holding t: times[k] <= t < times[k + 1].
-        let k = self.times.partition_point(|&x| x <= t) - 1;
+        // The key interval holding t: times[k] <= t < times[k + 1]; where it lies in it in
+        // f64 (t is not an f32 far from 0).
+        let k = self.times.partition_point(|&x| x as f64 <= t) - 1;
         let (t0, t1) = (self.times[k], self.times[k + 1]);
         let dt = t1 - t0;
-        let s = (t - t0) / dt;
+        let s = ((t - t0 as f64) / (t1 as f64 - t0 as f64)) as f32;
         match self.interpolation {
             Interpolation::Step => unit(value(k)),
             Interpolation::Linear => {
@@ -225,7 +227,7 @@ impl Animations {
     }
 
     /// Each animated node's local TRS parts at time `t`.
-    pub fn pose(&self, t: f32) -> Pose {
+    pub fn pose(&self, t: f64) -> Pose {
         let mut pose = Pose::default();
         for c in &self.channels {
             let v = c.sample(t);
@@ -330,6 +332,22 @@ mod tests {
             times: times.to_vec(),
             values: values.iter().map(|v| Vec4::from(*v)).collect(),
             label: "animation 0 ('t') channel 0".into(),
+        }
+    }
+
+    /// Far from time 0 an f32 time has steps of a second: frames 1/24 s apart must still
+    /// move (in f32 an animation keyed at 9e6 s froze for 12 frames at a time).
+    #[test]
+    fn a_time_far_from_zero_interpolates() {
+        let c = channel(
+            Property::Translation,
+            Interpolation::Linear,
+            &[9.0e6, 9.0e6 + 4.0],
+            &[[0.0; 4], [4.0, 0.0, 0.0, 0.0]],
+        );
+        for k in 1..24 {
+            let x = c.sample(9.0e6 + k as f64 / 24.0).x;
+            assert!((x - k as f32 / 24.0).abs() < 1e-5, "frame {k}: {x}");
         }
     }
 
