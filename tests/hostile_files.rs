@@ -281,6 +281,21 @@ fn triangles_lost_to_an_object_out_of_scale_are_named() {
         !err.contains("lose their area") && !err.contains("too small"),
         "{err}"
     );
+    // Every emitting node scaled to 0 (a frame of an animation keyed to it): no light is
+    // left, and the refusal says why; it asked for an emissiveFactor the file has (an
+    // audit, 2026-12-06).
+    let mut v = doc.clone();
+    for &m in meshes.iter().filter(|&&m| !dark(m)) {
+        v["nodes"][m]["scale"] = serde_json::json!([0.0, 0.0, 0.0]);
+    }
+    for n in v["nodes"].as_array_mut().unwrap() {
+        n.as_object_mut().unwrap().remove("extensions");
+    }
+    write_json(&d.join("unlit.gltf"), &v);
+    refused(
+        &render("unlit.gltf", &["--out", "unlit.exr"], d),
+        &["unlit.gltf", "emitting triangles are scaled to nothing"],
+    );
 }
 
 /// A camera at 3e38 made the CPU rays that pick the regions for cuts meet boxes at t = ∞,

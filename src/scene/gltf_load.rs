@@ -289,6 +289,9 @@ impl Document {
         // without a word: an audit, 2026-12-06). A singular transform (a scale of 0, which
         // hides an object on purpose) is not counted.
         let (mut lost_to_position, mut lost_emitters) = (0usize, 0usize);
+        // Emitting triangles a singular transform hid (a scale of 0, or an animation keyed
+        // to it): if no light is left, they, not a missing emitter, are why.
+        let mut hidden_emitters = 0usize;
 
         self.walk(pose, &mut |node, world| {
         if let Some(mesh) = node.mesh() {
@@ -405,8 +408,9 @@ impl Document {
                         let had_area = (file[1] - file[0]).cross(file[2] - file[0]).length_squared() > 0.0;
                         let lost = regular && had_area;
                         lost_to_position += lost as usize;
-                        lost_emitters +=
-                            (lost && materials[mat as usize].emission.max_element() > 0.0) as usize;
+                        let emits = materials[mat as usize].emission.max_element() > 0.0;
+                        lost_emitters += (lost && emits) as usize;
+                        hidden_emitters += (!regular && had_area && emits) as usize;
                         continue;
                     }
                     triangles.push(tri);
@@ -556,6 +560,11 @@ impl Document {
             // Blame the scale only where emitting triangles were lost to it.
             if collapsed_emitters > 0 {
                 return Err(out_of_scale("lights"));
+            }
+            if hidden_emitters > 0 {
+                bail!(
+                    "'{name}' has no lights in this pose: its {hidden_emitters} emitting triangles are scaled to nothing (a node scale of 0, or an animation keyed to one); a render needs one: give that node a non-zero scale (at this time, for an animation)"
+                );
             }
             bail!(
             "'{name}' has no lights: add KHR_lights_punctual point/spot lights or give a material a non-zero emissiveFactor"
