@@ -177,6 +177,56 @@ fn reference_command_writes_and_caches() {
         o.status.success() && err.contains("using cached reference"),
         "{err}"
     );
+    // A 4-spp render written under the 16-spp entry's name was used as the 16-spp
+    // reference (an audit, 2026-12-06): its report says otherwise, so it is made again.
+    let entry = std::fs::read_dir(&cache)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|e| e == "exr"))
+        .unwrap();
+    let entry_s = entry.display().to_string();
+    let o = run(
+        &[
+            "reference",
+            s.as_str(),
+            "--spp",
+            "4",
+            "--width",
+            "20",
+            "--height",
+            "16",
+            "--out",
+            entry_s.as_str(),
+            "-q",
+        ],
+        &dir.path().join("other-cache"),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = run(
+        &[
+            "compare",
+            s.as_str(),
+            "--spp",
+            "2",
+            "--reference-spp",
+            "16",
+            "--width",
+            "20",
+            "--height",
+            "16",
+            "--out",
+            rep.as_str(),
+        ],
+        &cache,
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success() && err.contains("its report says spp 4, not 16"),
+        "{err}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(entry.with_extension("json")).unwrap()).unwrap();
+    assert_eq!(report["spp"], 16, "the entry was rendered again");
 }
 
 #[test]

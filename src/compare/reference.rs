@@ -237,9 +237,9 @@ fn seal(report_path: &std::path::Path, entry: &OutputPaths) -> Result<()> {
 /// if it is damaged (unreadable, checksum, size, non-finite pixels).
 fn read_entry(
     paths: &OutputPaths,
-    width: u32,
-    height: u32,
+    settings: &RenderSettings,
 ) -> Result<Option<(Vec<[f32; 3]>, serde_json::Value)>> {
+    let (width, height) = (settings.width, settings.height);
     if !paths.exr.exists() && !paths.json.exists() {
         return Ok(None);
     }
@@ -256,6 +256,22 @@ fn read_entry(
     let legacy = want.is_none();
     if !legacy && want != Some(sum.as_str()) {
         bail!("its EXR does not match the checksum in its JSON");
+    }
+    // What the report says it is must be what its name stands for: a 4-spp render under a
+    // 16-spp entry's name was used as the 16-spp reference (an audit, 2026-12-06).
+    let Budget::Samples(spp) = settings.budget else {
+        unreachable!("references have a sample budget")
+    };
+    for (field, want) in [
+        ("spp", serde_json::json!(spp)),
+        ("max_depth", serde_json::json!(settings.max_depth)),
+        ("seed", serde_json::json!(settings.seed)),
+        ("sampler", serde_json::json!(settings.sampler.name())),
+    ] {
+        let got = &report[field];
+        if !got.is_null() && *got != want {
+            bail!("its report says {field} {got}, not {want}");
+        }
     }
     let (w, h, px) = film::read_exr(&paths.exr)?;
     if (w, h) != (width, height) {
@@ -303,7 +319,7 @@ pub fn cached(
             report["estimated_rel_mse_of_mean"].as_f64().unwrap_or(f64::NAN)
         )
     };
-    match read_entry(&paths, settings.width, settings.height) {
+    match read_entry(&paths, settings) {
         Ok(Some((px, report))) => {
             log(format!("using cached reference {}", paths.exr.display()));
             return Ok((px, note(&report, true), noise(&report)));
