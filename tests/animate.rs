@@ -323,6 +323,80 @@ fn frames_are_deterministic_and_a_frame_alone_equals_its_place_in_the_sequence()
     assert!(!d.join("frame-0001.stats").exists());
 }
 
+/// A frame's statistics name their frame: `render --load-stats` of one was told "other
+/// lights", and `animate --frame K --load-stats` took any frame's file without a word (an
+/// audit, 2026-12-06).
+#[test]
+fn a_frames_statistics_say_which_frame_they_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = root().join("scenes/city-cars.glb");
+    let a = dir.path().join("a");
+    animate(
+        &scene,
+        &a,
+        &["--frames", "0..1", "--fps", "2", "--spp", "4"],
+    );
+    let stats = a.join("frame-0000.stats");
+    let (scene_s, stats_s) = (scene.to_str().unwrap(), stats.to_str().unwrap());
+    let out = dir.path().join("r.exr");
+    let o = run(&[
+        "render",
+        scene_s,
+        "--width",
+        "24",
+        "--height",
+        "18",
+        "--spp",
+        "2",
+        "--max-depth",
+        "1",
+        "--load-stats",
+        stats_s,
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success()
+            && err.contains("holds the statistics of frame 0 of an `animate` run")
+            && err.contains("--frame 1 --load-stats"),
+        "{err}"
+    );
+    let frame_from = |k: &str, out: &str| {
+        let out = dir.path().join(out);
+        let o = run(&[
+            "animate",
+            scene_s,
+            "--out",
+            out.to_str().unwrap(),
+            "--width",
+            "24",
+            "--height",
+            "18",
+            "--max-depth",
+            "1",
+            "--no-video",
+            "--fps",
+            "2",
+            "--spp",
+            "2",
+            "--frame",
+            k,
+            "--load-stats",
+            stats_s,
+        ]);
+        ok(&o);
+        String::from_utf8_lossy(&o.stderr).to_string()
+    };
+    let err = frame_from("3", "b");
+    assert!(
+        err.contains("holds frame 0's statistics; frame 3 starts from them, but only frame 2's"),
+        "{err}"
+    );
+    let err = frame_from("1", "c");
+    assert!(!err.contains("holds frame"), "{err}");
+}
+
 /// The image's mean and the variance of that mean, from the film's per-pixel estimate.
 fn mean_and_variance(exr: &Path) -> (f64, f64) {
     let (w, h, px) = lightlearn::film::read_exr(exr).unwrap();

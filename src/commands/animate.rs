@@ -178,6 +178,23 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         Some(p) => Some(SavedStats::load(p)?),
         None => None,
     };
+    // The help promises frame K of the sequence bit for bit from frame K−1's statistics;
+    // any other frame's (or a render's) is a start of its own, said once (an audit,
+    // 2026-12-06: any frame's file was taken without a word).
+    if let (Some(saved), Some(p), Some((k, _))) = (&loaded, &req.load_stats, req.frames) {
+        let from = match saved.header.animation_frame {
+            Some(j) if j + 1 == k => None,
+            Some(j) => Some(format!("frame {j}'s statistics")),
+            None => Some("not statistics of an `animate` frame".to_string()),
+        };
+        if let Some(from) = from {
+            ui.message(&format!(
+                "warning: '{}' holds {from}; frame {k} starts from them, but only frame {}'s continue the sequence as it would have run",
+                p.display(),
+                k.saturating_sub(1)
+            ));
+        }
+    }
     let anim = AnimatedScene::open(req.scene.as_deref(), &mut warn_once(ui))?;
     let (first, last) = match req.frames {
         Some(r) => r,
@@ -374,6 +391,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         )?;
         if let Some(l) = &mut result.learned {
             l.saved.header.start_forget = start_forget;
+            l.saved.header.animation_frame = Some(k);
         }
         ui.phase_done();
         drop(session);

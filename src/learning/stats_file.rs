@@ -58,6 +58,12 @@ pub struct StatsHeader {
     /// its learning does not.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub skipped_passes: Option<u32>,
+    /// The frame of an `animate` run these statistics end (learned in the animation's own
+    /// coordinate frame): what `render --load-stats` and `animate --frame K --load-stats`
+    /// say when given them (an audit, 2026-12-06: the one was told "other lights", the
+    /// other took any frame's file without a word).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub animation_frame: Option<u32>,
 }
 
 #[derive(Clone, Debug)]
@@ -315,6 +321,12 @@ impl SavedStats {
             Some(o) => (format!("{o} has"), "merge only statistics of one scene"),
         };
         if h.scene != want.scene {
+            if let (None, Some(k)) = (part, h.animation_frame) {
+                bail!(
+                    "'{p}' holds the statistics of frame {k} of an `animate` run, learned in the animation's own coordinate frame; continue that sequence with `lightlearn animate … --frame {} --load-stats {p}`",
+                    k + 1
+                );
+            }
             bail!(
                 "'{p}' was learned on other lights (scene fingerprint {} vs {}); {scene_fix}",
                 h.scene,
@@ -431,6 +443,7 @@ mod tests {
             k_max: None,
             start_forget: None,
             skipped_passes: None,
+            animation_frame: None,
         };
         let mut json = serde_json::to_value(&new).unwrap();
         json.as_object_mut()

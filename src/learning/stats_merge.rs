@@ -79,6 +79,13 @@ impl SavedStats {
             .unwrap_or(0);
         header.samples_done = learned.max(last);
         header.skipped_passes = None;
+        // One frame's chunks end that frame; parts of several frames end none of them.
+        if parts
+            .iter()
+            .any(|(p, _)| p.header.animation_frame != first.header.animation_frame)
+        {
+            header.animation_frame = None;
+        }
         header.regions = index.len() as u32;
         header.cuts_len = cuts.len() as u32;
         Ok(SavedStats {

@@ -97,6 +97,7 @@ pub fn stats_header(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) ->
         k_max: Some(settings.regions.k_max),
         start_forget: None,
         skipped_passes: None,
+        animation_frame: None,
     }
 }
 
