@@ -130,7 +130,7 @@ fn frames_past_the_end_are_named() {
     ok(&o);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
-        err.contains("ends at frame 48 at 24 fps; frames 49..=50 hold its last pose"),
+        err.contains("ends at frame 48 at 24 fps; frames 49..50 hold its last pose"),
         "{err}"
     );
     let o = run_s(args("40..48"));

@@ -210,7 +210,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         let end = anim.frame_count(req.fps).unwrap_or(u32::MAX) - 1;
         if last > end {
             ui.message(&format!(
-                "warning: '{}' ends at frame {end} at {} fps; frames {}..={last} hold its last pose",
+                "warning: '{}' ends at frame {end} at {} fps; frames {}..{last} hold its last pose",
                 anim.doc.name(),
                 req.fps,
                 first.max(end + 1)

@@ -47,12 +47,17 @@ impl Variant {
     pub fn parse_list(s: &str) -> Result<Vec<Variant>> {
         let mut out = Vec::new();
         for item in s.split(',').map(str::trim).filter(|t| !t.is_empty()) {
-            let (name, carry) = match item.rsplit_once('-') {
-                Some((n, "on")) => (n, true),
-                Some((n, "off")) => (n, false),
-                _ => (item, true),
+            let (name, carry, suffix) = match item.rsplit_once('-') {
+                Some((n, "on")) => (n, true, true),
+                Some((n, "off")) => (n, false, true),
+                _ => (item, true, false),
             };
             let sampler = LightSampler::from_name(name)?;
+            // `wang-on` was taken (an audit, 2026-12-06): a sampler that learns nothing
+            // carries nothing, so -on and -off would be one animation twice.
+            if suffix && !sampler.learned() {
+                bail!("--variants '{item}': {name} learns nothing to carry from frame to frame; write '{name}' (-on/-off go with bayes and donikian)");
+            }
             let v = Variant { sampler, carry };
             if out.iter().any(|o: &Variant| o.name() == v.name()) {
                 bail!("--variants lists '{item}' twice");
@@ -379,5 +384,7 @@ mod tests {
         assert_eq!(names, ["wang", "bayes-off", "bayes-on"]);
         assert!(Variant::parse_list("bayes-on,bayes").is_err());
         assert!(Variant::parse_list("nope").is_err());
+        assert!(Variant::parse_list("wang-on").is_err());
+        assert!(Variant::parse_list("uniform-off").is_err());
     }
 }
