@@ -183,9 +183,12 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
     // 2026-12-06: any frame's file was taken without a word).
     if let (Some(saved), Some(p), Some((k, _))) = (&loaded, &req.load_stats, req.frames) {
         let from = match saved.header.animation_frame {
-            Some(j) if j + 1 == k => None,
+            Some(j) if j.checked_add(1) == Some(k) => None,
             Some(j) => Some(format!("frame {j}'s statistics")),
-            None => Some("not statistics of an `animate` frame".to_string()),
+            None => Some(
+                "statistics that name no frame (a render's, or a frame's saved before frames were named)"
+                    .to_string(),
+            ),
         };
         if let Some(from) = from {
             ui.message(&format!(
@@ -258,7 +261,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         .with_context(|| format!("frame 0 (t = {t0} s)"))?;
     let topology = LightTree::build(&scene0);
     ui.message(&format!(
-        "{}: {} triangles, {} lights, {} animation channels; frames {first}..={last} at {} fps; device {}",
+        "{}: {} triangles, {} lights, {} animation channels; frames {first}..{last} at {} fps; device {}",
         scene0.source,
         scene0.triangles.len(),
         scene0.lights.len(),

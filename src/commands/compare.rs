@@ -92,8 +92,9 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
         .is_none_or(|r| !crate::io::same_path(r, &a.out.join("reference.exr")))
     {
         written.push("reference.exr".into());
-        written.push("reference.json".into());
     }
+    // Written in every case (with the given reference's own pixels where it is this one).
+    written.push("reference.json".into());
     for prefix in budgets.iter().map(|b| match b {
         Budget::Seconds(_) => "time",
         Budget::Samples(_) => "spp",
@@ -156,15 +157,19 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
         if let Some(r) = sidecar {
             check_reference_matches(p, r, &scene_hash, a.max_depth)?;
         }
-        verified = sidecar
-            .as_ref()
-            .is_some_and(|r| r["scene_hash"].is_string() && r["max_depth"].is_u64());
+        // A report with the EXR's checksum, checked above, and the fields checked here: a
+        // report without the checksum is not tied to these pixels.
+        verified = sidecar.as_ref().is_some_and(|r| {
+            r[film::EXR_CHECKSUM].is_string()
+                && r["scene_hash"].is_string()
+                && r["max_depth"].is_u64()
+        });
         if !verified {
             // Not an error: a reference from another renderer (Mitsuba) has no report. But
             // an EXR of another scene was compared against with no word (an audit,
             // 2026-12-06: compare's own reference.exr, given back without its report).
             ui.message(&format!(
-                "warning: the reference '{}' has no report beside it that names its scene and depth ({}), so neither is checked: make sure it is an image of this scene at --max-depth {}",
+                "warning: the reference '{}' has no report beside it ({}) that names its checksum, scene and depth, so they are not all checked: make sure it is an image of this scene at --max-depth {}",
                 p.display(),
                 p.with_extension("json").display(),
                 a.max_depth
@@ -178,7 +183,7 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
         Some((p, px, sidecar)) => {
             let noise = sidecar.as_ref().and_then(reference::noise);
             let note = noise.map_or(
-                String::from("its own error is unknown (no JSON beside it)"),
+                String::from("its own error is unknown (no report beside it gives an estimate)"),
                 |e| format!("its own estimated relMSE {:.2e}", e.rel_mse),
             );
             (px, format!("{} (given); {note}", p.display()), noise)

@@ -124,6 +124,15 @@ fn bundle_files(scene: &Path) -> Result<(String, Bundle)> {
     // The bundled scene under a name a template can hold: its SceneFile default may not
     // hold a control character (the scene's own name is not referred to by its buffers).
     let bundled = plain(&name.to_string_lossy());
+    if read[1..]
+        .iter()
+        .any(|(t, _)| *t == scene_dir.join(&bundled))
+    {
+        bail!(
+            "'{}' would be bundled as '{bundled}', the name of a file it refers to; rename the scene",
+            scene.display()
+        );
+    }
     if let Some(first) = read.first_mut() {
         first.0 = scene_dir.join(&bundled);
     }

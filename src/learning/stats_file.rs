@@ -323,8 +323,10 @@ impl SavedStats {
         if h.scene != want.scene {
             if let (None, Some(k)) = (part, h.animation_frame) {
                 bail!(
-                    "'{p}' holds the statistics of frame {k} of an `animate` run, learned in the animation's own coordinate frame; continue that sequence with `lightlearn animate … --frame {} --load-stats {p}`",
-                    k + 1
+                    "'{p}' was learned on other lights (scene fingerprint {} vs {}): it holds the statistics of frame {k} of an `animate` run, learned in that animation's own coordinate frame; if it is this scene's animation, continue it with `lightlearn animate … --frame {} --load-stats {p}`, else load it only with the scene it was saved from",
+                    h.scene,
+                    want.scene,
+                    k.saturating_add(1)
                 );
             }
             bail!(

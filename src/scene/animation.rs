@@ -11,8 +11,8 @@ use anyhow::{bail, Result};
 use glam::{Quat, Vec3, Vec4};
 
 /// Key times beyond this many seconds are refused (glTF stores them as f32, whose steps
-/// there are a second). Frame times are f64: in f32 an animation keyed at 9e6 s froze for
-/// 12 frames at a time at 24 fps (an audit, 2026-12-06).
+/// there are a second). Frame times are f64: as f32, an animation keyed at 9e6 s showed
+/// frames 0–11 at one time and 12–30 at the next at 24 fps (an audit, 2026-12-06).
 pub const MAX_TIME: f32 = 1e7;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -114,15 +114,15 @@ impl Channel {
         if n == 1 || !t.is_finite() || t <= self.times[0] as f64 {
             return unit(value(0));
         }
-        if t >= self.times[n - 1] as f64 {
+        if reached(self.times[n - 1], t) {
             return unit(value(n - 1));
         }
         // The key interval holding t: times[k] <= t < times[k + 1]; where it lies in it in
         // f64 (t is not an f32 far from 0).
-        let k = self.times.partition_point(|&x| x as f64 <= t) - 1;
+        let k = self.times.partition_point(|&x| reached(x, t)) - 1;
         let (t0, t1) = (self.times[k], self.times[k + 1]);
         let dt = t1 - t0;
-        let s = ((t - t0 as f64) / (t1 as f64 - t0 as f64)) as f32;
+        let s = ((t - t0 as f64) / (t1 as f64 - t0 as f64)).clamp(0.0, 1.0) as f32;
         match self.interpolation {
             Interpolation::Step => unit(value(k)),
             Interpolation::Linear => {
@@ -151,6 +151,15 @@ impl Channel {
             }
         }
     }
+}
+
+/// Whether time `t` has reached `key`: a key is an f32, which rounds k/24 s up as often as
+/// down, so a frame's exact f64 time would fall just short of a key it sits on (a STEP
+/// channel then showed each such key a frame late). Within half the key's f32 step (at
+/// most a microsecond) counts as on it.
+fn reached(key: f32, t: f64) -> bool {
+    let step = (f32::from_bits(key.abs().to_bits() + 1) - key.abs()) as f64;
+    key as f64 - t <= (0.5 * step).min(1e-6)
 }
 
 fn quat(v: Vec4) -> Quat {
@@ -336,7 +345,8 @@ mod tests {
     }
 
     /// Far from time 0 an f32 time has steps of a second: frames 1/24 s apart must still
-    /// move (in f32 an animation keyed at 9e6 s froze for 12 frames at a time).
+    /// move (in f32 an animation keyed at 9e6 s showed frames 0–11 at one time and 12–30 at
+    /// the next).
     #[test]
     fn a_time_far_from_zero_interpolates() {
         let c = channel(
@@ -348,6 +358,18 @@ mod tests {
         for k in 1..24 {
             let x = c.sample(9.0e6 + k as f64 / 24.0).x;
             assert!((x - k as f32 / 24.0).abs() < 1e-5, "frame {k}: {x}");
+        }
+    }
+
+    /// STEP keys at k/24 s (f32, rounded up about as often as down) are reached by frame k's
+    /// exact time k/24, not a frame late; the last key too.
+    #[test]
+    fn step_keys_are_reached_on_their_frame() {
+        let times: Vec<f32> = (0..=48).map(|k| k as f32 / 24.0).collect();
+        let values: Vec<[f32; 4]> = (0..=48).map(|k| [k as f32, 0.0, 0.0, 0.0]).collect();
+        let c = channel(Property::Translation, Interpolation::Step, &times, &values);
+        for k in 0..=48u32 {
+            assert_eq!(c.sample(k as f64 / 24.0).x, k as f32, "frame {k}");
         }
     }
 

@@ -563,7 +563,7 @@ impl Document {
             }
             if hidden_emitters > 0 {
                 bail!(
-                    "'{name}' has no lights in this pose: its {hidden_emitters} emitting triangles are scaled to nothing (a node scale of 0, or an animation keyed to one); a render needs one: give that node a non-zero scale (at this time, for an animation)"
+                    "'{name}' has no lights in this pose: its {hidden_emitters} emitting triangles are scaled to nothing (a node scale of 0, or an animation keyed to one); a render needs one: give those nodes a non-zero scale (at this time, for an animation)"
                 );
             }
             bail!(
