@@ -240,7 +240,8 @@ fn malformed_animations_are_named() {
     assert!(!err.contains("yfov"), "{err}");
 }
 
-fn animate(scene: &Path, out: &Path, extra: &[&str]) {
+/// `animate` of `scene` into `out` on a tiny film, direct light, no video; its output.
+fn animate_output(scene: &Path, out: &Path, extra: &[&str]) -> Output {
     let mut args = vec![
         "animate",
         scene.to_str().unwrap(),
@@ -253,10 +254,15 @@ fn animate(scene: &Path, out: &Path, extra: &[&str]) {
         "--max-depth",
         "1",
         "--no-video",
-        "-q",
     ];
     args.extend_from_slice(extra);
-    ok(&run(&args));
+    run(&args)
+}
+
+fn animate(scene: &Path, out: &Path, extra: &[&str]) {
+    let mut extra = extra.to_vec();
+    extra.push("-q");
+    ok(&animate_output(scene, out, &extra));
 }
 
 #[test]
@@ -363,28 +369,20 @@ fn a_frames_statistics_say_which_frame_they_end() {
         "{err}"
     );
     let frame_from = |k: &str, out: &str| {
-        let out = dir.path().join(out);
-        let o = run(&[
-            "animate",
-            scene_s,
-            "--out",
-            out.to_str().unwrap(),
-            "--width",
-            "24",
-            "--height",
-            "18",
-            "--max-depth",
-            "1",
-            "--no-video",
-            "--fps",
-            "2",
-            "--spp",
-            "2",
-            "--frame",
-            k,
-            "--load-stats",
-            stats_s,
-        ]);
+        let o = animate_output(
+            &scene,
+            &dir.path().join(out),
+            &[
+                "--fps",
+                "2",
+                "--spp",
+                "2",
+                "--frame",
+                k,
+                "--load-stats",
+                stats_s,
+            ],
+        );
         ok(&o);
         String::from_utf8_lossy(&o.stderr).to_string()
     };

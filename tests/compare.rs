@@ -155,23 +155,26 @@ fn reference_command_writes_and_caches() {
     );
     // compare with the same settings finds it.
     let rep = dir.path().join("rep").display().to_string();
-    let o = run(
-        &[
-            "compare",
-            s.as_str(),
-            "--spp",
-            "2",
-            "--reference-spp",
-            "16",
-            "--width",
-            "20",
-            "--height",
-            "16",
-            "--out",
-            rep.as_str(),
-        ],
-        &cache,
-    );
+    let compare_cached = || {
+        run(
+            &[
+                "compare",
+                s.as_str(),
+                "--spp",
+                "2",
+                "--reference-spp",
+                "16",
+                "--width",
+                "20",
+                "--height",
+                "16",
+                "--out",
+                rep.as_str(),
+            ],
+            &cache,
+        )
+    };
+    let o = compare_cached();
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
         o.status.success() && err.contains("using cached reference"),
@@ -202,23 +205,7 @@ fn reference_command_writes_and_caches() {
         &dir.path().join("other-cache"),
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = run(
-        &[
-            "compare",
-            s.as_str(),
-            "--spp",
-            "2",
-            "--reference-spp",
-            "16",
-            "--width",
-            "20",
-            "--height",
-            "16",
-            "--out",
-            rep.as_str(),
-        ],
-        &cache,
-    );
+    let o = compare_cached();
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
         o.status.success() && err.contains("its report says spp 4, not 16"),
