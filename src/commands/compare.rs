@@ -1,7 +1,8 @@
 //! `lightlearn compare`: samplers side by side on one scene at equal time and/or equal
 //! samples against a reference; writes the EXRs (the reference's with `reference.json`),
-//! `metrics.json`, `convergence.csv` and the HTML report together. Everything that can be wrong with the request is checked before
-//! any rendering, and a refused request leaves no folder behind.
+//! `metrics.json`, `convergence.csv` and the HTML report together. Everything that can be
+//! wrong with the request is checked before any rendering, and a refused request leaves no
+//! folder behind.
 
 use std::path::PathBuf;
 
