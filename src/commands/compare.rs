@@ -152,19 +152,19 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
     let (scene, ctx, gpu, _) = prepare(a.scene.as_deref(), &a.device, ui)?;
     let scene_hash = reference::scene_hash(&scene);
     // Whether the reference is known to be of this scene at this depth: made here, or given
-    // with a report that says so (checked below). Only then does reference.json say so.
-    let mut verified = given.is_none();
+    // with a report that says so, tied to its pixels by the EXR's checksum (checked when it
+    // was read) and checked here. Only then does reference.json say so.
+    let verified = given.as_ref().is_none_or(|(_, _, sidecar)| {
+        sidecar.as_ref().is_some_and(|r| {
+            r[film::EXR_CHECKSUM].is_string()
+                && r["scene_hash"].is_string()
+                && r["max_depth"].is_u64()
+        })
+    });
     if let Some((p, _, sidecar)) = &given {
         if let Some(r) = sidecar {
             check_reference_matches(p, r, &scene_hash, a.max_depth)?;
         }
-        // A report with the EXR's checksum, checked above, and the fields checked here: a
-        // report without the checksum is not tied to these pixels.
-        verified = sidecar.as_ref().is_some_and(|r| {
-            r[film::EXR_CHECKSUM].is_string()
-                && r["scene_hash"].is_string()
-                && r["max_depth"].is_u64()
-        });
         if !verified {
             // Not an error: a reference from another renderer (Mitsuba) has no report. But
             // an EXR of another scene was compared against with no word (an audit,

@@ -321,16 +321,15 @@ impl SavedStats {
             Some(o) => (format!("{o} has"), "merge only statistics of one scene"),
         };
         if h.scene != want.scene {
-            if let (None, Some(k)) = (part, h.animation_frame) {
-                bail!(
-                    "'{p}' was learned on other lights (scene fingerprint {} vs {}): it holds the statistics of frame {k} of an `animate` run, learned in that animation's own coordinate frame; if it is this scene's animation, continue it with `lightlearn animate … --frame {} --load-stats {p}`, else load it only with the scene it was saved from",
-                    h.scene,
-                    want.scene,
+            let fix = match (part, h.animation_frame) {
+                (None, Some(k)) => format!(
+                    ": it holds the statistics of frame {k} of an `animate` run, learned in that animation's own coordinate frame; if it is this scene's animation, continue it with `lightlearn animate … --frame {} --load-stats {p}`, else {scene_fix}",
                     k.saturating_add(1)
-                );
-            }
+                ),
+                _ => format!("; {scene_fix}"),
+            };
             bail!(
-                "'{p}' was learned on other lights (scene fingerprint {} vs {}); {scene_fix}",
+                "'{p}' was learned on other lights (scene fingerprint {} vs {}){fix}",
                 h.scene,
                 want.scene
             );
