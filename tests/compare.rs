@@ -121,6 +121,49 @@ fn compare_writes_report_metrics_and_images() {
     );
 }
 
+/// A `--time` below one pass cannot be equal time (a render stops at a pass's end): the
+/// comparison says so on stderr, in metrics.json and on the page, instead of reporting
+/// speed-ups of unequal renders with no word.
+#[test]
+fn equal_time_below_one_pass_is_flagged() {
+    let dir = tempfile::tempdir().unwrap();
+    let (cache, out) = (dir.path().join("cache"), dir.path().join("report"));
+    let (s, out_s) = (scene(), out.display().to_string());
+    let o = run(
+        &[
+            "compare",
+            s.as_str(),
+            "--samplers",
+            "uniform,power",
+            "--time",
+            "0.00001",
+            "--reference-spp",
+            "16",
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "--max-depth",
+            "1",
+            "--out",
+            out_s.as_str(),
+        ],
+        &cache,
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("warning: equal time is not equal here: uniform"),
+        "{err}"
+    );
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("metrics.json")).unwrap()).unwrap();
+    let w = m["comparisons"][0]["warning"].as_str().unwrap_or_default();
+    assert!(w.contains("power") && w.contains("--time 0.00001"), "{m}");
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(html.contains(r#"<p class="warning">Warning: equal time"#));
+}
+
 #[test]
 fn reference_command_writes_and_caches() {
     let dir = tempfile::tempdir().unwrap();

@@ -225,6 +225,9 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
             &mut |sampler, spp, f| ui.progress(sampler.name(), spp, f),
         )?;
         ui.phase_done();
+        if let Some(w) = &c.warning {
+            ui.message(&format!("warning: {w}"));
+        }
         comparisons.push(c);
     }
 

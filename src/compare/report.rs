@@ -205,9 +205,14 @@ pub fn html(input: &ReportInput) -> Result<String> {
         } else {
             format!("MSE ratio vs {base}")
         };
+        let warning = c
+            .warning
+            .as_ref()
+            .map(|w| format!(r#"<p class="warning">Warning: {}</p>"#, esc(w)))
+            .unwrap_or_default();
         let _ = write!(
             body,
-            r#"<section class="cmp" id="cmp{ci}"><h2>{} — {budget}</h2><table class="metrics"><thead><tr><th>sampler</th><th>spp</th><th>seconds</th><th>MSE</th><th>relMSE</th><th>RMSE</th><th>{ratio}</th><th>zero light samples</th></tr></thead><tbody>"#,
+            r#"<section class="cmp" id="cmp{ci}"><h2>{} — {budget}</h2>{warning}<table class="metrics"><thead><tr><th>sampler</th><th>spp</th><th>seconds</th><th>MSE</th><th>relMSE</th><th>RMSE</th><th>{ratio}</th><th>zero light samples</th></tr></thead><tbody>"#,
             c.kind
         );
         for r in &c.runs {
@@ -309,6 +314,7 @@ pub fn html(input: &ReportInput) -> Result<String> {
 const CSS: &str = r#"
 body{font-family:sans-serif;margin:20px;color:#222;background:#fff}
 .meta{color:#555}
+.warning{color:#a40;font-weight:bold}
 table.metrics{border-collapse:collapse;margin:8px 0}
 table.metrics td,table.metrics th{border:1px solid #ccc;padding:4px 10px;text-align:right}
 table.metrics td:first-child,table.metrics th:first-child{text-align:left}
