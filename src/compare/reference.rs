@@ -185,10 +185,16 @@ fn render_image(
     Ok((result.mean(), report))
 }
 
+/// A reference's spp: references are always rendered to a sample budget.
+fn reference_spp(settings: &RenderSettings) -> u32 {
+    match settings.budget {
+        Budget::Samples(spp) => spp,
+        Budget::Seconds(_) => unreachable!("references have a sample budget"),
+    }
+}
+
 fn cache_paths(scene: &Scene, settings: &RenderSettings) -> (String, OutputPaths) {
-    let Budget::Samples(spp) = settings.budget else {
-        unreachable!("references have a sample budget")
-    };
+    let spp = reference_spp(settings);
     let key = key(
         scene,
         settings.width,
@@ -259,9 +265,7 @@ fn read_entry(
     }
     // What the report says it is must be what its name stands for: a 4-spp render under a
     // 16-spp entry's name was used as the 16-spp reference (an audit, 2026-12-06).
-    let Budget::Samples(spp) = settings.budget else {
-        unreachable!("references have a sample budget")
-    };
+    let spp = reference_spp(settings);
     for (field, want) in [
         ("spp", serde_json::json!(spp)),
         ("max_depth", serde_json::json!(settings.max_depth)),
@@ -307,9 +311,7 @@ pub fn cached(
     log: &mut dyn FnMut(String),
 ) -> Result<(Vec<[f32; 3]>, String, Option<super::Metrics>)> {
     let (_, paths) = cache_paths(scene, settings);
-    let Budget::Samples(spp) = settings.budget else {
-        unreachable!("references have a sample budget")
-    };
+    let spp = reference_spp(settings);
     let note = |report: &serde_json::Value, cached: bool| {
         format!(
             "{} at {spp} spp, {} {}; its own estimated relMSE {:.2e} (a floor under every raw relMSE below; the corrected numbers subtract it)",
