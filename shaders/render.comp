@@ -327,6 +327,17 @@ Path camera_path(uvec2 px) {
     return st;
 }
 
+float max_abs(vec3 v) { return max3(abs(v)); }
+
+// How far a ray starts off a surface (and stops short of an area light), given the largest
+// coordinate magnitude m in the computation of the point: 1e-4 of it, as src/render/
+// gpu_scene.rs `surface_epsilon` (the CPU tracers' copy). f32 rounds x = origin + t·dir
+// and the triangle test to ~1e-7 of m, so this keeps ~1000× of margin; one offset for the
+// whole scene (1e-4 of its size) let a far-away object widen every offset, and a wall at
+// 1e5 units beside a 1-unit box lifted its rays off the floor by 10 units (an audit,
+// 2026-12-06: the box's image +3.5 % direct, its indirect light gone, exit 0).
+float surface_eps(float m) { return 1e-4 * max(m, 1e-3); }
+
 // --refine-cuts: one observation y of `slot` through child `side` (SideCounts above).
 void record_side(uint slot, uint side, float y) {
     uint b = 6u * slot;
@@ -343,7 +354,7 @@ void record_side(uint slot, uint side, float y) {
 // wo back along the path, its BSDF): a light chosen by SAMPLER, a point on it, the shadow
 // ray, the contribution weighted against the BSDF ray (MIS) and divided by n_light, and
 // the learned samplers' observation. Sample 0 takes the vertex's own (stratified) numbers.
-void next_event(inout Path st, vec3 x, vec3 n, vec3 wo, Bsdf bsdf, float brdf, uint depth, uint rep, uint n_light) {
+void next_event(inout Path st, vec3 x, vec3 n, float eps, vec3 wo, Bsdf bsdf, float brdf, uint depth, uint rep, uint n_light) {
     uint pixel = st.pixel;
     uint s = sample_s;
     uint seed = params.seed;
@@ -387,13 +398,13 @@ void next_event(inout Path st, vec3 x, vec3 n, vec3 wo, Bsdf bsdf, float brdf, u
         // keeping wi and dist from x made a surface parallel to an area light (a floor under
         // a ceiling panel) meet the light's own plane before tmax, i.e. shadow itself
         // (found by the Mitsuba cross-check, tests/mitsuba.rs: floor 48 % too dark).
-        float eps = params.ray_eps;
         vec3 so = x + n * eps;
         vec3 to_light = wi * dist - n * eps;
         float sdist = length(to_light);
         bool area = (light.kind & 0xffu) == LIGHT_TRIANGLE;
-        // Stop short of an area light's own surface; a point light has none.
-        float tmax = area ? sdist - eps : sdist;
+        // Stop short of an area light's own surface (by the offset its coordinates need);
+        // a point light has none.
+        float tmax = area ? sdist - max(eps, surface_eps(max(max_abs(light.p0), max(max_abs(light.p1), max_abs(light.p2))))) : sdist;
         float ts;
         if ((KNOCK_OUT & KNOCK_SHADOW) != 0u || trace_ray(so, to_light / sdist, 0.0, tmax, true, ts) == NO_HIT) {
             // Evaluated only for visible samples (GGX costs tens of operations).
@@ -484,6 +495,9 @@ bool path_vertex(inout Path st, uint depth) {
     // Reflection is two-sided: shade the side the ray came from.
     vec3 n = front ? ng : -ng;
     vec3 x = st.origin + t * st.dir;
+    // How far rays leave x: by the rounding of x = origin + t·dir and of the triangle's
+    // own intersection test (surface_eps).
+    float eps = surface_eps(max(max(max_abs(st.origin), t), max(max_abs(tri.v0), max(max_abs(tri.v0 + tri.e1), max_abs(tri.v0 + tri.e2)))));
     uint dim0 = depth * DIMS_PER_VERTEX;
     // glTF: base colour = factor × texture.
     if (SCENE_TEXTURED && m.texture != NO_TEXTURE) {
@@ -498,12 +512,12 @@ bool path_vertex(inout Path st, uint depth) {
     float brdf = brdf_aware ? bsdf.albedo / PI : 1.0;
     // Next-event samples at this vertex.
     uint n_light = depth >= 1u ? INDIRECT_LIGHT_SAMPLES : FIRST_LIGHT_SAMPLES;
-    next_event(st, x, n, wo, bsdf, brdf, depth, 0u, n_light);
+    next_event(st, x, n, eps, wo, bsdf, brdf, depth, 0u, n_light);
     // Compiled out at 1 (the default): a loop around the one sample cost paths 5-10 %.
     if (MULTI_LIGHT_SAMPLES) {
         uint rep = 1u;
         while (rep < n_light) {
-            next_event(st, x, n, wo, bsdf, brdf, depth, rep, n_light);
+            next_event(st, x, n, eps, wo, bsdf, brdf, depth, rep, n_light);
             ++rep;
         }
     }
@@ -527,7 +541,7 @@ bool path_vertex(inout Path st, uint depth) {
     st.prev_cut = sel_cut;
     st.prev_cut_total = sel_total;
     st.prev_cut_lambda = sel_lambda;
-    st.origin = x + n * params.ray_eps;
+    st.origin = x + n * eps;
     st.dir = wn;
     if (depth + 1u >= 3u) {
         float q = max(0.0, 1.0 - max(st.beta.x, max(st.beta.y, st.beta.z)));

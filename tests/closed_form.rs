@@ -469,6 +469,72 @@ fn closed_emissive_box_has_the_geometric_series_radiance() {
     }
 }
 
+/// The furnace box with a small dark cuboid 1e5 away (and so a scene 1e5 across) and a
+/// light 2e6 away: rays leave a surface by an offset that follows the coordinates where
+/// they start, not the scene's size. With one offset for the scene (1e-4 of its size, ~14
+/// here) every ray left the 2-unit box and its light was lost (depth 3: the mean fell to
+/// about L_e, exit 0; with the light 2e6 away 39 % of samples were NaN and dropped; an
+/// audit, 2026-12-06).
+#[test]
+fn far_away_objects_do_not_move_the_rays_of_near_ones() {
+    let (le, rho) = (0.5f32, 0.6f32);
+    let mut g = GltfBuilder::new();
+    let wall = g.material("wall", Vec3::splat(rho), Vec3::splat(le), true);
+    g.cuboid("box", Vec3::splat(-1.0), Vec3::splat(1.0), wall);
+    let dark = g.material("dark", Vec3::splat(0.5), Vec3::ZERO, false);
+    g.cuboid(
+        "far",
+        Vec3::new(1e5, 0.0, 0.0),
+        Vec3::new(1e5 + 1.0, 1.0, 1.0),
+        dark,
+    );
+    g.point_light("far light", Vec3::new(2e6, 0.0, 0.0), Vec3::ONE, 1.0);
+    g.camera(
+        Vec3::new(0.2, -0.1, 0.3),
+        Vec3::new(1.0, 0.5, -1.0),
+        60f32.to_radians(),
+    );
+    let scene = common::load(&g, "furnace with a far object");
+    let ctx = common::ctx();
+    let gpu = GpuScene::upload(&ctx, &scene, &Bvh::build(&scene.triangles)).unwrap();
+    let depth = 3;
+    let settings = RenderSettings {
+        width: 8,
+        height: 8,
+        budget: Budget::Samples(256),
+        seed: 5,
+        sampler: LightSampler::Uniform,
+        regions: Default::default(),
+        learn: Default::default(),
+        resume: None,
+        stratify: Stratify::Sobol,
+        max_depth: depth,
+        light_point: Default::default(),
+        indirect_light_samples: 1,
+        first_light_samples: 1,
+    };
+    let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
+    let n = r.mean().len() as f64;
+    let mean = r.mean().iter().map(|p| p[1] as f64).sum::<f64>() / n;
+    let se = (r
+        .variance_of_mean()
+        .iter()
+        .map(|v| v[1] as f64)
+        .sum::<f64>()
+        / (n * n))
+        .sqrt();
+    // The far light adds ~1e-13 here.
+    let want = le as f64
+        * (0..=depth as i32)
+            .map(|k| (rho as f64).powi(k))
+            .sum::<f64>();
+    assert_eq!(r.invalid_samples, 0, "samples came out NaN/Inf");
+    assert!(
+        (mean - want).abs() < 4.0 * se + 1e-4 * want,
+        "mean radiance {mean:.5} ± {se:.5}, closed form {want:.5}"
+    );
+}
+
 /// A PNG of `w`×`h` RGB8 texels (row 0 first).
 fn png_rgb(w: u32, h: u32, rgb: &[[u8; 3]]) -> Vec<u8> {
     let mut out = Vec::new();

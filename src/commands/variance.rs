@@ -288,9 +288,8 @@ fn first_hits(scene: &Scene, gpu: &GpuScene, a: &VarianceRequest) -> Vec<Vec<Opt
                     let nx = (px as f32 + rng.f32()) / a.width as f32 * 2.0 - 1.0;
                     let ny = 1.0 - (py as f32 + rng.f32()) / a.height as f32 * 2.0;
                     let dir = (cw + nx * cu + ny * cv).normalize();
-                    first_hit(scene, &gpu.bvh, pos, dir).map(|h| {
-                        hit_terms(scene, &gpu.bvh, &h, gpu.ray_eps, a.area_samples, &mut rng)
-                    })
+                    first_hit(scene, &gpu.bvh, pos, dir)
+                        .map(|h| hit_terms(scene, &gpu.bvh, &h, a.area_samples, &mut rng))
                 })
                 .collect()
         })

@@ -7,7 +7,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::accel::Bvh;
-use crate::render::{camera_params, ray_epsilon};
+use crate::render::{camera_params, hit_epsilon, surface_epsilon};
 use crate::rng::SplitMix64;
 use crate::scene::{spot_falloff, Light, Scene};
 
@@ -31,7 +31,6 @@ pub fn render(
     seed: u64,
 ) -> ReferenceImage {
     let cam = camera_params(scene, width, height);
-    let eps = ray_epsilon(scene);
     let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
     let (pos, cu, cv, cw) = (v(cam.cam_pos), v(cam.cam_u), v(cam.cam_v), v(cam.cam_w));
     let results: Vec<([f64; 3], [f64; 3])> = (0..width * height)
@@ -45,7 +44,7 @@ pub fn render(
                 let nx = (px as f32 + rng.f32()) / width as f32 * 2.0 - 1.0;
                 let ny = 1.0 - (py as f32 + rng.f32()) / height as f32 * 2.0;
                 let dir = (cw + nx * cu + ny * cv).normalize();
-                let l = radiance(scene, bvh, pos, dir, eps, area_samples, &mut rng);
+                let l = radiance(scene, bvh, pos, dir, area_samples, &mut rng);
                 for k in 0..3 {
                     sum[k] += l[k] as f64;
                     sum_sq[k] += (l[k] as f64).powi(2);
@@ -75,7 +74,6 @@ fn radiance(
     bvh: &Bvh,
     o: Vec3,
     d: Vec3,
-    eps: f32,
     area_samples: u32,
     rng: &mut SplitMix64,
 ) -> Vec3 {
@@ -84,7 +82,7 @@ fn radiance(
     };
     let mut l = hit.emission;
     for light in 0..scene.lights.len() {
-        let s = light_samples(scene, bvh, &hit, light, eps, area_samples, rng);
+        let s = light_samples(scene, bvh, &hit, light, area_samples, rng);
         l += hit.brdf * s.sum / s.count as f32;
     }
     l
@@ -102,6 +100,8 @@ pub struct Hit {
     pub brdf: Vec3,
     /// The radiance the camera sees emitted at x.
     pub emission: Vec3,
+    /// How far rays leave x ([`hit_epsilon`], render.comp's `eps`).
+    pub eps: f32,
 }
 
 pub fn first_hit(scene: &Scene, bvh: &Bvh, o: Vec3, d: Vec3) -> Option<Hit> {
@@ -112,6 +112,7 @@ pub fn first_hit(scene: &Scene, bvh: &Bvh, o: Vec3, d: Vec3) -> Option<Hit> {
     let m = &scene.materials[scene.triangle_material[prim as usize] as usize];
     Some(Hit {
         x: o + t * d,
+        eps: hit_epsilon(o, t, [a, b, c]),
         n: if front { ng } else { -ng },
         brdf: m.base_color / std::f32::consts::PI,
         emission: if front || m.double_sided {
@@ -139,13 +140,13 @@ pub fn light_samples(
     bvh: &Bvh,
     hit: &Hit,
     light: usize,
-    eps: f32,
     area_samples: u32,
     rng: &mut SplitMix64,
 ) -> LightSamples {
-    let (x, n) = (hit.x, hit.n);
-    // Unoccluded contribution of a point y with "intensity" term `e` (already / r²).
-    let visible = |y: Vec3, area: bool| -> Option<(Vec3, f32, f32)> {
+    let (x, n, eps) = (hit.x, hit.n, hit.eps);
+    // Unoccluded contribution of a point y with "intensity" term `e` (already / r²);
+    // `area`: the offset to stop short of an area light's surface by.
+    let visible = |y: Vec3, area: Option<f32>| -> Option<(Vec3, f32, f32)> {
         let to = y - x;
         let dist = to.length();
         let wi = to / dist;
@@ -157,7 +158,10 @@ pub fn light_samples(
         let so = x + n * eps;
         let to_light = y - so;
         let sdist = to_light.length();
-        let tmax = if area { sdist - eps } else { sdist };
+        let tmax = match area {
+            Some(end) => sdist - eps.max(end),
+            None => sdist,
+        };
         if bvh.occluded(so, to_light / sdist, 0.0, tmax) {
             return None;
         }
@@ -181,7 +185,7 @@ pub fn light_samples(
             position,
             intensity,
         } => {
-            let v = match visible(position, false) {
+            let v = match visible(position, None) {
                 Some((_, dist, cos_x)) => intensity * cos_x / (dist * dist),
                 None => Vec3::ZERO,
             };
@@ -194,7 +198,7 @@ pub fn light_samples(
             cos_inner,
             cos_outer,
         } => {
-            let v = match visible(position, false) {
+            let v = match visible(position, None) {
                 Some((wi, dist, cos_x)) => {
                     let f = spot_falloff(direction.dot(-wi), cos_inner, cos_outer);
                     intensity * f * cos_x / (dist * dist)
@@ -209,12 +213,13 @@ pub fn light_samples(
             let area = 0.5 * cross.length();
             let ny = cross.normalize();
             let (emission, two) = scene.triangle_emission(triangle);
+            let end = surface_epsilon(p0.abs().max(p1.abs()).max(p2.abs()).max_element());
             for _ in 0..area_samples {
                 let su = rng.f32().sqrt();
                 let (b0, b1) = (1.0 - su, rng.f32() * su);
                 let y = b0 * p0 + b1 * p1 + (1.0 - b0 - b1) * p2;
                 let mut v = Vec3::ZERO;
-                if let Some((wi, dist, cos_x)) = visible(y, true) {
+                if let Some((wi, dist, cos_x)) = visible(y, Some(end)) {
                     let mut cos_y = ny.dot(-wi);
                     if two {
                         cos_y = cos_y.abs();

@@ -191,13 +191,14 @@ pub fn build_cuts(
         let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
         let (w, h) = (settings.width, settings.height);
         let bounces = settings.max_depth.saturating_sub(1).min(2);
-        let eps = gpu.ray_eps;
-        // The first hit of a ray: the point and the normal facing the ray.
-        let hit = |o: Vec3, d: Vec3| -> Option<(Vec3, Vec3)> {
+        // The first hit of a ray: the point, the normal facing the ray and how far rays
+        // leave the point (render.comp's offset).
+        let hit = |o: Vec3, d: Vec3| -> Option<(Vec3, Vec3, f32)> {
             let (t, prim) = gpu.bvh.intersect(o, d, 0.0, f32::INFINITY)?;
             let [a, b, c] = scene.triangles[prim as usize];
             let ng = (b - a).cross(c - a).normalize();
-            Some((o + t * d, if ng.dot(d) < 0.0 { ng } else { -ng }))
+            let n = if ng.dot(d) < 0.0 { ng } else { -ng };
+            Some((o + t * d, n, super::hit_epsilon(o, t, [a, b, c])))
         };
         reached = (0..w * h)
             .into_par_iter()
@@ -206,20 +207,20 @@ pub fn build_cuts(
                 let y = 1.0 - ((p / w) as f32 + 0.5) / h as f32 * 2.0;
                 let d = (v(cam.cam_w) + x * v(cam.cam_u) + y * v(cam.cam_v)).normalize();
                 let mut out = Vec::new();
-                if let Some((x0, n0)) = hit(v(cam.cam_pos), d) {
+                if let Some((x0, n0, e0)) = hit(v(cam.cam_pos), d) {
                     out.push(grid.region(x0, n0));
                     for k in 0..BOUNCE_RAYS * (bounces > 0) as u32 {
-                        let (mut x, mut n) = (x0, n0);
+                        let (mut x, mut n, mut eps) = (x0, n0, e0);
                         for b in 0..bounces {
                             let u = |dim: u32| {
                                 crate::rng::sample_rand(settings.seed ^ 0x5eed, p, k, 2 * b + dim)
                             };
                             let dir = cosine_direction(n, u(0), u(1));
-                            let Some((x1, n1)) = hit(x + n * eps, dir) else {
+                            let Some((x1, n1, e1)) = hit(x + n * eps, dir) else {
                                 break;
                             };
                             out.push(grid.region(x1, n1));
-                            (x, n) = (x1, n1);
+                            (x, n, eps) = (x1, n1, e1);
                         }
                     }
                 }

@@ -5,6 +5,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::Result;
+use glam::Vec3;
 
 use crate::accel::Bvh;
 use crate::gpu::layout::{GpuMaterial, GpuTexture, MATERIAL_TWO_SIDED};
@@ -47,8 +48,26 @@ pub struct GpuScene {
     pub kernel_flags: u32,
 }
 
-/// Offset for secondary-ray origins: 1e-4 of the scene's size (1.7 mm in the default 12 m
-/// scene), far above fp32 rounding of hit points yet below any wall thickness we build.
+/// How far a ray starts off a surface (and stops short of an area light) where the largest
+/// coordinate magnitude in the computation of the point is `m`: 1e-4 of it, far above f32's
+/// rounding there (~1e-7 of m) yet below any wall thickness at that scale. render.comp's
+/// `surface_eps` is the kernel's copy; it says why the offset is local, not the scene's.
+pub fn surface_epsilon(m: f32) -> f32 {
+    1e-4 * m.max(1e-3)
+}
+
+/// [`surface_epsilon`] at the hit `o + t·d` on the triangle `tri`: by the rounding of the
+/// hit point and of the triangle's own intersection test.
+pub fn hit_epsilon(o: Vec3, t: f32, tri: [Vec3; 3]) -> f32 {
+    let m = tri.iter().fold(o.abs().max_element().max(t), |m, v| {
+        m.max(v.abs().max_element())
+    });
+    surface_epsilon(m)
+}
+
+/// 1e-4 of the scene's size: how far the host widens boxes in the tests of what a pixel's
+/// rays can meet (coverage.rs: a larger margin only keeps more rows); rays themselves
+/// leave surfaces by [`hit_epsilon`].
 pub fn ray_epsilon(scene: &Scene) -> f32 {
     let (lo, hi) = scene.bounds();
     let size = (hi - lo).length().max(lo.abs().max(hi.abs()).max_element());

@@ -72,13 +72,12 @@ pub fn hit_terms(
     scene: &Scene,
     bvh: &Bvh,
     hit: &Hit,
-    eps: f32,
     area_samples: u32,
     rng: &mut SplitMix64,
 ) -> HitTerms {
     let mut lights = Vec::new();
     for l in 0..scene.lights.len() {
-        let s = light_samples(scene, bvh, hit, l, eps, area_samples, rng);
+        let s = light_samples(scene, bvh, hit, l, area_samples, rng);
         if s.zeros == s.count {
             continue;
         }
