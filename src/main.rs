@@ -211,8 +211,9 @@ fn cmd_animate(a: AnimateArgs) -> Result<()> {
     );
     if o.interrupted {
         bail!(
-            "interrupted (Ctrl-C or a stop signal) in frame {}; wrote {frames} frames (the last one partial) and animation.json to {}",
+            "interrupted (Ctrl-C or a stop signal) after frame {}; wrote {frames} frames{} and animation.json to {}",
             o.frames.last().map_or(0, |f| f.frame),
+            if o.last_partial { " (the last one partial)" } else { "" },
             a.out.display()
         );
     }

@@ -96,6 +96,8 @@ fn lossy_path<S: serde::Serializer>(p: &Path, s: S) -> std::result::Result<S::Ok
 pub struct AnimateOutcome {
     pub frames: Vec<FrameRecord>,
     pub interrupted: bool,
+    /// The stop came inside the last frame's passes (else between frames: all whole).
+    pub last_partial: bool,
     pub video: Option<PathBuf>,
 }
 
@@ -284,10 +286,19 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
     let mut prev_gpu: Option<GpuScene> = None;
     let mut records = Vec::new();
     let mut interrupted = false;
+    let mut last_partial = false;
     let mut span = (first, 0u32);
     // Read once (it hashes the scene file), not once a frame.
     let sequence = sequence_key(req);
+    // A stop asked for between frames (while a frame's scene is built or its files are
+    // written) waits for this loop too, as one inside a frame's passes does: it had
+    // ended the process at once (exit 130, no word; an audit, 2026-12-06).
+    let _active = crate::interrupt::Active::begin();
     for k in first..=last {
+        if crate::interrupt::requested() {
+            interrupted = true;
+            break;
+        }
         let t = anim.time(k, req.fps);
         let scene = if k == 0 {
             scene0.clone()
@@ -445,6 +456,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         )?;
         if result.interrupted {
             interrupted = true;
+            last_partial = true;
             break;
         }
         carried = result.learned.map(|l| l.saved);
@@ -470,6 +482,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
     Ok(AnimateOutcome {
         frames: records,
         interrupted,
+        last_partial,
         video,
     })
 }
