@@ -396,6 +396,43 @@ fn the_same_command_writes_the_same_files() {
     assert_eq!(ja, jb, "the reports differ beyond their timings");
 }
 
+/// lavapipe compiles a kernel at its first dispatch: with no shader cache (a fresh machine,
+/// MESA_SHADER_CACHE_DISABLE) `profile` timed that compile, ~0.5-0.7 s, as each variant's
+/// passes (rows of -5105 % with exit 0; an audit, 2026-12-06). An untimed pass comes
+/// first now: 4 passes of 16×12 take milliseconds.
+#[test]
+fn profile_does_not_time_the_kernel_compile() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.glb");
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(common::exe())
+        .args([
+            "profile",
+            scene.to_str().unwrap(),
+            "--spp",
+            "4",
+            "--repeats",
+            "1",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--max-depth",
+            "1",
+        ])
+        .current_dir(dir.path())
+        .env("MESA_SHADER_CACHE_DISABLE", "true")
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}{text}", stderr(&out));
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("| nothing (the real kernel)"))
+        .unwrap_or_else(|| panic!("no real kernel row in:\n{text}"));
+    let seconds: f64 = line.split('|').nth(2).unwrap().trim().parse().unwrap();
+    assert!(seconds < 0.25, "the compile was timed: {line}");
+}
+
 /// `profile` times a pass with each stage knocked out (src/bench/stages.rs): every variant's
 /// pipeline must be valid (the validation layer is on) and every row of the table there; with
 /// `--timeline` also the table of what happens between passes (src/render/timeline.rs). The
