@@ -396,6 +396,50 @@ fn the_same_command_writes_the_same_files() {
     assert_eq!(ja, jb, "the reports differ beyond their timings");
 }
 
+/// Where stderr is not a terminal (a farm's log, a pipe) progress is a line every 30 s
+/// (`LIGHTLEARN_PROGRESS_EVERY` seconds): a long render there printed nothing after its
+/// first line and looked hung (an audit, 2026-12-06). `-q` keeps them out.
+#[test]
+fn progress_is_logged_where_stderr_is_not_a_terminal() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.glb");
+    let dir = tempfile::tempdir().unwrap();
+    let render = |quiet: bool| {
+        let mut args = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--spp",
+            "64",
+            "--max-depth",
+            "1",
+            "--out",
+            "p.exr",
+        ];
+        if quiet {
+            args.push("-q");
+        }
+        Command::new(common::exe())
+            .args(&args)
+            .current_dir(dir.path())
+            .env("LIGHTLEARN_PROGRESS_EVERY", "0")
+            .output()
+            .unwrap()
+    };
+    let out = render(false);
+    let err = stderr(&out);
+    assert!(out.status.success(), "{err}");
+    let lines: Vec<&str> = err
+        .lines()
+        .filter(|l| l.starts_with("render: ") && l.contains(" spp, ") && l.contains(" % after "))
+        .collect();
+    assert!(!lines.is_empty(), "no progress lines in:\n{err}");
+    let out = render(true);
+    assert!(!stderr(&out).contains(" % after "), "{}", stderr(&out));
+}
+
 /// lavapipe compiles a kernel at its first dispatch: with no shader cache (a fresh machine,
 /// MESA_SHADER_CACHE_DISABLE) `profile` timed that compile, ~0.5-0.7 s, as each variant's
 /// passes (rows of -5105 % with exit 0; an audit, 2026-12-06). An untimed pass comes
