@@ -532,3 +532,68 @@ fn long_output_names_are_written() {
         files(d)
     );
 }
+
+/// The PNG and JSON are named after `--out`, not by the user: `--out notes.exr` replaced a
+/// user's notes.json with a report (and a notes.png with a preview), exit 0 (an audit,
+/// 2026-12-06). Now a JSON that is not a lightlearn report, or a PNG with no report
+/// beside it, is refused by name and kept; a render's own outputs are replaced as before,
+/// and `merge` and `reference` refuse the same.
+#[test]
+fn files_named_after_the_exr_that_are_not_ours_are_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    cornell(d);
+    std::fs::write(d.join("notes.json"), b"{\"mine\": 1}\n").unwrap();
+    refused(
+        &render("c.gltf", &["--out", "notes.exr"], d),
+        &[
+            "notes.json",
+            "is not a lightlearn report",
+            "name another --out",
+        ],
+    );
+    assert_eq!(
+        std::fs::read(d.join("notes.json")).unwrap(),
+        b"{\"mine\": 1}\n"
+    );
+    assert!(!d.join("notes.exr").exists() && !d.join("notes.png").exists());
+    std::fs::write(d.join("photo.png"), b"not ours").unwrap();
+    refused(
+        &render("c.gltf", &["--out", "photo.exr"], d),
+        &["photo.png", "no lightlearn report beside it"],
+    );
+    assert_eq!(std::fs::read(d.join("photo.png")).unwrap(), b"not ours");
+    // A render's own set is replaced, again and again.
+    for seed in ["1", "2"] {
+        let o = render("c.gltf", &["--out", "r.exr", "--seed", seed], d);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let o = render("c.gltf", &["--out", "r2.exr", "--seed", "3"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    refused(
+        &run(&["merge", "r.exr", "r2.exr", "--out", "notes.exr"], d),
+        &["notes.json", "is not a lightlearn report"],
+    );
+    refused(
+        &run(
+            &[
+                "reference",
+                "c.gltf",
+                "--spp",
+                "4",
+                "--width",
+                "8",
+                "--height",
+                "8",
+                "--out",
+                "notes.exr",
+            ],
+            d,
+        ),
+        &["notes.json", "is not a lightlearn report"],
+    );
+    assert_eq!(
+        std::fs::read(d.join("notes.json")).unwrap(),
+        b"{\"mine\": 1}\n"
+    );
+}

@@ -82,6 +82,7 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
             );
         }
     }
+    paths.check_not_foreign()?;
     let mut reports = Vec::new();
     for p in parts {
         let j = p.with_extension("json");

@@ -29,6 +29,7 @@ pub fn run(a: &ReferenceRequest, ui: &mut dyn Ui) -> Result<serde_json::Value> {
     let settings = reference::settings(a.width, a.height, a.spp, a.seed, a.max_depth)?;
     let paths = OutputPaths::new(&a.out)?;
     crate::io::check_outputs_spare_scene(&paths.all(), a.scene.as_deref(), &[])?;
+    paths.check_not_foreign()?;
     let (scene, ctx, gpu, _) = prepare(a.scene.as_deref(), &a.device, ui)?;
     let (_, report) = reference::render_to(&ctx, &scene, &gpu, &settings, &paths, &mut |s, f| {
         ui.progress("reference", s, f)

@@ -49,9 +49,51 @@ impl OutputPaths {
         Ok(paths)
     }
 
+    /// The PNG and the JSON are named after the EXR, not by the user: one that exists and
+    /// is not a lightlearn output is a user's file (`--out notes.exr` replaced notes.json
+    /// with a report, exit 0; an audit, 2026-12-06). A JSON is ours when it is a lightlearn
+    /// report; a PNG when such a report is beside it (the three are written together).
+    /// Called by the commands after their checks against their inputs, whose messages say
+    /// more (which input the output would replace).
+    pub fn check_not_foreign(&self) -> Result<()> {
+        let ours = is_report(&self.json);
+        let foreign = if self.json.is_file() && !ours {
+            Some((&self.json, "is not a lightlearn report"))
+        } else if self.png.is_file() && !ours {
+            Some((&self.png, "has no lightlearn report beside it"))
+        } else {
+            None
+        };
+        if let Some((p, why)) = foreign {
+            bail!(
+                "'{}' exists and {why}: --out '{}' would replace it with the render's {}; name another --out, or move the file",
+                p.display(),
+                self.exr.display(),
+                if *p == self.json { "report" } else { "preview" }
+            );
+        }
+        Ok(())
+    }
+
     pub fn all(&self) -> [&Path; 3] {
         [&self.exr, &self.png, &self.json]
     }
+}
+
+/// Whether `p` is a report lightlearn wrote (a JSON object naming its EXR's checksum, its
+/// version or its merged parts). Larger files than any report are not read.
+fn is_report(p: &Path) -> bool {
+    if std::fs::metadata(p).map_or(true, |m| !m.is_file() || m.len() > 64 << 20) {
+        return false;
+    }
+    let Ok(bytes) = std::fs::read(p) else {
+        return false;
+    };
+    serde_json::from_slice::<serde_json::Value>(&bytes).is_ok_and(|v| {
+        ["exr_fnv1a", "lightlearn_version", "merged_from"]
+            .iter()
+            .any(|k| v.get(k).is_some())
+    })
 }
 
 /// Writes EXR, PNG and JSON together ([`crate::io::commit_all`]: all three or the old set;
