@@ -329,3 +329,45 @@ fn a_killed_render_keeps_its_last_checkpoint_and_merges() {
     let bytes = |n: &str| std::fs::read(d.join(n)).unwrap();
     assert!(bytes("c.exr") == bytes("e.exr"));
 }
+
+/// Reports edited past what a render writes (an audit, 2026-12-06): a first_sample_index of
+/// -1 or "x" was read as 0, two parts whose counts sum past the random streams' passes were
+/// merged into a report naming 2147483651 samples, and a part that does not exist was
+/// called one with no report. Each is refused by name now.
+#[test]
+fn reports_edited_past_what_a_render_writes_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    part(d, "a.exr", "1", "4", &[]);
+    part(d, "b.exr", "2", "4", &[]);
+    let original: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("a.json")).unwrap()).unwrap();
+    let edited = |field: &str, v: serde_json::Value| {
+        let mut r = original.clone();
+        r[field] = v;
+        std::fs::write(d.join("a.json"), serde_json::to_vec(&r).unwrap()).unwrap();
+    };
+    for bad in [serde_json::json!(-1), serde_json::json!("x")] {
+        edited("first_sample_index", bad);
+        refused(
+            &run(&["merge", "a.exr", "b.exr", "--out", "m.exr"], d),
+            "gives first_sample_index",
+        );
+    }
+    edited("first_sample_index", serde_json::json!(0));
+    edited("spp", serde_json::json!(2147483647u64));
+    refused(
+        &run(&["merge", "a.exr", "b.exr", "--out", "m.exr"], d),
+        "past the 2147483648 passes",
+    );
+    edited("spp", serde_json::json!(0));
+    refused(
+        &run(&["merge", "a.exr", "b.exr", "--out", "m.exr"], d),
+        "gives spp 0, not a positive sample count",
+    );
+    refused(
+        &run(&["merge", "nope.exr", "b.exr", "--out", "m.exr"], d),
+        "part 'nope.exr' does not exist",
+    );
+    assert!(!d.join("m.exr").exists());
+}

@@ -85,6 +85,10 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
     paths.check_not_foreign()?;
     let mut reports = Vec::new();
     for p in parts {
+        // A missing image was reported as a missing report.
+        if !p.exists() {
+            bail!("part '{}' does not exist", p.display());
+        }
         let j = p.with_extension("json");
         let text = crate::io::read_all(&j).with_context(|| {
             format!(
@@ -199,6 +203,15 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
             }
         }
         total += spp;
+        // Each part is within the random streams' passes; their sum must be too, or the
+        // merged report names more samples than any render holds (2147483647 + 4 was
+        // written as 2147483651; an audit, 2026-12-06).
+        if total > crate::render::MAX_PASSES as u64 {
+            bail!(
+                "the parts hold {total} samples together, past the {} passes a render can take; merge fewer parts",
+                crate::render::MAX_PASSES
+            );
+        }
         listed.push(json!({"exr": p.display().to_string(), "spp": spp, "seed": r["seed"]}));
     }
     let image: Vec<[f32; 3]> = sum
@@ -228,9 +241,23 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
 fn sample_range(r: &Value, p: &Path) -> Result<(u64, u64)> {
     let max = crate::render::MAX_PASSES as u64;
     let spp = r["spp"].as_u64().filter(|&n| n > 0).ok_or_else(|| {
-        anyhow::anyhow!("the report of part '{}' has no sample count", p.display())
+        anyhow::anyhow!(
+            "the report of part '{}' gives spp {}, not a positive sample count; render it again",
+            p.display(),
+            r["spp"]
+        )
     })?;
-    let first = r["first_sample_index"].as_u64().unwrap_or(0);
+    // Absent in reports older than chunks (0 then); anything else but a count is damage:
+    // -1 or "x" was read as 0 (an audit, 2026-12-06).
+    let first = match &r["first_sample_index"] {
+        Value::Null => 0,
+        v => v.as_u64().ok_or_else(|| {
+            anyhow::anyhow!(
+                "the report of part '{}' gives first_sample_index {v}, not a sample index; render it again",
+                p.display()
+            )
+        })?,
+    };
     if spp > max || first > max {
         bail!(
             "the report of part '{}' gives {spp} samples from sample {first}, past the {max} passes a render can take; render it again",
