@@ -470,6 +470,22 @@ fn malformed_mesh_data_is_named() {
         "{}",
         stderr(&o)
     );
+    // A node with a matrix and a translation: glTF forbids both; the translation was
+    // dropped without a word (an audit, 2026-12-06). Now a warning names the node.
+    let mut both = doc.clone();
+    both["nodes"][0]["matrix"] = serde_json::json!([
+        1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0
+    ]);
+    both["nodes"][0]["translation"] = serde_json::json!([0.0, 0.0, 0.0]);
+    write_json(&d.join("both.gltf"), &both);
+    let o = render("both.gltf", &["--out", "n.exr"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("warning: 'both.gltf': node 0")
+            && stderr(&o).contains("both a matrix and a translation"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// Buffer layouts glTF does not allow, a perspective node matrix and camera planes that

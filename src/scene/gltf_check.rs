@@ -343,6 +343,27 @@ fn check_matrices(root: &Root, name: &str) -> Result<()> {
     Ok(())
 }
 
+/// Nodes with both a matrix and a translation, rotation or scale (glTF 2.0 §5.25: "when
+/// matrix is defined, translation, rotation, and scale MUST NOT be defined"): the matrix is
+/// used and the rest ignored, which was silent (an audit, 2026-12-06). A warning, not a
+/// refusal: exporters that write both usually write the same transform twice.
+pub fn matrix_with_trs(root: &Root, name: &str) -> Vec<String> {
+    root.nodes
+        .iter()
+        .enumerate()
+        .filter(|(_, n)| {
+            n.matrix.is_some()
+                && (n.translation.is_some() || n.rotation.is_some() || n.scale.is_some())
+        })
+        .map(|(i, n)| {
+            format!(
+                "'{name}': node {i} ('{}') has both a matrix and a translation, rotation or scale, which glTF forbids; the matrix is used (export it again to silence this)",
+                n.name.as_deref().unwrap_or("")
+            )
+        })
+        .collect()
+}
+
 /// Whether a node rotation's length is 1 within float noise (the Khronos validator's 5e-4 is
 /// looser; 1e-3 here keeps every file it accepts exactly as before).
 pub fn rotation_is_unit(r: [f32; 4]) -> bool {
