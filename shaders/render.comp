@@ -329,14 +329,14 @@ Path camera_path(uvec2 px) {
 
 float max_abs(vec3 v) { return max3(abs(v)); }
 
-// How far a ray starts off a surface (and stops short of an area light), given the largest
-// coordinate magnitude m in the computation of the point: 1e-4 of it, as src/render/
-// gpu_scene.rs `surface_epsilon` (the CPU tracers' copy). f32 rounds x = origin + t·dir
-// and the triangle test to ~1e-7 of m, so this keeps ~1000× of margin; one offset for the
-// whole scene (1e-4 of its size) let a far-away object widen every offset, and a wall at
-// 1e5 units beside a 1-unit box lifted its rays off the floor by 10 units (an audit,
-// 2026-12-06: the box's image +3.5 % direct, its indirect light gone, exit 0).
-float surface_eps(float m) { return 1e-4 * max(m, 1e-3); }
+// How far a ray starts off a surface at x (and stops short of an area light), as src/render/
+// gpu_scene.rs `surface_epsilon` (the CPU tracers' copy): 1e-4 of x's own coordinates, and
+// at least 1e-5 of the other magnitudes its rounding comes from (`far`: the ray's origin and
+// length, which x = origin + t·dir rounds at ~1e-7 of, and the triangle's corners, which its
+// intersection test does). One offset for the whole scene (1e-4 of its size) let a far-away
+// object widen every offset: a dark wall 1e5 units beside a 1-unit box made the box's image
+// +3.5 % (direct) and its indirect light vanish, with exit 0 (an audit, 2026-12-06).
+float surface_eps(float local, float far) { return max(1e-4 * local, max(1e-5 * far, 1e-30)); }
 
 // --refine-cuts: one observation y of `slot` through child `side` (SideCounts above).
 void record_side(uint slot, uint side, float y) {
@@ -404,7 +404,7 @@ void next_event(inout Path st, vec3 x, vec3 n, float eps, vec3 wo, Bsdf bsdf, fl
         bool area = (light.kind & 0xffu) == LIGHT_TRIANGLE;
         // Stop short of an area light's own surface (by the offset its coordinates need);
         // a point light has none.
-        float tmax = area ? sdist - max(eps, surface_eps(max(max_abs(light.p0), max(max_abs(light.p1), max_abs(light.p2))))) : sdist;
+        float tmax = area ? sdist - max(eps, surface_eps(max_abs(x + wi * dist), max(max_abs(light.p0), max(max_abs(light.p1), max_abs(light.p2))))) : sdist;
         float ts;
         if ((KNOCK_OUT & KNOCK_SHADOW) != 0u || trace_ray(so, to_light / sdist, 0.0, tmax, true, ts) == NO_HIT) {
             // Evaluated only for visible samples (GGX costs tens of operations).
@@ -495,9 +495,9 @@ bool path_vertex(inout Path st, uint depth) {
     // Reflection is two-sided: shade the side the ray came from.
     vec3 n = front ? ng : -ng;
     vec3 x = st.origin + t * st.dir;
-    // How far rays leave x: by the rounding of x = origin + t·dir and of the triangle's
-    // own intersection test (surface_eps).
-    float eps = surface_eps(max(max(max_abs(st.origin), t), max(max_abs(tri.v0), max(max_abs(tri.v0 + tri.e1), max_abs(tri.v0 + tri.e2)))));
+    // How far rays leave x: by x's scale and the rounding of x = origin + t·dir and of the
+    // triangle's own intersection test (surface_eps).
+    float eps = surface_eps(max_abs(x), max(max(max_abs(st.origin), t), max(max_abs(tri.v0), max(max_abs(tri.v0 + tri.e1), max_abs(tri.v0 + tri.e2)))));
     uint dim0 = depth * DIMS_PER_VERTEX;
     // glTF: base colour = factor × texture.
     if (SCENE_TEXTURED && m.texture != NO_TEXTURE) {

@@ -326,7 +326,9 @@ pub struct RenderParams {
     pub sample_index: u32,
     pub seed: u32,
     pub light_count: u32,
-    /// Offset of secondary ray origins, relative to the scene size.
+    /// 1e-4 of the scene's size (`render::ray_epsilon`). The kernel offsets rays by the
+    /// coordinates where they start (render.comp `surface_eps`) and no longer reads it; the
+    /// field keeps the block's layout, which tests/layout.rs checks against the SPIR-V.
     pub ray_eps: f32,
     /// Surface vertices of a path (1: direct light by light sampling alone).
     pub max_depth: u32,

@@ -112,7 +112,7 @@ pub fn first_hit(scene: &Scene, bvh: &Bvh, o: Vec3, d: Vec3) -> Option<Hit> {
     let m = &scene.materials[scene.triangle_material[prim as usize] as usize];
     Some(Hit {
         x: o + t * d,
-        eps: hit_epsilon(o, t, [a, b, c]),
+        eps: hit_epsilon(o, d, t, [a, b, c]),
         n: if front { ng } else { -ng },
         brdf: m.base_color / std::f32::consts::PI,
         emission: if front || m.double_sided {
@@ -145,7 +145,8 @@ pub fn light_samples(
 ) -> LightSamples {
     let (x, n, eps) = (hit.x, hit.n, hit.eps);
     // Unoccluded contribution of a point y with "intensity" term `e` (already / r²);
-    // `area`: the offset to stop short of an area light's surface by.
+    // `area`: for an area light, the largest magnitude of its corners (how far to stop
+    // short of its surface).
     let visible = |y: Vec3, area: Option<f32>| -> Option<(Vec3, f32, f32)> {
         let to = y - x;
         let dist = to.length();
@@ -159,7 +160,7 @@ pub fn light_samples(
         let to_light = y - so;
         let sdist = to_light.length();
         let tmax = match area {
-            Some(end) => sdist - eps.max(end),
+            Some(corners) => sdist - eps.max(surface_epsilon(y.abs().max_element(), corners)),
             None => sdist,
         };
         if bvh.occluded(so, to_light / sdist, 0.0, tmax) {
@@ -213,13 +214,13 @@ pub fn light_samples(
             let area = 0.5 * cross.length();
             let ny = cross.normalize();
             let (emission, two) = scene.triangle_emission(triangle);
-            let end = surface_epsilon(p0.abs().max(p1.abs()).max(p2.abs()).max_element());
+            let corners = p0.abs().max(p1.abs()).max(p2.abs()).max_element();
             for _ in 0..area_samples {
                 let su = rng.f32().sqrt();
                 let (b0, b1) = (1.0 - su, rng.f32() * su);
                 let y = b0 * p0 + b1 * p1 + (1.0 - b0 - b1) * p2;
                 let mut v = Vec3::ZERO;
-                if let Some((wi, dist, cos_x)) = visible(y, Some(end)) {
+                if let Some((wi, dist, cos_x)) = visible(y, Some(corners)) {
                     let mut cos_y = ny.dot(-wi);
                     if two {
                         cos_y = cos_y.abs();

@@ -48,21 +48,21 @@ pub struct GpuScene {
     pub kernel_flags: u32,
 }
 
-/// How far a ray starts off a surface (and stops short of an area light) where the largest
-/// coordinate magnitude in the computation of the point is `m`: 1e-4 of it, far above f32's
-/// rounding there (~1e-7 of m) yet below any wall thickness at that scale. render.comp's
-/// `surface_eps` is the kernel's copy; it says why the offset is local, not the scene's.
-pub fn surface_epsilon(m: f32) -> f32 {
-    1e-4 * m.max(1e-3)
+/// How far a ray starts off a surface at a point whose largest coordinate magnitude is
+/// `local` (and stops short of an area light there): 1e-4 of it, and at least 1e-5 of `far`,
+/// the magnitudes the point's rounding comes from (its ray's origin and length, the
+/// triangle's corners: f32 rounds there at ~1e-7 of them). render.comp's `surface_eps` is
+/// the kernel's copy; it says why the offset is local, not the scene's.
+pub fn surface_epsilon(local: f32, far: f32) -> f32 {
+    (1e-4 * local).max(1e-5 * far).max(1e-30)
 }
 
-/// [`surface_epsilon`] at the hit `o + t·d` on the triangle `tri`: by the rounding of the
-/// hit point and of the triangle's own intersection test.
-pub fn hit_epsilon(o: Vec3, t: f32, tri: [Vec3; 3]) -> f32 {
-    let m = tri.iter().fold(o.abs().max_element().max(t), |m, v| {
+/// [`surface_epsilon`] at the hit `o + t·d` on the triangle `tri`.
+pub fn hit_epsilon(o: Vec3, d: Vec3, t: f32, tri: [Vec3; 3]) -> f32 {
+    let far = tri.iter().fold(o.abs().max_element().max(t), |m, v| {
         m.max(v.abs().max_element())
     });
-    surface_epsilon(m)
+    surface_epsilon((o + t * d).abs().max_element(), far)
 }
 
 /// 1e-4 of the scene's size: how far the host widens boxes in the tests of what a pixel's
