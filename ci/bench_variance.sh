@@ -17,6 +17,6 @@ for s in rooms16 city hall strings; do
   # shellcheck disable=SC2086
   /usr/bin/time -f "($s: %e s)" ./target/release/lightlearn variance "scenes/$s.glb" \
     --samplers wang,donikian,bayes --converge "$converge" --width 128 --height 96 --spp 256 \
-    --out "$out/$s" ${EXTRA:-} 2>&1 | grep -v '^$' | grep -v 'decomposing'
+    --out "$out/$s" ${EXTRA:-} 2>&1 | grep -v '^$' | grep -v 'decomposing' | grep -v ' % after '
   echo
 done

@@ -118,8 +118,9 @@ fn one_line(s: &str) -> String {
 struct Terminal {
     bar: Option<ProgressBar>,
     quiet: bool,
-    /// When the phase began and when its last progress line was logged (no terminal).
-    logged: Option<(Instant, Instant)>,
+    /// The label, when it began (its first progress) and when its last progress line was
+    /// logged (no terminal): `compare` reports sampler after sampler in one phase.
+    logged: Option<(String, Instant, Instant)>,
 }
 
 /// The bar's steps: with 1000 a render of hours stayed at step 0 for minutes and its ETA
@@ -146,7 +147,12 @@ impl Terminal {
 
     fn log_progress(&mut self, label: &str, spp: u32, fraction: f64) {
         let now = Instant::now();
-        let (start, last) = self.logged.get_or_insert((now, now));
+        if self.logged.as_ref().is_none_or(|(l, _, _)| l != label) {
+            self.logged = Some((label.to_string(), now, now));
+        }
+        let Some((_, start, last)) = self.logged.as_mut() else {
+            return;
+        };
         if now.duration_since(*last) < log_every() {
             return;
         }

@@ -560,9 +560,15 @@ fn files_named_after_the_exr_that_are_not_ours_are_kept() {
     std::fs::write(d.join("photo.png"), b"not ours").unwrap();
     refused(
         &render("c.gltf", &["--out", "photo.exr"], d),
-        &["photo.png", "no lightlearn report beside it"],
+        &["photo.png", "no lightlearn EXR or report beside it"],
     );
     assert_eq!(std::fs::read(d.join("photo.png")).unwrap(), b"not ours");
+    // --force replaces them (render); a set whose report was removed is still ours.
+    let o = render("c.gltf", &["--out", "photo.exr", "--force"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::remove_file(d.join("photo.json")).unwrap();
+    let o = render("c.gltf", &["--out", "photo.exr"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
     // A render's own set is replaced, again and again.
     for seed in ["1", "2"] {
         let o = render("c.gltf", &["--out", "r.exr", "--seed", seed], d);

@@ -358,7 +358,7 @@ fn reports_edited_past_what_a_render_writes_are_refused() {
     edited("spp", serde_json::json!(2147483647u64));
     refused(
         &run(&["merge", "a.exr", "b.exr", "--out", "m.exr"], d),
-        "past the 2147483648 passes",
+        "past the 2147483648 a render",
     );
     edited("spp", serde_json::json!(0));
     refused(

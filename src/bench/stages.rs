@@ -151,7 +151,7 @@ pub fn table(times: &[StageTime]) -> String {
     for t in times {
         let saved = full - t.seconds;
         s.push_str(&format!(
-            "| {} | {:.3} | {:+.3} | {:.0} % |\n",
+            "| {} | {:.4} | {:+.4} | {:.0} % |\n",
             t.name,
             t.seconds,
             saved,

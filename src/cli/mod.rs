@@ -217,7 +217,8 @@ pub struct RenderArgs {
     /// sample indices continue after the saved render's.
     #[arg(long, value_name = "FILE")]
     pub load_stats: Option<PathBuf>,
-    /// Let --save-stats replace an existing file that is not a statistics file.
+    /// Replace existing files that are not lightlearn's: a --save-stats target that is not a
+    /// statistics file, a JSON beside --out that is not a report, a PNG there with neither.
     #[arg(long)]
     pub force: bool,
     /// Render farm chunk K: the samples [K·spp, (K+1)·spp) (after what --load-stats

@@ -292,8 +292,9 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
     let sequence = sequence_key(req);
     // A stop asked for between frames (while a frame's scene is built or its files are
     // written) waits for this loop too, as one inside a frame's passes does: it had
-    // ended the process at once (exit 130, no word; an audit, 2026-12-06).
-    let _active = crate::interrupt::Active::begin();
+    // ended the process at once (exit 130, no word; an audit, 2026-12-06). Only over the
+    // frames: a stop during the video's encoding still ends the process at once.
+    let active = crate::interrupt::Active::begin();
     for k in first..=last {
         if crate::interrupt::requested() {
             interrupted = true;
@@ -463,6 +464,9 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         previous = Some(scene);
         prev_gpu = Some(gpu);
     }
+    // A stop while the last frame's files were written: every frame is whole.
+    interrupted |= crate::interrupt::requested();
+    drop(active);
     let video = if req.video && !interrupted {
         encode_video(req, span, ui)
     } else {

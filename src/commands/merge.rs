@@ -82,7 +82,6 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
             );
         }
     }
-    paths.check_not_foreign()?;
     let mut reports = Vec::new();
     for p in parts {
         // A missing image was reported as a missing report.
@@ -111,6 +110,7 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
         }
         reports.push(r);
     }
+    paths.check_not_foreign()?;
     let first = &reports[0];
     for (r, p) in reports.iter().zip(parts).skip(1) {
         for field in SAME {
@@ -203,12 +203,11 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
             }
         }
         total += spp;
-        // Each part is within the random streams' passes; their sum must be too, or the
-        // merged report names more samples than any render holds (2147483647 + 4 was
-        // written as 2147483651; an audit, 2026-12-06).
+        // The merged report's spp stays one a render's report can hold (2147483647 + 4
+        // was written as 2147483651; an audit, 2026-12-06).
         if total > crate::render::MAX_PASSES as u64 {
             bail!(
-                "the parts hold {total} samples together, past the {} passes a render can take; merge fewer parts",
+                "the parts hold {total} samples together, past the {} a render's report can count; merge fewer parts",
                 crate::render::MAX_PASSES
             );
         }

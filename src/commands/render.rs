@@ -134,7 +134,9 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         let inputs: Vec<&std::path::Path> = files.iter().map(PathBuf::as_path).collect();
         stats_file::check_save_target(p, &inputs, &paths.all(), req.force)?;
     }
-    paths.check_not_foreign()?;
+    if !req.force {
+        paths.check_not_foreign()?;
+    }
     let loaded = match &req.load_stats {
         Some(p) => Some(SavedStats::load(p)?),
         None => None,

@@ -250,7 +250,7 @@ fn over_budget(c: &Comparison) -> Option<String> {
         return None;
     }
     Some(format!(
-        "equal time is not equal here: {} against --time {t} s (a render stops at the end of a pass), so their speed-ups compare longer renders; give a longer --time",
+        "equal time is not equal here: {} against --time {t} s (a render stops at the end of a pass, and on a cold shader cache its first pass holds lavapipe's kernel compile), so their speed-ups compare longer renders; give a longer --time",
         over.join(", ")
     ))
 }

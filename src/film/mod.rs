@@ -52,21 +52,22 @@ impl OutputPaths {
     /// The PNG and the JSON are named after the EXR, not by the user: one that exists and
     /// is not a lightlearn output is a user's file (`--out notes.exr` replaced notes.json
     /// with a report, exit 0; an audit, 2026-12-06). A JSON is ours when it is a lightlearn
-    /// report; a PNG when such a report is beside it (the three are written together).
-    /// Called by the commands after their checks against their inputs, whose messages say
-    /// more (which input the output would replace).
+    /// report; a PNG when such a report or the EXR is beside it (the three are written
+    /// together, the JSON last: a run killed between the renames, or a report removed by
+    /// hand, leaves the two images). Called by the commands after their checks against
+    /// their inputs, whose messages say more (which input the output would replace).
     pub fn check_not_foreign(&self) -> Result<()> {
         let ours = is_report(&self.json);
         let foreign = if self.json.is_file() && !ours {
             Some((&self.json, "is not a lightlearn report"))
-        } else if self.png.is_file() && !ours {
-            Some((&self.png, "has no lightlearn report beside it"))
+        } else if self.png.is_file() && !ours && !self.exr.is_file() {
+            Some((&self.png, "has no lightlearn EXR or report beside it"))
         } else {
             None
         };
         if let Some((p, why)) = foreign {
             bail!(
-                "'{}' exists and {why}: --out '{}' would replace it with the render's {}; name another --out, or move the file",
+                "'{}' exists and {why}: --out '{}' would replace it with the render's {}; name another --out, move the file, or add --force (render) to replace it",
                 p.display(),
                 self.exr.display(),
                 if *p == self.json { "report" } else { "preview" }
