@@ -383,6 +383,25 @@ fn zero_light_samples_are_counted() {
     assert_eq!(fraction(true), 1.0);
 }
 
+/// The image's mean green radiance and its standard error (from the per-pixel variances).
+fn green_mean(r: &render::RenderResult) -> (f64, f64) {
+    let n = r.mean().len() as f64;
+    let mean = r.mean().iter().map(|p| p[1] as f64).sum::<f64>() / n;
+    let var = r
+        .variance_of_mean()
+        .iter()
+        .map(|v| v[1] as f64)
+        .sum::<f64>();
+    (mean, (var / (n * n)).sqrt())
+}
+
+/// L_e (1 + ρ + … + ρ^depth): the furnace box's radiance after `depth` surface vertices.
+fn furnace_radiance(le: f32, rho: f32, depth: u32) -> f64 {
+    (0..=depth as i32)
+        .map(|k| le as f64 * (rho as f64).powi(k))
+        .sum()
+}
+
 /// The white furnace of a path tracer: inside a closed box whose walls all emit L_e and
 /// reflect ρ (Lambertian), the radiance after D surface vertices is L_e (1 + ρ + … + ρ^D)
 /// everywhere. Checks next-event estimation, BSDF sampling, the MIS weights (a light pmf that
@@ -447,19 +466,8 @@ fn closed_emissive_box_has_the_geometric_series_radiance() {
             first_light_samples,
         };
         let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
-        let n = r.mean().len() as f64;
-        let mean = r.mean().iter().map(|p| p[1] as f64).sum::<f64>() / n;
-        let se = (r
-            .variance_of_mean()
-            .iter()
-            .map(|v| v[1] as f64)
-            .sum::<f64>()
-            / (n * n))
-            .sqrt();
-        let want = le as f64
-            * (0..=depth)
-                .map(|k| (rho as f64).powi(k as i32))
-                .sum::<f64>();
+        let (mean, se) = green_mean(&r);
+        let want = furnace_radiance(le, rho, depth);
         assert_eq!(r.invalid_samples, 0);
         assert!(
             (mean - want).abs() < 4.0 * se + 1e-4 * want,
@@ -514,20 +522,9 @@ fn far_away_objects_do_not_move_the_rays_of_near_ones() {
         first_light_samples: 1,
     };
     let r = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {}).unwrap();
-    let n = r.mean().len() as f64;
-    let mean = r.mean().iter().map(|p| p[1] as f64).sum::<f64>() / n;
-    let se = (r
-        .variance_of_mean()
-        .iter()
-        .map(|v| v[1] as f64)
-        .sum::<f64>()
-        / (n * n))
-        .sqrt();
+    let (mean, se) = green_mean(&r);
     // The far light adds ~1e-13 here.
-    let want = le as f64
-        * (0..=depth as i32)
-            .map(|k| (rho as f64).powi(k))
-            .sum::<f64>();
+    let want = furnace_radiance(le, rho, depth);
     assert_eq!(r.invalid_samples, 0, "samples came out NaN/Inf");
     assert!(
         (mean - want).abs() < 4.0 * se + 1e-4 * want,
