@@ -82,16 +82,14 @@ impl OutputPaths {
 }
 
 /// Whether `p` is a report lightlearn wrote (a JSON object naming its EXR's checksum, its
-/// version or its merged parts). Larger files than any report are not read.
+/// version or its merged parts). Past 64 MiB, more than any report, it is cut short and so
+/// not one.
 fn is_report(p: &Path) -> bool {
-    if std::fs::metadata(p).map_or(true, |m| !m.is_file() || m.len() > 64 << 20) {
-        return false;
-    }
-    let Ok(bytes) = std::fs::read(p) else {
+    let Ok(bytes) = crate::io::read_regular(p, 64 << 20) else {
         return false;
     };
     serde_json::from_slice::<serde_json::Value>(&bytes).is_ok_and(|v| {
-        ["exr_fnv1a", "lightlearn_version", "merged_from"]
+        [EXR_CHECKSUM, "lightlearn_version", "merged_from"]
             .iter()
             .any(|k| v.get(k).is_some())
     })

@@ -110,9 +110,10 @@ pub fn first_hit(scene: &Scene, bvh: &Bvh, o: Vec3, d: Vec3) -> Option<Hit> {
     let ng = (b - a).cross(c - a).normalize();
     let front = ng.dot(d) < 0.0;
     let m = &scene.materials[scene.triangle_material[prim as usize] as usize];
+    let x = o + t * d;
     Some(Hit {
-        x: o + t * d,
-        eps: hit_epsilon(o, d, t, [a, b, c]),
+        x,
+        eps: hit_epsilon(x, o, t, [a, b, c]),
         n: if front { ng } else { -ng },
         brdf: m.base_color / std::f32::consts::PI,
         emission: if front || m.double_sided {

@@ -198,7 +198,8 @@ pub fn build_cuts(
             let [a, b, c] = scene.triangles[prim as usize];
             let ng = (b - a).cross(c - a).normalize();
             let n = if ng.dot(d) < 0.0 { ng } else { -ng };
-            Some((o + t * d, n, super::hit_epsilon(o, d, t, [a, b, c])))
+            let x = o + t * d;
+            Some((x, n, super::hit_epsilon(x, o, t, [a, b, c])))
         };
         reached = (0..w * h)
             .into_par_iter()

@@ -57,12 +57,12 @@ pub fn surface_epsilon(local: f32, far: f32) -> f32 {
     (1e-4 * local).max(1e-5 * far).max(1e-30)
 }
 
-/// [`surface_epsilon`] at the hit `o + t·d` on the triangle `tri`.
-pub fn hit_epsilon(o: Vec3, d: Vec3, t: f32, tri: [Vec3; 3]) -> f32 {
+/// [`surface_epsilon`] at the hit `x` = `o + t·d` on the triangle `tri`.
+pub fn hit_epsilon(x: Vec3, o: Vec3, t: f32, tri: [Vec3; 3]) -> f32 {
     let far = tri.iter().fold(o.abs().max_element().max(t), |m, v| {
         m.max(v.abs().max_element())
     });
-    surface_epsilon((o + t * d).abs().max_element(), far)
+    surface_epsilon(x.abs().max_element(), far)
 }
 
 /// 1e-4 of the scene's size: how far the host widens boxes in the tests of what a pixel's
