@@ -127,7 +127,13 @@ fn gltf_brdf(m: &GpuMaterial, n: DVec3, v: DVec3, l: DVec3) -> DVec3 {
     let f0m = f0.max_element();
     let wf = |c: f64| spec * (f0m + (1.0 - f0m) * (1.0 - c).powi(5));
     let w_avg = spec * (f0m + (1.0 - f0m) / 21.0);
-    let dielectric = (1.0 - wf(nv)) * (1.0 - wf(nl)) / (1.0 - w_avg) * base / PI + spec * fd * s;
+    // The quotient's limit as f0 → 1 under a full-strength layer is 0 (bsdf.glsl).
+    let coupling = if w_avg < 1.0 {
+        (1.0 - wf(nv)) * (1.0 - wf(nl)) / (1.0 - w_avg)
+    } else {
+        0.0
+    };
+    let dielectric = coupling * base / PI + spec * fd * s;
     let metallic = m.metallic as f64;
     dielectric * (1.0 - metallic) + fm * s * metallic
 }
@@ -163,7 +169,7 @@ fn brdf_is_the_documented_formula_and_reciprocal() {
             1 => 1.0,
             _ => rng.f32(),
         };
-        let m = material(
+        let mut m = material(
             base,
             metallic,
             rng.range(0.1, 1.0),
@@ -174,6 +180,12 @@ fn brdf_is_the_documented_formula_and_reciprocal() {
                 rng.range(0.0, 2.0),
             ),
         );
+        // KHR_materials_specular allows colour factors past 1: a full-strength layer whose
+        // F0 reaches 1 (0.04 × 26) made every value NaN (an audit, 2026-12-06).
+        if i % 40 == 7 {
+            m.specular = 1.0;
+            m.specular_color = [26.0, rng.range(0.0, 30.0), 1.0];
+        }
         let n = random_unit_above(&mut rng, DVec3::Z);
         let (v, l) = (
             random_unit_above(&mut rng, n),

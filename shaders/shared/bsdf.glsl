@@ -110,7 +110,10 @@ vec3 bsdf_eval(Bsdf b, vec3 n, vec3 v, vec3 l) {
     float wv = b.specular * (f0 + (1.0 - f0) * schlick_weight(cv));
     float wl = b.specular * (f0 + (1.0 - f0) * schlick_weight(cl));
     float w_avg = b.specular * (f0 + (1.0 - f0) / 21.0);
-    vec3 diffuse = b.base * ((1.0 - wv) * (1.0 - wl) / (PI * (1.0 - w_avg)));
+    // A full-strength layer of F0 = 1 (specular 1, specularColorFactor ≥ 25) leaves the
+    // base no light: w_avg = 1, and 0/0 made every sample NaN, a black image (an audit,
+    // 2026-12-06). The limit f0 → 1 of the quotient is 0.
+    vec3 diffuse = w_avg < 1.0 ? b.base * ((1.0 - wv) * (1.0 - wl) / (PI * (1.0 - w_avg))) : vec3(0.0);
     return mix(diffuse + b.specular * fd * s, fm * s, b.metallic);
 }
 
