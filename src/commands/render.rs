@@ -281,6 +281,20 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
             result.invalid_samples
         ));
     }
+    // A black image is written as asked, but said: a camera looking away from the scene (a
+    // node of negative scale turns it round) rendered zeros with exit 0 and no word (an
+    // audit, 2026-12-06).
+    if result.spp > 0
+        && result
+            .accum
+            .iter()
+            .all(|a| a.sum[..3].iter().all(|v| *v <= 0.0))
+    {
+        ui.message(&format!(
+            "warning: the image is black: no light reached the camera in {} spp; check that the camera looks at the scene (a node of negative scale turns it round) and that the lights are not hidden",
+            result.spp
+        ));
+    }
     let samples = result.spp as f64 * req.width as f64 * req.height as f64;
     Ok(RenderOutcome {
         exr: paths.exr.clone(),

@@ -90,6 +90,8 @@ pub struct SamplerRun {
     /// The fraction of light samples that came out zero (occluded, facing away, a dead end
     /// in a cluster): what learning exists to cut.
     pub zero_sample_fraction: f64,
+    /// Samples that came out NaN/Inf and were dropped (should be 0; a warning says so).
+    pub invalid_samples: u32,
     pub convergence: Vec<ConvergencePoint>,
     /// Per pixel, the fraction of its light samples that came out zero.
     #[serde(skip)]
@@ -145,6 +147,11 @@ pub fn compare(
     reference_noise: Option<Metrics>,
     progress: &mut dyn FnMut(LightSampler, u32, f64),
 ) -> Result<Comparison> {
+    // A black reference makes every MSE 0 and every speed-up ∞ (an audit, 2026-12-06:
+    // "relMSE 0, speed-up inf" and exit 0 for a scene whose light never reached the camera).
+    if !reference.iter().flatten().any(|v| *v > 0.0) {
+        bail!("the reference image is black: no light reaches the camera (check that the camera looks at the scene and that its lights are not hidden or facing away); there is nothing to compare");
+    }
     let mut runs = Vec::new();
     for &sampler in samplers {
         let settings = RenderSettings {
@@ -200,6 +207,7 @@ pub fn compare(
             }),
             speedup_corrected: None,
             zero_sample_fraction: result.zero_sample_fraction(),
+            invalid_samples: result.invalid_samples,
             zero_map: result.zero_sample_map(),
             convergence,
             image,
@@ -229,7 +237,11 @@ pub fn compare(
         runs,
         warning: None,
     };
-    c.warning = over_budget(&c);
+    let warnings: Vec<String> = [over_budget(&c), invalid_samples(&c)]
+        .into_iter()
+        .flatten()
+        .collect();
+    c.warning = (!warnings.is_empty()).then(|| warnings.join("; "));
     Ok(c)
 }
 
@@ -253,6 +265,23 @@ fn over_budget(c: &Comparison) -> Option<String> {
         "equal time is not equal here: {} against --time {t} s (a render stops at the end of a pass, and on a cold shader cache its first pass holds lavapipe's kernel compile), so their speed-ups compare longer renders; give a longer --time",
         over.join(", ")
     ))
+}
+
+/// A warning where a sampler's render dropped NaN/Inf samples: its MSE is then that of a
+/// darker image, which `render` says and `compare` did not (an audit, 2026-12-06).
+fn invalid_samples(c: &Comparison) -> Option<String> {
+    let bad: Vec<String> = c
+        .runs
+        .iter()
+        .filter(|r| r.invalid_samples > 0)
+        .map(|r| format!("{} {}", r.sampler.name(), r.invalid_samples))
+        .collect();
+    (!bad.is_empty()).then(|| {
+        format!(
+            "samples came out NaN/Inf and were dropped ({}), so those errors are not the sampler's; please report this scene",
+            bad.join(", ")
+        )
+    })
 }
 
 #[cfg(test)]

@@ -181,6 +181,13 @@ fn render_image(
             result.spp
         );
     }
+    // A reference with samples dropped is darker than the scene: not one to measure against.
+    if result.invalid_samples > 0 {
+        bail!(
+            "{} samples of the reference came out NaN/Inf; it was not written or cached (please report this scene)",
+            result.invalid_samples
+        );
+    }
     let report = render::report_json(scene, settings, &result, &ctx.describe());
     Ok((result.mean(), report))
 }

@@ -85,18 +85,75 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
         }
     }
     check_animations(root, name)?;
+    check_images(root, name)?;
     check_node_tree(root, name)?;
     check_rotations(root, name)?;
     check_matrices(root, name)?;
+    // Required extensions are judged by what lightlearn reads, not by the crate's list: it
+    // refused a required KHR_materials_specular, which we read, and called every such file
+    // "not a valid glTF 2.0 file" (an audit, 2026-12-06).
+    let required: Vec<&str> = root
+        .extensions_required
+        .iter()
+        .map(String::as_str)
+        .filter(|e| !SUPPORTED_EXTENSIONS.contains(e))
+        .collect();
+    if !required.is_empty() {
+        bail!(
+            "'{name}' requires {}, which lightlearn does not read (it reads {}); export the file without {} (e.g. without Draco or meshopt compression)",
+            required.join(", "),
+            SUPPORTED_EXTENSIONS.join(", "),
+            if required.len() > 1 { "them" } else { "it" }
+        );
+    }
     let mut errors = Vec::new();
     root.validate(root, gltf::json::Path::new, &mut |path, e| {
-        errors.push(format!("{}: {e}", path()))
+        let at = path().to_string();
+        if !at.starts_with("extensionsRequired") {
+            errors.push(format!("{at}: {e}"))
+        }
     });
     if !errors.is_empty() {
         bail!(
             "'{name}' is not a valid glTF 2.0 file: {}. Export it again or check it with the Khronos glTF validator.",
             errors.join("; ")
         );
+    }
+    Ok(())
+}
+
+/// Every image has a source the crate can give: a uri, or a bufferView (with a mimeType)
+/// that exists in a buffer that exists. The crate's `Image::source` unwraps both, so an
+/// image of `{}`, one in a bufferView without a mimeType, or in a view out of range panicked
+/// (an audit, 2026-12-06), even when no material used it. Checked for every image, as the
+/// Khronos validator does.
+fn check_images(root: &Root, name: &str) -> Result<()> {
+    for (i, image) in root.images.iter().enumerate() {
+        let at = format!("'{name}': image {i}");
+        let Some(v) = &image.buffer_view else {
+            if image.uri.is_none() {
+                bail!("{at} has neither a uri nor a bufferView, so it has no data (glTF 2.0 §5.18); give it one, or remove it and the textures that use it");
+            }
+            continue;
+        };
+        let Some(view) = root.buffer_views.get(v.value()) else {
+            bail!(
+                "{at} names bufferView {}, but the file has {}; fix the index or export the file again",
+                v.value(),
+                root.buffer_views.len()
+            );
+        };
+        if view.buffer.value() >= root.buffers.len() {
+            bail!(
+                "{at} lies in bufferView {} of buffer {}, but the file has {} buffers; fix the index or export the file again",
+                v.value(),
+                view.buffer.value(),
+                root.buffers.len()
+            );
+        }
+        if image.mime_type.is_none() {
+            bail!("{at} lies in bufferView {} without a mimeType, which glTF requires there (§5.18); add \"mimeType\": \"image/png\"", v.value());
+        }
     }
     Ok(())
 }

@@ -43,6 +43,9 @@ impl Images<'_> {
                         .decode(payload)
                         .map_err(|e| anyhow!("image {}: bad base64 data ({e})", image.index()))?
                 } else {
+                    if let Some(scheme) = remote(uri) {
+                        bail!("image {} is at '{uri}', a {scheme} address; lightlearn reads files only: download it next to '{}' and give its file name as the uri", image.index(), self.file);
+                    }
                     let path = self.base.join(percent_decode(uri));
                     crate::io::read_regular(&path, MAX_IMAGE_FILE_BYTES).map_err(|e| {
                         anyhow!(
@@ -132,17 +135,15 @@ pub fn input_files(path: &Path) -> Vec<std::path::PathBuf> {
         return files;
     };
     let base = path.parent().unwrap_or(Path::new(""));
-    let uris = gltf
-        .document
-        .buffers()
-        .filter_map(|b| match b.source() {
-            gltf::buffer::Source::Uri(u) => Some(u.to_string()),
-            gltf::buffer::Source::Bin => None,
-        })
-        .chain(gltf.document.images().filter_map(|i| match i.source() {
-            gltf::image::Source::Uri { uri, .. } => Some(uri.to_string()),
-            gltf::image::Source::View { .. } => None,
-        }));
+    // From the JSON, not the crate's wrappers: an image whose bufferView or buffer is out of
+    // range, or that has neither a uri nor a bufferView, made them panic here, before the
+    // loader's checks could name it (an audit, 2026-12-06: exit 101 and a backtrace).
+    let root = gltf.as_json();
+    let uris = root
+        .buffers
+        .iter()
+        .filter_map(|b| b.uri.clone())
+        .chain(root.images.iter().filter_map(|i| i.uri.clone()));
     for uri in uris.filter(|u| !u.starts_with("data:")) {
         files.push(base.join(percent_decode(&uri)));
     }
@@ -173,6 +174,9 @@ pub(super) fn load_buffers(gltf: &gltf::Gltf, name: &str, base: &Path) -> Result
                             anyhow!("'{name}': buffer {}: bad base64 data ({e})", buffer.index())
                         })?
                 } else {
+                    if let Some(scheme) = remote(uri) {
+                        bail!("'{name}': buffer {} is at '{uri}', a {scheme} address; lightlearn reads files only: download it next to the .gltf and give its file name as the uri", buffer.index());
+                    }
                     let path: PathBuf = base.join(percent_decode(uri));
                     // At most the declared length: a longer file's tail is not the buffer
                     // (and /dev/zero as a URI read until memory ran out).
@@ -217,4 +221,63 @@ pub fn percent_decode(s: &str) -> String {
         i += 1;
     }
     String::from_utf8_lossy(&out).into_owned()
+}
+
+/// A sparse accessor's indices are strictly increasing and below its count (glTF 2.0
+/// §3.6.2.3). The crate substitutes a sparse value only where its index meets the element
+/// being read, so one out of range or out of order was dropped without a word (an audit,
+/// 2026-12-06: an index of 50 in a 4-element accessor left the mesh as if unedited).
+/// `what`: the accessor's role, for the message.
+pub(super) fn check_sparse(
+    accessor: &gltf::Accessor,
+    buffers: &[Vec<u8>],
+    what: &str,
+) -> Result<()> {
+    let Some(sparse) = accessor.sparse() else {
+        return Ok(());
+    };
+    let indices = sparse.indices();
+    let view = indices.view();
+    let size = indices.index_type().size();
+    let start = view.offset() + indices.offset();
+    let bytes = buffers
+        .get(view.buffer().index())
+        .and_then(|b| b.get(start..start + size * sparse.count()))
+        .filter(|_| indices.offset() + size * sparse.count() <= view.length())
+        .ok_or_else(|| {
+            anyhow!(
+                "{what}: accessor {}'s sparse indices lie outside their buffer view",
+                accessor.index()
+            )
+        })?;
+    let mut last: Option<u64> = None;
+    for (k, chunk) in bytes.chunks_exact(size).enumerate() {
+        let i = chunk
+            .iter()
+            .rev()
+            .fold(0u64, |v, b| (v << 8) | u64::from(*b));
+        if i >= accessor.count() as u64 || last.is_some_and(|l| i <= l) {
+            bail!(
+                "{what}: accessor {}'s sparse index {k} is {i}, but they must increase and stay below its count {}; fix the sparse data",
+                accessor.index(),
+                accessor.count()
+            );
+        }
+        last = Some(i);
+    }
+    Ok(())
+}
+
+/// The scheme of a URI that names a place other than a file (`https://…`), whose path read
+/// beside the scene was "No such file" (an audit, 2026-12-06). A relative path has none: glTF
+/// URIs are RFC 3986 references, and a scheme is letters before "://" (`file:` included:
+/// lightlearn reads paths relative to the scene only).
+fn remote(uri: &str) -> Option<&str> {
+    let (scheme, _) = uri.split_once("://")?;
+    (!scheme.is_empty()
+        && scheme.starts_with(|c: char| c.is_ascii_alphabetic())
+        && scheme
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || matches!(c, '+' | '-' | '.')))
+    .then_some(scheme)
 }

@@ -320,6 +320,13 @@ impl Document {
                     ));
                     continue;
                 }
+                let read = prim.attributes().filter_map(|(sem, a)| match sem {
+                    gltf::Semantic::Positions | gltf::Semantic::TexCoords(_) => Some(a),
+                    _ => None,
+                });
+                for a in read.chain(prim.indices()) {
+                    super::gltf_data::check_sparse(&a, buffers, &format!("'{name}': {mesh_label}"))?;
+                }
                 let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
                 let positions: Vec<[f32; 3]> = reader
                     .read_positions()
@@ -542,7 +549,25 @@ impl Document {
             } else {
                 String::new()
             };
-            bail!("'{name}' has no triangles{extra}; lightlearn needs triangle meshes to render");
+            // Which scene, where there are several: `"scene": 1` naming an empty one gave the
+            // same words as a file without meshes (an audit, 2026-12-06).
+            let doc = &self.gltf.document;
+            let which = match doc.default_scene() {
+                Some(sc) if doc.scenes().len() > 1 => format!(
+                    " in scene {} ('{}'), the one its `scene` names (the file has {})",
+                    sc.index(),
+                    sc.name().unwrap_or(""),
+                    doc.scenes().len()
+                ),
+                _ => String::new(),
+            };
+            // Triangles the file has, each rounded to a sliver beside an extent they span
+            // themselves (a floor with one vertex at 3e38): not "no triangles" (an audit,
+            // 2026-12-06).
+            if !triangles.is_empty() {
+                bail!("'{name}': all {} of its triangles round to zero area in 32-bit floats beside the scene's extent of {extent:.3e} units (a vertex or node far out of scale with the rest?); bring every position within a few orders of magnitude", triangles.len());
+            }
+            bail!("'{name}' has no triangles{which}{extra}; lightlearn needs triangle meshes to render");
         }
 
         // Every emissive triangle is an area light.
