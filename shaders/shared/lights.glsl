@@ -5,6 +5,8 @@
 
 #include "types.glsl"
 
+// Below this width in cos θ a spot's ramp is a step (scene::SPOT_HARD_EDGE).
+const float SPOT_HARD_EDGE = 1e-12;
 
 // Picks a light with one uniform number u; returns its index and selection pmf.
 uint pick_light(float u, uint count, out float pmf) {
@@ -20,9 +22,12 @@ uint pick_light(float u, uint count, out float pmf) {
     return i;
 }
 
-// glTF KHR_lights_punctual spot falloff (squared linear ramp in cos θ); see scene::spot_falloff.
+// glTF KHR_lights_punctual spot falloff (squared linear ramp in cos θ) over the file's
+// cones, a step where they meet; see scene::spot_falloff (why not the extension's 1e-3).
 float spot_falloff(float cos_theta, float cos_inner, float cos_outer) {
-    float scale = 1.0 / max(cos_inner - cos_outer, 1e-3);
+    float d = cos_inner - cos_outer;
+    if (d <= SPOT_HARD_EDGE) return cos_theta > cos_outer ? 1.0 : 0.0;
+    float scale = 1.0 / d;
     float a = clamp((cos_theta - cos_outer) * scale, 0.0, 1.0);
     return a * a;
 }

@@ -259,10 +259,44 @@ impl Scene {
     }
 }
 
-/// glTF spot falloff (KHR_lights_punctual reference implementation): 1 inside the inner cone,
-/// 0 outside the outer cone, a squared linear ramp in cos θ between.
+/// Below this width in cos θ a spot's ramp is a step at the outer cone (a wider one is
+/// finite in f32: 1/d ≤ 1e12; shaders/shared/lights.glsl has the same constant).
+pub const SPOT_HARD_EDGE: f32 = 1e-12;
+
+/// glTF spot falloff: 1 inside the inner cone, 0 outside the outer cone, a squared linear
+/// ramp in cos θ between, over the cones the file gives. The extension's sample code widens
+/// a ramp narrower than 1e-3 in cos θ to 1e-3 inside the outer cone (only to avoid a
+/// division by zero); that took 25 % of a narrow spot's light (0.0795/0.08 rad; Mitsuba 3
+/// and the exact ramp agree, an audit of 2026-12-06) and 0.6 % of a hard-edged one at 0.45
+/// rad, where pbrt-v4 and Cycles take the cones as given. A spot whose cones meet is a step.
 pub fn spot_falloff(cos_theta: f32, cos_inner: f32, cos_outer: f32) -> f32 {
-    let scale = 1.0 / (cos_inner - cos_outer).max(1e-3);
+    let d = cos_inner - cos_outer;
+    if d <= SPOT_HARD_EDGE {
+        return if cos_theta > cos_outer { 1.0 } else { 0.0 };
+    }
+    let scale = 1.0 / d;
     let a = ((cos_theta - cos_outer) * scale).clamp(0.0, 1.0);
     a * a
+}
+
+#[cfg(test)]
+mod tests {
+    use super::spot_falloff;
+
+    /// The ramp is the file's: halfway through a narrow one (cones 0.07 and 0.08 rad, 7.5e-4
+    /// apart in cos θ) the falloff is ((c − c_o)/(c_i − c_o))², which the extension's 1e-3
+    /// widening made 0.15 instead of 0.27; cones that meet are a step at the outer one.
+    #[test]
+    fn narrow_and_hard_spots_keep_their_cones() {
+        let (ci, co) = (0.07f64.cos(), 0.08f64.cos());
+        let c = 0.075f64.cos();
+        let want = ((c - co) / (ci - co)).powi(2);
+        let got = spot_falloff(c as f32, ci as f32, co as f32) as f64;
+        assert!((got - want).abs() < 2e-3, "{got} vs {want}");
+        assert_eq!(spot_falloff(ci as f32, ci as f32, co as f32), 1.0);
+        let edge = 0.45f32.cos();
+        assert_eq!(spot_falloff(0.4499f32.cos(), edge, edge), 1.0);
+        assert_eq!(spot_falloff(0.4501f32.cos(), edge, edge), 0.0);
+        assert_eq!(spot_falloff(edge, edge, edge), 0.0);
+    }
 }
