@@ -245,3 +245,30 @@ fn black_images_are_said_and_not_compared() {
     refused(&o, &["reference image is black", "camera"]);
     assert!(!d.join("cmp").exists());
 }
+
+/// An accessor without a bufferView is legal glTF (every value 0, or its sparse values
+/// alone): a NORMAL accessor of that kind, which lightlearn never reads, made the whole file
+/// "not a valid glTF 2.0 file … Missing data" (the validator's accessor zero-init files). A
+/// POSITION accessor of that kind is named.
+#[test]
+fn accessors_without_data_are_refused_only_where_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut doc = cornell(d);
+    let accessors = doc["accessors"].as_array_mut().unwrap();
+    accessors.push(json!({"componentType": 5126, "count": 28, "type": "VEC3"}));
+    let zeros = accessors.len() - 1;
+    doc["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = json!(zeros);
+    write_json(&d.join("normals.gltf"), &doc);
+    let o = render("normals.gltf", &["--out", "n.exr"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(zeros);
+    write_json(&d.join("positions.gltf"), &doc);
+    refused(
+        &render("positions.gltf", &["--out", "p.exr"], d),
+        &[
+            "positions.gltf",
+            &format!("accessor {zeros} has no bufferView"),
+        ],
+    );
+}
