@@ -257,6 +257,21 @@ fn reference_command_writes_and_caches() {
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(entry.with_extension("json")).unwrap()).unwrap();
     assert_eq!(report["spp"], 16, "the entry was rendered again");
+    // An entry whose render dropped NaN samples (cached before such references were
+    // refused: a review, 2026-12-06) is darker than the scene: made again.
+    let mut dropped = report;
+    dropped["invalid_samples_dropped"] = serde_json::json!(3);
+    std::fs::write(
+        entry.with_extension("json"),
+        serde_json::to_vec(&dropped).unwrap(),
+    )
+    .unwrap();
+    let o = compare_cached();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        o.status.success() && err.contains("dropped 3 NaN/Inf samples"),
+        "{err}"
+    );
 }
 
 #[test]

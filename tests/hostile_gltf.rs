@@ -146,6 +146,16 @@ fn sparse_indices_out_of_range_are_named() {
         &render("out.gltf", &["--out", "o.exr"], d),
         &["out.gltf", "mesh 0", "sparse index 0 is 50", "count 28"],
     );
+    // Counts of 0 and 2^62 (4 × 2^62 wrapped to 0 bytes to read: the edit dropped).
+    for (count, file) in [(0u64, "zero.gltf"), (1 << 62, "wrap.gltf")] {
+        let mut s = sparse(0);
+        s["accessors"][0]["sparse"]["count"] = json!(count);
+        write_json(&d.join(file), &s);
+        refused(
+            &render(file, &["--out", "w.exr"], d),
+            &[file, &format!("{count} sparse values for 28 elements")],
+        );
+    }
     write_json(&d.join("in.gltf"), &sparse(0));
     let o = render("in.gltf", &["--out", "i.exr"], d);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -263,6 +273,22 @@ fn accessors_without_data_are_refused_only_where_read() {
     let o = render("normals.gltf", &["--out", "n.exr"], d);
     assert!(o.status.success(), "{}", stderr(&o));
     doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(zeros);
+    // 2^40 zeros with one sparse value: the zeros were allocated (the process aborted).
+    let mut huge = doc.clone();
+    let view = add_view(&mut huge, &[0u8; 16]);
+    huge["accessors"][zeros]["count"] = json!(1u64 << 40);
+    huge["accessors"][zeros]["min"] = json!([0.0, 0.0, 0.0]);
+    huge["accessors"][zeros]["max"] = json!([1.0, 1.0, 1.0]);
+    huge["accessors"][zeros]["sparse"] = json!({
+        "count": 1,
+        "indices": {"bufferView": view, "componentType": 5125},
+        "values": {"bufferView": view, "byteOffset": 4}
+    });
+    write_json(&d.join("huge.gltf"), &huge);
+    refused(
+        &render("huge.gltf", &["--out", "h.exr"], d),
+        &["huge.gltf", "1099511627776 elements without a bufferView"],
+    );
     write_json(&d.join("positions.gltf"), &doc);
     refused(
         &render("positions.gltf", &["--out", "p.exr"], d),

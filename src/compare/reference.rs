@@ -36,7 +36,10 @@ pub fn reference_seed(seed: u32) -> u32 {
 }
 
 /// Bump when the integrator changes what image a scene converges to.
-const INTEGRATOR_VERSION: &str = "direct-v2"; // v2: shadow-ray fix (v1 images were wrong)
+/// v2: the shadow-ray fix (v1 images were wrong); v3: spots ramp over the file's cones (the
+/// extension's sample code had widened ramps narrower than 1e-3 in cos θ) and a dielectric
+/// layer of F0 = 1 no longer gives NaN: references of such scenes converge elsewhere.
+const INTEGRATOR_VERSION: &str = "direct-v3";
 
 pub fn cache_dir() -> PathBuf {
     if let Some(d) = std::env::var_os("LIGHTLEARN_CACHE") {
@@ -290,6 +293,14 @@ fn read_entry(
     }
     if px.iter().flatten().any(|c| !c.is_finite()) {
         bail!("it holds NaN or Inf pixels");
+    }
+    // An entry cached before references with dropped samples were refused (a review,
+    // 2026-12-06): darker than the scene.
+    if let Some(n) = report["invalid_samples_dropped"]
+        .as_u64()
+        .filter(|n| *n > 0)
+    {
+        bail!("its render dropped {n} NaN/Inf samples");
     }
     if legacy {
         let _ = seal(&paths.json, paths);

@@ -204,8 +204,16 @@ fn check_animations(root: &Root, name: &str) -> Result<()> {
 /// layout too ([`check_layout`]).
 fn check_accessor(root: &Root, a: usize, at: &str, read: bool) -> Result<()> {
     let Some(view) = &root.accessors[a].buffer_view else {
-        if read && root.accessors[a].sparse.is_none() {
-            bail!("{at}: accessor {a} has no bufferView and no sparse values, so every value is 0 (glTF allows it; lightlearn reads positions, indices and texture coordinates only from data); export the mesh with its data");
+        let acc = &root.accessors[a];
+        if read && acc.sparse.is_none() {
+            bail!("{at}: accessor {a} has no bufferView and no sparse values, so every value is 0 (glTF allows it, but lightlearn needs the data here); export the file with its data");
+        }
+        // Its zeros cost memory without a byte of file: 2^40 of them aborted the process
+        // (a review, 2026-12-06). No mesh lightlearn takes needs more than 3 vertices a
+        // triangle.
+        let most = 3 * super::gltf_load::MAX_TRIANGLES;
+        if read && acc.count.0 as usize > most {
+            bail!("{at}: accessor {a} holds {} elements without a bufferView, more than the {most} lightlearn reads; fix its count", acc.count.0);
         }
         return Ok(());
     };

@@ -236,14 +236,31 @@ pub(super) fn check_sparse(
     let Some(sparse) = accessor.sparse() else {
         return Ok(());
     };
+    let (n, a) = (sparse.count(), accessor.index());
+    // glTF: 1 ≤ count ≤ the accessor's count; the crate takes count − 1 (wrapping at 0) and
+    // sizes what it reads by count × the element (2^62 wrapped to 0: the edit dropped).
+    if n == 0 || n > accessor.count() {
+        bail!("{what}: accessor {a} has {n} sparse values for {} elements; glTF asks for 1 to its count", accessor.count());
+    }
     let indices = sparse.indices();
     let view = indices.view();
-    let size = indices.index_type().size();
-    let start = view.offset() + indices.offset();
-    let bytes = buffers
-        .get(view.buffer().index())
-        .and_then(|b| b.get(start..start + size * sparse.count()))
-        .filter(|_| indices.offset() + size * sparse.count() <= view.length())
+    // glTF forbids a stride on sparse views; the crate would read by it, this check not.
+    if view.stride().is_some() || sparse.values().view().stride().is_some() {
+        bail!("{what}: accessor {a}'s sparse data lie in a buffer view with a byteStride, which glTF forbids there; remove it");
+    }
+    let len = indices.index_type().size().checked_mul(n);
+    let in_view = len
+        .and_then(|l| indices.offset().checked_add(l))
+        .is_some_and(|end| end <= view.length());
+    let start = view.offset().checked_add(indices.offset());
+    let bytes = start
+        .zip(len)
+        .filter(|_| in_view)
+        .and_then(|(start, l)| {
+            buffers
+                .get(view.buffer().index())?
+                .get(start..start.checked_add(l)?)
+        })
         .ok_or_else(|| {
             anyhow!(
                 "{what}: accessor {}'s sparse indices lie outside their buffer view",
@@ -251,7 +268,7 @@ pub(super) fn check_sparse(
             )
         })?;
     let mut last: Option<u64> = None;
-    for (k, chunk) in bytes.chunks_exact(size).enumerate() {
+    for (k, chunk) in bytes.chunks_exact(indices.index_type().size()).enumerate() {
         let i = chunk
             .iter()
             .rev()
