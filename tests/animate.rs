@@ -209,6 +209,25 @@ fn malformed_animations_are_named() {
         j["animations"][0]["channels"][0]["target"]["node"] = 99.into();
     });
     check("node.glb", missing, &["channel 0", "targets node 99"]);
+    // Sparse key values whose indices (the key times' floats read as integers) pass the
+    // count were dropped: the animation as unedited (a review, 2026-12-06).
+    let sparse = common::edit_glb(&good, |j| {
+        let s = j["animations"][0]["samplers"][0].clone();
+        let (inp, out) = (
+            s["input"].as_u64().unwrap() as usize,
+            s["output"].as_u64().unwrap() as usize,
+        );
+        let (vi, vo) = (
+            j["accessors"][inp]["bufferView"].clone(),
+            j["accessors"][out]["bufferView"].clone(),
+        );
+        j["accessors"][out]["sparse"] = serde_json::json!({
+            "count": 2,
+            "indices": {"bufferView": vi, "componentType": 5125},
+            "values": {"bufferView": vo}
+        });
+    });
+    check("sparse.glb", sparse, &["channel 0", "sparse index 1 is"]);
     // A light keyed 1e20 away collapses the other frames' triangles in the frame of all of
     // them: it said "has no triangles", which is not so (an audit, 2026-12-06).
     let mut g = floor(0.5, (-2.0, 4.0), 2.0);

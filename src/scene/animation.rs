@@ -274,6 +274,10 @@ impl Animations {
             let name = anim.name().unwrap_or("").to_string();
             for (ci, ch) in anim.channels().enumerate() {
                 let label = format!("animation {} ('{name}') channel {ci}", anim.index());
+                // Sparse keys out of range were dropped as in meshes (a review, 2026-12-06).
+                for a in [ch.sampler().input(), ch.sampler().output()] {
+                    super::gltf_data::check_sparse(&a, buffers, &format!("'{file}': {label}"))?;
+                }
                 let reader = ch.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
                 let times: Vec<f32> = match reader.read_inputs() {
                     Some(t) => t.collect(),
