@@ -16,6 +16,12 @@ const ALBEDO: f32 = 0.5;
 /// A camera 0.5 above the floor looking (almost) straight down with a 1° field of view: every
 /// pixel sees a point within 5 mm of the origin.
 fn floor_scene(g: &mut GltfBuilder) {
+    floor_quad(g);
+    g.camera(Vec3::new(0.0, 0.5, 1e-4), Vec3::ZERO, 1f32.to_radians());
+}
+
+/// The 10 × 10 floor of albedo ALBEDO at y = 0.
+fn floor_quad(g: &mut GltfBuilder) {
     let floor = g.material("floor", Vec3::splat(ALBEDO), Vec3::ZERO, false);
     g.quad(
         "floor",
@@ -27,7 +33,6 @@ fn floor_scene(g: &mut GltfBuilder) {
         ],
         floor,
     );
-    g.camera(Vec3::new(0.0, 0.5, 1e-4), Vec3::ZERO, 1f32.to_radians());
 }
 
 /// Mean of the image and its standard error (over pixels, from the per-pixel variances).
@@ -185,17 +190,7 @@ fn floor_under_a_point_light_and_a_spot() {
 #[test]
 fn a_narrow_spot_ramps_over_its_own_cones() {
     let mut g = GltfBuilder::new();
-    let floor = g.material("floor", Vec3::splat(ALBEDO), Vec3::ZERO, false);
-    g.quad(
-        "floor",
-        [
-            Vec3::new(-5.0, 0.0, -5.0),
-            Vec3::new(-5.0, 0.0, 5.0),
-            Vec3::new(5.0, 0.0, 5.0),
-            Vec3::new(5.0, 0.0, -5.0),
-        ],
-        floor,
-    );
+    floor_quad(&mut g);
     // A patch of the floor 1e-4 wide at the origin, where the ramp is nearly linear.
     g.camera(Vec3::new(0.0, 0.5, 1e-4), Vec3::ZERO, 0.02f32.to_radians());
     let off = 0.075f32;
