@@ -272,6 +272,24 @@ fn accessors_without_data_are_refused_only_where_read() {
     write_json(&d.join("normals.gltf"), &doc);
     let o = render("normals.gltf", &["--out", "n.exr"], d);
     assert!(o.status.success(), "{}", stderr(&o));
+    // A texture-coordinate set no texture uses is not read either (it was refused, by the
+    // crate and then by this check); the set a base-colour texture uses is.
+    let mut uv = doc.clone();
+    uv["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_1"] = json!(zeros);
+    write_json(&d.join("uv1.gltf"), &uv);
+    let o = render("uv1.gltf", &["--out", "u.exr"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    lightlearn::film::write_png(&d.join("t.png"), 2, 2, &[[0.5; 3]; 4]).unwrap();
+    let mut used = textured(&uv, "t.png");
+    used["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["texCoord"] = json!(1);
+    write_json(&d.join("uv1_used.gltf"), &used);
+    refused(
+        &render("uv1_used.gltf", &["--out", "v.exr"], d),
+        &[
+            "uv1_used.gltf",
+            &format!("accessor {zeros} has no bufferView"),
+        ],
+    );
     doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(zeros);
     // 2^40 zeros with one sparse value: the zeros were allocated (the process aborted).
     let mut huge = doc.clone();

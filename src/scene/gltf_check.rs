@@ -20,15 +20,23 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
             // (what, accessor, whether the loader reads its data: only those must lie where
             // the file says; a damaged attribute it never reads, e.g. _BATCHID, is no reason
             // to refuse the file).
+            // The texture coordinates read are the set the material's base-colour texture
+            // names: an unused set without data refused the file (a review, 2026-12-06).
+            let uv_set = prim
+                .material
+                .and_then(|m| root.materials.get(m.value()))
+                .and_then(|m| m.pbr_metallic_roughness.base_color_texture.as_ref())
+                .map(|t| t.tex_coord);
             let mut used: Vec<(String, usize, bool)> = prim
                 .attributes
                 .iter()
                 .map(|(k, v)| {
                     use gltf::json::mesh::Semantic;
-                    let read = matches!(
-                        k,
-                        Checked::Valid(Semantic::Positions | Semantic::TexCoords(_))
-                    );
+                    let read = match k {
+                        Checked::Valid(Semantic::Positions) => true,
+                        Checked::Valid(Semantic::TexCoords(n)) => uv_set == Some(*n),
+                        _ => false,
+                    };
                     (format!("attribute {}", k.to_string()), v.value(), read)
                 })
                 .collect();
