@@ -151,21 +151,7 @@ fn check_images(root: &Root, name: &str) -> Result<()> {
             }
             continue;
         };
-        let Some(view) = root.buffer_views.get(v.value()) else {
-            bail!(
-                "{at} names bufferView {}, but the file has {}; fix the index or export the file again",
-                v.value(),
-                root.buffer_views.len()
-            );
-        };
-        if view.buffer.value() >= root.buffers.len() {
-            bail!(
-                "{at} lies in bufferView {} of buffer {}, but the file has {} buffers; fix the index or export the file again",
-                v.value(),
-                view.buffer.value(),
-                root.buffers.len()
-            );
-        }
+        view_in_buffer(root, v.value(), &at)?;
         if image.mime_type.is_none() {
             bail!("{at} lies in bufferView {} without a mimeType, which glTF requires there (§5.18); add \"mimeType\": \"image/png\"", v.value());
         }
@@ -211,8 +197,8 @@ fn check_animations(root: &Root, name: &str) -> Result<()> {
 /// Accessor `a`'s buffer view and buffer exist; where the loader reads it (`read`), its
 /// layout too ([`check_layout`]).
 fn check_accessor(root: &Root, a: usize, at: &str, read: bool) -> Result<()> {
-    let Some(view) = &root.accessors[a].buffer_view else {
-        let acc = &root.accessors[a];
+    let acc = &root.accessors[a];
+    let Some(view) = &acc.buffer_view else {
         if read && acc.sparse.is_none() {
             bail!("{at}: accessor {a} has no bufferView and no sparse values, so every value is 0 (glTF allows it, but lightlearn needs the data here); export the file with its data");
         }
@@ -225,23 +211,28 @@ fn check_accessor(root: &Root, a: usize, at: &str, read: bool) -> Result<()> {
         }
         return Ok(());
     };
-    let Some(v) = root.buffer_views.get(view.value()) else {
+    view_in_buffer(root, view.value(), &format!("{at}: accessor {a}"))?;
+    if read {
+        check_layout(root, a, view.value(), at)?;
+    }
+    Ok(())
+}
+
+/// Buffer view `v`, named by `what` (an image, an accessor), exists and lies in a buffer
+/// that exists; the crate indexes with both unchecked.
+fn view_in_buffer(root: &Root, v: usize, what: &str) -> Result<()> {
+    let Some(view) = root.buffer_views.get(v) else {
         bail!(
-            "{at}: accessor {a} names buffer view {}, but the file has {}; fix the index",
-            view.value(),
+            "{what} names bufferView {v}, but the file has {}; fix the index or export the file again",
             root.buffer_views.len()
         );
     };
-    if v.buffer.value() >= root.buffers.len() {
+    if view.buffer.value() >= root.buffers.len() {
         bail!(
-            "{at}: buffer view {} names buffer {}, but the file has {}; fix the index",
-            view.value(),
-            v.buffer.value(),
+            "{what} lies in bufferView {v} of buffer {}, but the file has {} buffers; fix the index or export the file again",
+            view.buffer.value(),
             root.buffers.len()
         );
-    }
-    if read {
-        check_layout(root, a, view.value(), at)?;
     }
     Ok(())
 }

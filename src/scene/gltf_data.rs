@@ -248,7 +248,8 @@ pub(super) fn check_sparse(
     if view.stride().is_some() || sparse.values().view().stride().is_some() {
         bail!("{what}: accessor {a}'s sparse data lie in a buffer view with a byteStride, which glTF forbids there; remove it");
     }
-    let len = indices.index_type().size().checked_mul(n);
+    let size = indices.index_type().size();
+    let len = size.checked_mul(n);
     let in_view = len
         .and_then(|l| indices.offset().checked_add(l))
         .is_some_and(|end| end <= view.length());
@@ -262,21 +263,17 @@ pub(super) fn check_sparse(
                 .get(start..start.checked_add(l)?)
         })
         .ok_or_else(|| {
-            anyhow!(
-                "{what}: accessor {}'s sparse indices lie outside their buffer view",
-                accessor.index()
-            )
+            anyhow!("{what}: accessor {a}'s sparse indices lie outside their buffer view")
         })?;
     let mut last: Option<u64> = None;
-    for (k, chunk) in bytes.chunks_exact(indices.index_type().size()).enumerate() {
+    for (k, chunk) in bytes.chunks_exact(size).enumerate() {
         let i = chunk
             .iter()
             .rev()
             .fold(0u64, |v, b| (v << 8) | u64::from(*b));
         if i >= accessor.count() as u64 || last.is_some_and(|l| i <= l) {
             bail!(
-                "{what}: accessor {}'s sparse index {k} is {i}, but they must increase and stay below its count {}; fix the sparse data",
-                accessor.index(),
+                "{what}: accessor {a}'s sparse index {k} is {i}, but they must increase and stay below its count {}; fix the sparse data",
                 accessor.count()
             );
         }

@@ -320,10 +320,17 @@ impl Document {
                     ));
                     continue;
                 }
-                let read = prim.attributes().filter_map(|(sem, a)| match sem {
-                    gltf::Semantic::Positions | gltf::Semantic::TexCoords(_) => Some(a),
-                    _ => None,
-                });
+                // The accessors read below: positions, indices and the texture-coordinate
+                // set of the material's base-colour texture (gltf_check reads the same).
+                let uv_set = prim
+                    .material()
+                    .pbr_metallic_roughness()
+                    .base_color_texture()
+                    .map(|info| gltf::Semantic::TexCoords(info.tex_coord()));
+                let read = [Some(gltf::Semantic::Positions), uv_set]
+                    .into_iter()
+                    .flatten()
+                    .filter_map(|sem| prim.get(&sem));
                 for a in read.chain(prim.indices()) {
                     super::gltf_data::check_sparse(&a, buffers, &format!("'{name}': {mesh_label}"))?;
                 }
@@ -549,6 +556,12 @@ impl Document {
             } else {
                 String::new()
             };
+            // Triangles the file has, each rounded to a sliver beside an extent they span
+            // themselves (a floor with one vertex at 3e38): not "no triangles" (an audit,
+            // 2026-12-06).
+            if !triangles.is_empty() {
+                bail!("'{name}': all {} of its triangles round to zero area in 32-bit floats beside the scene's extent of {extent:.3e} units (a vertex or node far out of scale with the rest?); bring every position within a few orders of magnitude", triangles.len());
+            }
             // Which scene, where there are several: `"scene": 1` naming an empty one gave the
             // same words as a file without meshes (an audit, 2026-12-06).
             let doc = &self.gltf.document;
@@ -561,12 +574,6 @@ impl Document {
                 ),
                 _ => String::new(),
             };
-            // Triangles the file has, each rounded to a sliver beside an extent they span
-            // themselves (a floor with one vertex at 3e38): not "no triangles" (an audit,
-            // 2026-12-06).
-            if !triangles.is_empty() {
-                bail!("'{name}': all {} of its triangles round to zero area in 32-bit floats beside the scene's extent of {extent:.3e} units (a vertex or node far out of scale with the rest?); bring every position within a few orders of magnitude", triangles.len());
-            }
             bail!("'{name}' has no triangles{which}{extra}; lightlearn needs triangle meshes to render");
         }
 
