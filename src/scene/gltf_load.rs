@@ -13,12 +13,10 @@
 //!   ignored with a warning.
 //! - The first camera in the scene is used, else a default camera that frames the scene.
 
-use std::collections::HashMap;
 use std::path::Path;
 
 use anyhow::{anyhow, bail, Result};
 use glam::{DMat4, DQuat, DVec3, Quat, Vec3};
-use gltf::mesh::Mode;
 
 use super::animation::{Animations, Pose};
 pub use super::frame::{Frame, NATIVE_SIZES};
@@ -26,12 +24,11 @@ use super::gltf_camera::{read_camera, Clip, View};
 use super::gltf_check::guarded;
 use super::gltf_data::{load_buffers, Images};
 use super::gltf_light::read_light;
-use super::gltf_material::material_slot;
-use super::{Camera, Light, Material, Scene};
+use super::gltf_material::MaterialTable;
+use super::gltf_mesh::Meshes;
+use super::{Camera, Light, Scene};
 
-/// Largest scene we accept, so a corrupt index count cannot exhaust memory. The GPU BVH and
-/// light buffers must fit lavapipe's 128 MiB storage-buffer limit: 48 B per triangle.
-pub const MAX_TRIANGLES: usize = 2_500_000;
+pub use super::gltf_mesh::MAX_TRIANGLES;
 
 /// Load a glTF/GLB file in its own pose (animations not applied). Warnings (skipped
 /// primitives, unsupported lights) go to `warn`.
@@ -256,8 +253,6 @@ impl Document {
         let name = self.name.as_str();
         let buffers = &self.buffers;
         let base = self.base.as_path();
-        let mut materials: Vec<Material> = Vec::new();
-        let mut material_index: HashMap<Option<usize>, u32> = HashMap::new();
         let mut scene = Scene {
             triangles: Vec::new(),
             triangle_material: Vec::new(),
@@ -269,208 +264,60 @@ impl Document {
             source: name.to_string(),
             grid_box: None,
         };
-        // glTF texture index → our texture (None: could not be used, already warned about).
-        let mut texture_index: HashMap<usize, Option<u32>> = HashMap::new();
-        let images = Images {
+        let mut table = MaterialTable::new(Images {
             buffers,
             base,
             file: name,
-        };
+        });
         let mut camera: Option<View> = None;
         // The camera's znear and zfar in world units, which only a warning reads.
         let mut clip: Option<Clip> = None;
         // World positions in f64 until the scene's origin is known (below): a scene far from its
         // file's origin (a node translation of 1e7) keeps full f32 precision around itself.
-        let mut triangles: Vec<[DVec3; 3]> = Vec::new();
+        let mut meshes = Meshes::default();
         let mut light_positions: Vec<DVec3> = Vec::new();
         // The punctual lights' names ("light K ('name')"), in the order of light_positions.
         let mut light_labels: Vec<String> = Vec::new();
-        let mut skipped_primitives = 0usize;
         let mut lights_with_range = 0usize;
-        // Triangles with an area in the file that their node's transform left without one:
-        // a far translation rounds them away even in f64 (walls moved to 3e38 vanished
-        // without a word: an audit, 2026-12-06). A singular transform (a scale of 0, which
-        // hides an object on purpose) is not counted.
-        let (mut lost_to_position, mut lost_emitters) = (0usize, 0usize);
-        // Emitting triangles a singular transform hid (a scale of 0, or an animation keyed
-        // to it): if no light is left, they, not a missing emitter, are why.
-        let mut hidden_emitters = 0usize;
 
         self.walk(pose, &mut |node, world| {
-        if let Some(mesh) = node.mesh() {
-            // Negative determinant mirrors the mesh and flips its winding (glTF 2.0 §3.7.4).
-            let det = world.determinant();
-            let flip = det < 0.0;
-            let regular = det != 0.0 && det.is_finite();
-            for prim in mesh.primitives() {
-                let mesh_label = format!(
-                    "mesh {} ('{}') primitive {}",
-                    mesh.index(),
-                    mesh.name().unwrap_or(""),
-                    prim.index()
-                );
-                let mode = prim.mode();
-                if matches!(
-                    mode,
-                    Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip
-                ) {
-                    skipped_primitives += 1;
-                    warn(format!(
-                        "'{name}': {mesh_label} has mode {mode:?}, not triangles; skipped"
-                    ));
-                    continue;
-                }
-                // The accessors read below: positions, indices and the texture-coordinate
-                // set of the material's base-colour texture (gltf_check reads the same).
-                let uv_set = prim
-                    .material()
-                    .pbr_metallic_roughness()
-                    .base_color_texture()
-                    .map(|info| gltf::Semantic::TexCoords(info.tex_coord()));
-                let read = [Some(gltf::Semantic::Positions), uv_set]
-                    .into_iter()
-                    .flatten()
-                    .filter_map(|sem| prim.get(&sem));
-                for a in read.chain(prim.indices()) {
-                    super::gltf_data::check_sparse(&a, buffers, &format!("'{name}': {mesh_label}"))?;
-                }
-                let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
-                let positions: Vec<[f32; 3]> = reader
-                    .read_positions()
-                    .ok_or_else(|| {
-                        anyhow!("'{name}': {mesh_label} has no readable POSITION attribute (missing, or its buffer view lies outside the buffer)")
-                    })?
-                    .collect();
-                let indices: Vec<u32> = match reader.read_indices() {
-                    Some(i) => i.into_u32().collect(),
-                    None if prim.indices().is_some() => {
-                        bail!("'{name}': {mesh_label}: its index accessor lies outside its buffer")
-                    }
-                    None => (0..positions.len() as u32).collect(),
-                };
-                // A triangle list of 3k + 1 or + 2 indices is malformed glTF; its last
-                // indices were dropped without a word (an audit, 2026-12-06).
-                if mode == Mode::Triangles && !indices.len().is_multiple_of(3) {
-                    bail!("'{name}': {mesh_label} is a triangle list of {} {}, not a multiple of 3; fix the mesh data", indices.len(), if prim.indices().is_some() { "indices" } else { "vertices" });
-                }
-                let tris = triangulate(mode, &indices);
-                let world_pos: Vec<DVec3> = positions
-                    .iter()
-                    .map(|p| world.transform_point3(Vec3::from(*p).as_dvec3()))
-                    .collect();
-                if let Some(bad) = world_pos.iter().position(|p| !p.is_finite()) {
-                    bail!(
-                        "'{name}': {mesh_label} vertex {bad} has a non-finite position (NaN or Inf); fix the mesh data"
-                    );
-                }
-                let mat = material_slot(
-                    &prim.material(),
-                    name,
-                    &mut materials,
-                    &mut material_index,
-                    &mut scene.textures,
-                    &mut texture_index,
-                    &images,
-                    warn,
-                )?;
-                // Texture coordinates of the set the material's base-colour texture uses.
-                let uvs: Vec<[f32; 2]> = match (
-                    materials[mat as usize].base_color_texture,
-                    prim.material()
-                        .pbr_metallic_roughness()
-                        .base_color_texture(),
-                ) {
-                    (Some(_), Some(info)) => match reader.read_tex_coords(info.tex_coord()) {
-                        Some(t) => {
-                            let uvs: Vec<[f32; 2]> = t.into_f32().collect();
-                            // One coordinate a vertex (glTF: every attribute has POSITION's
-                            // count); a short one was read as (0, 0) past its end.
-                            if uvs.len() != positions.len() {
-                                bail!("'{name}': {mesh_label} has {} TEXCOORD_{} values for {} vertices; an attribute needs one a vertex", uvs.len(), info.tex_coord(), positions.len());
-                            }
-                            if let Some(bad) = uvs
-                                .iter()
-                                .position(|t| !(t[0].is_finite() && t[1].is_finite()))
-                            {
-                                bail!("'{name}': {mesh_label} vertex {bad} has a non-finite texture coordinate (NaN or Inf); fix the mesh data");
-                            }
-                            uvs
-                        }
-                        None => {
-                            warn(format!(
-                                "'{name}': {mesh_label} has a base-colour texture but no TEXCOORD_{}; it samples the texture at (0, 0)",
-                                info.tex_coord()
-                            ));
-                            Vec::new()
-                        }
-                    },
-                    _ => Vec::new(),
-                };
-                let uv = |i: u32| uvs.get(i as usize).copied().unwrap_or([0.0, 0.0]);
-                for [a, b, c] in tris {
-                    let get = |i: u32| {
-                        world_pos.get(i as usize).copied().ok_or_else(|| {
-                            anyhow!(
-                                "'{name}': {mesh_label} index {i} is out of range ({} vertices)",
-                                world_pos.len()
-                            )
-                        })
-                    };
-                    let (va, vb, vc) = (get(a)?, get(b)?, get(c)?);
-                    let tri = if flip { [va, vc, vb] } else { [va, vb, vc] };
-                    // Degenerate triangles can never be hit and have no area to emit from
-                    // (those that become degenerate in f32 are dropped below).
-                    if (tri[1] - tri[0]).cross(tri[2] - tri[0]).length_squared() == 0.0 {
-                        let file = [a, b, c].map(|i| Vec3::from(positions[i as usize]).as_dvec3());
-                        let had_area = (file[1] - file[0]).cross(file[2] - file[0]).length_squared() > 0.0;
-                        let lost = regular && had_area;
-                        lost_to_position += lost as usize;
-                        let emits = materials[mat as usize].emission.max_element() > 0.0;
-                        lost_emitters += (lost && emits) as usize;
-                        hidden_emitters += (!regular && had_area && emits) as usize;
-                        continue;
-                    }
-                    triangles.push(tri);
-                    // Coordinates are kept from the first textured triangle on (earlier ones
-                    // get zeros), so untextured scenes never hold them.
-                    if !uvs.is_empty() || !scene.triangle_uv.is_empty() {
-                        scene.triangle_uv.resize(triangles.len() - 1, [[0.0; 2]; 3]);
-                        scene.triangle_uv.push(if flip {
-                            [uv(a), uv(c), uv(b)]
-                        } else {
-                            [uv(a), uv(b), uv(c)]
-                        });
-                    }
-                    scene.triangle_material.push(mat);
-                    if triangles.len() > MAX_TRIANGLES {
-                        bail!(
-                            "'{name}' has more than {MAX_TRIANGLES} triangles, the most lightlearn supports; simplify the scene"
-                        );
+            if let Some(mesh) = node.mesh() {
+                meshes.add(&mesh, world, buffers, name, &mut table, warn)?;
+            }
+
+            if camera.is_none() {
+                if let Some(cam) = node.camera() {
+                    if let Some((view, planes)) = read_camera(&cam, node, world, name, warn)? {
+                        camera = Some(view);
+                        clip = Some(planes);
                     }
                 }
             }
-        }
 
-        if camera.is_none() {
-            if let Some(cam) = node.camera() {
-                if let Some((view, planes)) = read_camera(&cam, node, world, name, warn)? {
-                    camera = Some(view);
-                    clip = Some(planes);
+            if let Some(light) = node.light() {
+                lights_with_range += light.range().is_some() as usize;
+                if let Some((l, position, label)) = read_light(&light, world, name, warn)? {
+                    light_positions.push(position);
+                    light_labels.push(label);
+                    scene.lights.push(l);
                 }
             }
-        }
 
-        if let Some(light) = node.light() {
-            lights_with_range += light.range().is_some() as usize;
-            if let Some((l, position, label)) = read_light(&light, world, name, warn)? {
-                light_positions.push(position);
-                light_labels.push(label);
-                scene.lights.push(l);
-            }
-        }
-
-        Ok(())
-    })?;
+            Ok(())
+        })?;
+        let Meshes {
+            triangles,
+            triangle_uv,
+            triangle_material,
+            skipped_primitives,
+            lost_to_position,
+            lost_emitters,
+            hidden_emitters,
+        } = meshes;
+        scene.triangle_uv = triangle_uv;
+        scene.triangle_material = triangle_material;
+        scene.textures = table.textures;
+        let materials = table.materials;
 
         if lights_with_range > 0 {
             warn(format!(
@@ -636,24 +483,4 @@ fn accessor_box(prim: &gltf::Primitive) -> Option<(DVec3, DVec3)> {
 
 fn node_label(node: &gltf::Node) -> String {
     format!("node {} ('{}')", node.index(), node.name().unwrap_or(""))
-}
-
-/// Triangles of a primitive as index triples.
-fn triangulate(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
-    match mode {
-        Mode::Triangles => idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
-        Mode::TriangleStrip => (2..idx.len())
-            .map(|i| {
-                if i % 2 == 0 {
-                    [idx[i - 2], idx[i - 1], idx[i]]
-                } else {
-                    [idx[i - 1], idx[i - 2], idx[i]]
-                }
-            })
-            .collect(),
-        Mode::TriangleFan => (2..idx.len())
-            .map(|i| [idx[0], idx[i - 1], idx[i]])
-            .collect(),
-        _ => Vec::new(),
-    }
 }

@@ -9,125 +9,156 @@ use glam::Vec3;
 use super::gltf_data::Images;
 use super::{Material, Texture};
 
-/// Index of our material for a glTF material (the default material gets its own slot).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn material_slot(
-    m: &gltf::Material,
-    file: &str,
-    materials: &mut Vec<Material>,
-    index: &mut HashMap<Option<usize>, u32>,
-    textures: &mut Vec<Texture>,
-    texture_index: &mut HashMap<usize, Option<u32>>,
-    images: &Images,
-    warn: &mut dyn FnMut(String),
-) -> Result<u32> {
-    if let Some(&i) = index.get(&m.index()) {
-        return Ok(i);
+/// The scene's materials and base-colour textures, each glTF material and texture converted
+/// once, in the order first used.
+pub(super) struct MaterialTable<'a> {
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    /// glTF material index (None: the default material) → ours.
+    index: HashMap<Option<usize>, u32>,
+    /// glTF texture index → ours (None: could not be used, already warned about).
+    texture_index: HashMap<usize, Option<u32>>,
+    images: Images<'a>,
+}
+
+impl<'a> MaterialTable<'a> {
+    pub fn new(images: Images<'a>) -> Self {
+        MaterialTable {
+            materials: Vec::new(),
+            textures: Vec::new(),
+            index: HashMap::new(),
+            texture_index: HashMap::new(),
+            images,
+        }
     }
-    let label = match m.index() {
-        Some(i) => format!("material {i} ('{}')", m.name().unwrap_or("")),
-        None => "the default material".to_string(),
-    };
-    let base = m.pbr_metallic_roughness().base_color_factor();
-    let strength = m.emissive_strength().unwrap_or(1.0);
-    let emission = Vec3::from(m.emissive_factor()) * strength;
-    let base_color = Vec3::new(base[0], base[1], base[2]);
-    if !emission.is_finite() || emission.min_element() < 0.0 {
-        bail!("'{file}': {label} has a non-finite or negative emission (emissiveFactor × emissiveStrength = {emission}); use finite values ≥ 0");
+
+    /// Whether our material `slot` emits light.
+    pub fn emits(&self, slot: u32) -> bool {
+        self.materials[slot as usize].emission.max_element() > 0.0
     }
-    if !base_color.is_finite() || base_color.min_element() < 0.0 {
-        bail!(
-            "'{file}': {label} has a non-finite or negative baseColorFactor; use values in [0, 1]"
-        );
-    }
-    // glTF bounds it by 1 and the BRDF clamps it there (an albedo above 1 would create
-    // energy): said, where it was silent (an audit, 2026-12-06).
-    if base_color.max_element() > 1.0 {
-        warn(format!(
-            "'{file}': {label} has baseColorFactor {base_color} above 1; rendered with it clamped to 1 (glTF asks for values in [0, 1])"
-        ));
-    }
-    let pbr = m.pbr_metallic_roughness();
-    let (metallic, roughness) = (pbr.metallic_factor(), pbr.roughness_factor());
-    if !(0.0..=1.0).contains(&metallic) || !(0.0..=1.0).contains(&roughness) {
-        bail!(
-            "'{file}': {label} has metallicFactor {metallic} and roughnessFactor {roughness}; \
-             both must be in [0, 1]"
-        );
-    }
-    let (specular, specular_color) = match m.specular() {
-        Some(sp) => (sp.specular_factor(), Vec3::from(sp.specular_color_factor())),
-        None => (1.0, Vec3::ONE),
-    };
-    if !(0.0..=1.0).contains(&specular)
-        || !specular_color.is_finite()
-        || specular_color.min_element() < 0.0
-    {
-        bail!(
-            "'{file}': {label} has KHR_materials_specular specularFactor {specular} and \
-             specularColorFactor {specular_color}; use a factor in [0, 1] and colours ≥ 0"
-        );
-    }
-    let ignored = [
-        (
-            pbr.metallic_roughness_texture().is_some(),
-            "a metallicRoughnessTexture",
-        ),
-        (m.normal_texture().is_some(), "a normal texture"),
-        (
-            m.specular().is_some_and(|sp| {
-                sp.specular_texture().is_some() || sp.specular_color_texture().is_some()
-            }),
-            "a specular texture",
-        ),
-    ];
-    for (present, what) in ignored {
-        if present {
+
+    /// Index of our material for a glTF material (the default material gets its own slot).
+    pub fn slot(
+        &mut self,
+        m: &gltf::Material,
+        file: &str,
+        warn: &mut dyn FnMut(String),
+    ) -> Result<u32> {
+        let MaterialTable {
+            materials,
+            textures,
+            index,
+            texture_index,
+            images,
+        } = self;
+        if let Some(&i) = index.get(&m.index()) {
+            return Ok(i);
+        }
+        let label = match m.index() {
+            Some(i) => format!("material {i} ('{}')", m.name().unwrap_or("")),
+            None => "the default material".to_string(),
+        };
+        let base = m.pbr_metallic_roughness().base_color_factor();
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        let emission = Vec3::from(m.emissive_factor()) * strength;
+        let base_color = Vec3::new(base[0], base[1], base[2]);
+        if !emission.is_finite() || emission.min_element() < 0.0 {
+            bail!("'{file}': {label} has a non-finite or negative emission (emissiveFactor × emissiveStrength = {emission}); use finite values ≥ 0");
+        }
+        if !base_color.is_finite() || base_color.min_element() < 0.0 {
+            bail!(
+                "'{file}': {label} has a non-finite or negative baseColorFactor; use values in [0, 1]"
+            );
+        }
+        // glTF bounds it by 1 and the BRDF clamps it there (an albedo above 1 would create
+        // energy): said, where it was silent (an audit, 2026-12-06).
+        if base_color.max_element() > 1.0 {
             warn(format!(
-                "'{file}': {label} has {what}; lightlearn uses the material's factors only"
+                "'{file}': {label} has baseColorFactor {base_color} above 1; rendered with it clamped to 1 (glTF asks for values in [0, 1])"
             ));
         }
-    }
-    if m.emissive_texture().is_some() {
-        // Not sampled: say so instead of silently rendering a flat colour.
-        warn(format!(
-            "'{file}': {label} has an emissive texture; lightlearn uses emissiveFactor only"
-        ));
-    }
-    let base_color_texture = match m.pbr_metallic_roughness().base_color_texture() {
-        None => None,
-        Some(info) => {
-            let t = info.texture();
-            if let Some(&known) = texture_index.get(&t.index()) {
-                known
-            } else {
-                let loaded = match images.decode(&t) {
-                    Ok(tex) => {
-                        textures.push(tex);
-                        Some(textures.len() as u32 - 1)
-                    }
-                    Err(e) => {
-                        warn(format!("'{file}': {label}: base-colour texture {}: {e}; using baseColorFactor alone", t.index()));
-                        None
-                    }
-                };
-                texture_index.insert(t.index(), loaded);
-                loaded
+        let pbr = m.pbr_metallic_roughness();
+        let (metallic, roughness) = (pbr.metallic_factor(), pbr.roughness_factor());
+        if !(0.0..=1.0).contains(&metallic) || !(0.0..=1.0).contains(&roughness) {
+            bail!(
+                "'{file}': {label} has metallicFactor {metallic} and roughnessFactor {roughness}; \
+                 both must be in [0, 1]"
+            );
+        }
+        let (specular, specular_color) = match m.specular() {
+            Some(sp) => (sp.specular_factor(), Vec3::from(sp.specular_color_factor())),
+            None => (1.0, Vec3::ONE),
+        };
+        if !(0.0..=1.0).contains(&specular)
+            || !specular_color.is_finite()
+            || specular_color.min_element() < 0.0
+        {
+            bail!(
+                "'{file}': {label} has KHR_materials_specular specularFactor {specular} and \
+                 specularColorFactor {specular_color}; use a factor in [0, 1] and colours ≥ 0"
+            );
+        }
+        let ignored = [
+            (
+                pbr.metallic_roughness_texture().is_some(),
+                "a metallicRoughnessTexture",
+            ),
+            (m.normal_texture().is_some(), "a normal texture"),
+            (
+                m.specular().is_some_and(|sp| {
+                    sp.specular_texture().is_some() || sp.specular_color_texture().is_some()
+                }),
+                "a specular texture",
+            ),
+        ];
+        for (present, what) in ignored {
+            if present {
+                warn(format!(
+                    "'{file}': {label} has {what}; lightlearn uses the material's factors only"
+                ));
             }
         }
-    };
-    let slot = materials.len() as u32;
-    materials.push(Material {
-        name: m.name().unwrap_or("").to_string(),
-        base_color: base_color.clamp(Vec3::ZERO, Vec3::ONE),
-        metallic,
-        roughness,
-        specular,
-        specular_color,
-        emission,
-        double_sided: m.double_sided(),
-        base_color_texture,
-    });
-    index.insert(m.index(), slot);
-    Ok(slot)
+        if m.emissive_texture().is_some() {
+            // Not sampled: say so instead of silently rendering a flat colour.
+            warn(format!(
+                "'{file}': {label} has an emissive texture; lightlearn uses emissiveFactor only"
+            ));
+        }
+        let base_color_texture = match m.pbr_metallic_roughness().base_color_texture() {
+            None => None,
+            Some(info) => {
+                let t = info.texture();
+                if let Some(&known) = texture_index.get(&t.index()) {
+                    known
+                } else {
+                    let loaded = match images.decode(&t) {
+                        Ok(tex) => {
+                            textures.push(tex);
+                            Some(textures.len() as u32 - 1)
+                        }
+                        Err(e) => {
+                            warn(format!("'{file}': {label}: base-colour texture {}: {e}; using baseColorFactor alone", t.index()));
+                            None
+                        }
+                    };
+                    texture_index.insert(t.index(), loaded);
+                    loaded
+                }
+            }
+        };
+        let slot = materials.len() as u32;
+        materials.push(Material {
+            name: m.name().unwrap_or("").to_string(),
+            base_color: base_color.clamp(Vec3::ZERO, Vec3::ONE),
+            metallic,
+            roughness,
+            specular,
+            specular_color,
+            emission,
+            double_sided: m.double_sided(),
+            base_color_texture,
+        });
+        index.insert(m.index(), slot);
+        Ok(slot)
+    }
 }

@@ -15,6 +15,7 @@ mod gltf_light;
 pub use gltf_data::percent_decode;
 pub mod gltf_load;
 mod gltf_material;
+mod gltf_mesh;
 pub mod gltf_write;
 
 use anyhow::bail;

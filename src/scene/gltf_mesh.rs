@@ -1,0 +1,214 @@
+//! A glTF scene's meshes → triangles in world space (f64, until the scene's frame is known),
+//! with their materials and texture coordinates; what cannot be read is refused naming the
+//! primitive, and triangles that lose their area are counted for the loader's messages.
+
+use anyhow::{anyhow, bail, Result};
+use glam::{DMat4, DVec3, Vec3};
+use gltf::mesh::Mode;
+
+use super::gltf_material::MaterialTable;
+
+/// Largest scene we accept, so a corrupt index count cannot exhaust memory. The GPU BVH and
+/// light buffers must fit lavapipe's 128 MiB storage-buffer limit: 48 B per triangle.
+pub const MAX_TRIANGLES: usize = 2_500_000;
+
+/// The triangles of every mesh instance met so far, in the file's order.
+#[derive(Default)]
+pub(super) struct Meshes {
+    pub triangles: Vec<[DVec3; 3]>,
+    /// Texture coordinates, kept from the first textured triangle on (earlier ones get
+    /// zeros), so untextured scenes never hold them.
+    pub triangle_uv: Vec<[[f32; 2]; 3]>,
+    pub triangle_material: Vec<u32>,
+    /// Point and line primitives, skipped with a warning.
+    pub skipped_primitives: usize,
+    /// Triangles with an area in the file that their node's transform left without one:
+    /// a far translation rounds them away even in f64 (walls moved to 3e38 vanished
+    /// without a word: an audit, 2026-12-06). A singular transform (a scale of 0, which
+    /// hides an object on purpose) is not counted.
+    pub lost_to_position: usize,
+    /// Those of them that emit.
+    pub lost_emitters: usize,
+    /// Emitting triangles a singular transform hid (a scale of 0, or an animation keyed
+    /// to it): if no light is left, they, not a missing emitter, are why.
+    pub hidden_emitters: usize,
+}
+
+impl Meshes {
+    /// Adds the triangles of `mesh` placed by `world`.
+    pub fn add(
+        &mut self,
+        mesh: &gltf::Mesh,
+        world: DMat4,
+        buffers: &[Vec<u8>],
+        name: &str,
+        table: &mut MaterialTable,
+        warn: &mut dyn FnMut(String),
+    ) -> Result<()> {
+        // Negative determinant mirrors the mesh and flips its winding (glTF 2.0 §3.7.4).
+        let det = world.determinant();
+        let flip = det < 0.0;
+        let regular = det != 0.0 && det.is_finite();
+        for prim in mesh.primitives() {
+            let mesh_label = format!(
+                "mesh {} ('{}') primitive {}",
+                mesh.index(),
+                mesh.name().unwrap_or(""),
+                prim.index()
+            );
+            let mode = prim.mode();
+            if matches!(
+                mode,
+                Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip
+            ) {
+                self.skipped_primitives += 1;
+                warn(format!(
+                    "'{name}': {mesh_label} has mode {mode:?}, not triangles; skipped"
+                ));
+                continue;
+            }
+            // The accessors read below: positions, indices and the texture-coordinate
+            // set of the material's base-colour texture (gltf_check reads the same).
+            let uv_set = prim
+                .material()
+                .pbr_metallic_roughness()
+                .base_color_texture()
+                .map(|info| gltf::Semantic::TexCoords(info.tex_coord()));
+            let read = [Some(gltf::Semantic::Positions), uv_set]
+                .into_iter()
+                .flatten()
+                .filter_map(|sem| prim.get(&sem));
+            for a in read.chain(prim.indices()) {
+                super::gltf_data::check_sparse(&a, buffers, &format!("'{name}': {mesh_label}"))?;
+            }
+            let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
+            let positions: Vec<[f32; 3]> = reader
+                .read_positions()
+                .ok_or_else(|| {
+                    anyhow!("'{name}': {mesh_label} has no readable POSITION attribute (missing, or its buffer view lies outside the buffer)")
+                })?
+                .collect();
+            let indices: Vec<u32> = match reader.read_indices() {
+                Some(i) => i.into_u32().collect(),
+                None if prim.indices().is_some() => {
+                    bail!("'{name}': {mesh_label}: its index accessor lies outside its buffer")
+                }
+                None => (0..positions.len() as u32).collect(),
+            };
+            // A triangle list of 3k + 1 or + 2 indices is malformed glTF; its last
+            // indices were dropped without a word (an audit, 2026-12-06).
+            if mode == Mode::Triangles && !indices.len().is_multiple_of(3) {
+                bail!("'{name}': {mesh_label} is a triangle list of {} {}, not a multiple of 3; fix the mesh data", indices.len(), if prim.indices().is_some() { "indices" } else { "vertices" });
+            }
+            let tris = triangulate(mode, &indices);
+            let world_pos: Vec<DVec3> = positions
+                .iter()
+                .map(|p| world.transform_point3(Vec3::from(*p).as_dvec3()))
+                .collect();
+            if let Some(bad) = world_pos.iter().position(|p| !p.is_finite()) {
+                bail!(
+                    "'{name}': {mesh_label} vertex {bad} has a non-finite position (NaN or Inf); fix the mesh data"
+                );
+            }
+            let mat = table.slot(&prim.material(), name, warn)?;
+            let emits = table.emits(mat);
+            // Texture coordinates of the set the material's base-colour texture uses.
+            let uvs: Vec<[f32; 2]> = match (
+                table.materials[mat as usize].base_color_texture,
+                prim.material()
+                    .pbr_metallic_roughness()
+                    .base_color_texture(),
+            ) {
+                (Some(_), Some(info)) => match reader.read_tex_coords(info.tex_coord()) {
+                    Some(t) => {
+                        let uvs: Vec<[f32; 2]> = t.into_f32().collect();
+                        // One coordinate a vertex (glTF: every attribute has POSITION's
+                        // count); a short one was read as (0, 0) past its end.
+                        if uvs.len() != positions.len() {
+                            bail!("'{name}': {mesh_label} has {} TEXCOORD_{} values for {} vertices; an attribute needs one a vertex", uvs.len(), info.tex_coord(), positions.len());
+                        }
+                        if let Some(bad) = uvs
+                            .iter()
+                            .position(|t| !(t[0].is_finite() && t[1].is_finite()))
+                        {
+                            bail!("'{name}': {mesh_label} vertex {bad} has a non-finite texture coordinate (NaN or Inf); fix the mesh data");
+                        }
+                        uvs
+                    }
+                    None => {
+                        warn(format!(
+                            "'{name}': {mesh_label} has a base-colour texture but no TEXCOORD_{}; it samples the texture at (0, 0)",
+                            info.tex_coord()
+                        ));
+                        Vec::new()
+                    }
+                },
+                _ => Vec::new(),
+            };
+            let uv = |i: u32| uvs.get(i as usize).copied().unwrap_or([0.0, 0.0]);
+            for [a, b, c] in tris {
+                let get = |i: u32| {
+                    world_pos.get(i as usize).copied().ok_or_else(|| {
+                        anyhow!(
+                            "'{name}': {mesh_label} index {i} is out of range ({} vertices)",
+                            world_pos.len()
+                        )
+                    })
+                };
+                let (va, vb, vc) = (get(a)?, get(b)?, get(c)?);
+                let tri = if flip { [va, vc, vb] } else { [va, vb, vc] };
+                // Degenerate triangles can never be hit and have no area to emit from
+                // (those that become degenerate in f32 are dropped by the loader).
+                if (tri[1] - tri[0]).cross(tri[2] - tri[0]).length_squared() == 0.0 {
+                    let file = [a, b, c].map(|i| Vec3::from(positions[i as usize]).as_dvec3());
+                    let had_area = (file[1] - file[0])
+                        .cross(file[2] - file[0])
+                        .length_squared()
+                        > 0.0;
+                    let lost = regular && had_area;
+                    self.lost_to_position += lost as usize;
+                    self.lost_emitters += (lost && emits) as usize;
+                    self.hidden_emitters += (!regular && had_area && emits) as usize;
+                    continue;
+                }
+                self.triangles.push(tri);
+                if !uvs.is_empty() || !self.triangle_uv.is_empty() {
+                    self.triangle_uv
+                        .resize(self.triangles.len() - 1, [[0.0; 2]; 3]);
+                    self.triangle_uv.push(if flip {
+                        [uv(a), uv(c), uv(b)]
+                    } else {
+                        [uv(a), uv(b), uv(c)]
+                    });
+                }
+                self.triangle_material.push(mat);
+                if self.triangles.len() > MAX_TRIANGLES {
+                    bail!(
+                        "'{name}' has more than {MAX_TRIANGLES} triangles, the most lightlearn supports; simplify the scene"
+                    );
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Triangles of a primitive as index triples.
+fn triangulate(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
+    match mode {
+        Mode::Triangles => idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        Mode::TriangleStrip => (2..idx.len())
+            .map(|i| {
+                if i % 2 == 0 {
+                    [idx[i - 2], idx[i - 1], idx[i]]
+                } else {
+                    [idx[i - 1], idx[i - 2], idx[i]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (2..idx.len())
+            .map(|i| [idx[0], idx[i - 1], idx[i]])
+            .collect(),
+        _ => Vec::new(),
+    }
+}
