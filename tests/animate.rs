@@ -228,6 +228,37 @@ fn malformed_animations_are_named() {
         });
     });
     check("sparse.glb", sparse, &["channel 0", "sparse index 1 is"]);
+    // Key values of another type than glTF allows were re-sliced by the parser: a VEC4
+    // translation read as VEC3 (the light ended elsewhere; here a VEC2 one), a SHORT one read as floats,
+    // with exit 0 (an audit, 2026-12-06).
+    let retyped = |edit: &dyn Fn(&mut serde_json::Value)| {
+        common::edit_glb(&good, |j| {
+            let out = j["animations"][0]["samplers"][0]["output"]
+                .as_u64()
+                .unwrap() as usize;
+            edit(&mut j["accessors"][out]);
+        })
+    };
+    let vec2 = retyped(&|a| a["type"] = "VEC2".into());
+    check(
+        "vec2.glb",
+        vec2,
+        &["channel 0", "is VEC2 FLOAT for a translation", "VEC3 FLOAT"],
+    );
+    let short = retyped(&|a| {
+        a["componentType"] = 5122.into();
+        a["normalized"] = true.into();
+    });
+    check("short.glb", short, &["channel 0", "VEC3 normalized SHORT"]);
+    let times = common::edit_glb(&good, |j| {
+        let inp = j["animations"][0]["samplers"][0]["input"].as_u64().unwrap() as usize;
+        j["accessors"][inp]["componentType"] = 5121.into();
+    });
+    check(
+        "u8times.glb",
+        times,
+        &["input (key times)", "SCALAR UNSIGNED_BYTE"],
+    );
     // A light keyed 1e20 away collapses the other frames' triangles in the frame of all of
     // them: it said "has no triangles", which is not so (an audit, 2026-12-06).
     let mut g = floor(0.5, (-2.0, 4.0), 2.0);
