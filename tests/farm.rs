@@ -104,6 +104,18 @@ fn every_template_passes_openjd_check() {
         let o = openjd(&["check", job.join("template.yaml").to_str().unwrap()]).unwrap();
         ok(&o);
     }
+    // Frames that carry statistics cannot take a sampler that learns none: the job offered
+    // every sampler and failed at its first merge, "cannot read the statistics file" (an
+    // audit, 2026-12-06). openjd refuses it before any task runs.
+    let template = dir.path().join("job0/template.yaml");
+    let o = openjd(&["run", template.to_str().unwrap(), "-p", "Sampler=uniform"]).unwrap();
+    let said = String::from_utf8_lossy(&o.stdout) + String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{said}");
+    assert!(said.contains("not in allowedValues"), "{said}");
+    assert!(!dir.path().join("job0/output").exists());
+    // Frames that do not carry them take any.
+    let open = std::fs::read_to_string(dir.path().join("job1/template.yaml")).unwrap();
+    assert!(open.contains("\"uniform\""), "{open}");
     // A scene whose file name holds an OpenJD format string, a newline and a long tail:
     // the template failed `openjd check` (farm said nothing). Its bundled copy renders.
     let odd = dir.path().join(format!(

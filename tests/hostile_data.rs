@@ -312,6 +312,12 @@ fn damaged_statistics_files_are_refused() {
     let mut s = saved.clone();
     s.index[0] = s.cuts.len() as u32 + 5;
     assert!(SavedStats::from_bytes(&s.to_bytes(), "a.stats").is_err());
+    // More skipped passes than passes done: `merge-stats` counted 294967304 learned passes
+    // (an audit, 2026-12-06).
+    let mut s = saved.clone();
+    s.header.skipped_passes = Some(s.header.samples_done + 1);
+    let err = SavedStats::from_bytes(&s.to_bytes(), "a.stats").unwrap_err();
+    assert!(err.to_string().contains("passes were skipped"), "{err}");
     // A cut longer than the kernels' cut array (64) that still lies inside the file.
     let mut s = saved.clone();
     s.cuts[0] = 65;

@@ -79,6 +79,15 @@ fn outputs_never_replace_the_files_a_command_reads() {
         ),
         &["a.stats", "the same file", "count twice"],
     );
+    // A copy under another name (an audit, 2026-12-06: its samples counted twice).
+    std::fs::copy(d.join("a.stats"), d.join("copy.stats")).unwrap();
+    refused(
+        &run(
+            &["merge-stats", "a.stats", "copy.stats", "--out", "m.stats"],
+            d,
+        ),
+        &["'a.stats' and 'copy.stats'", "bit for bit", "count twice"],
+    );
     assert!(!d.join("m.stats").exists());
     let o = run(
         &["merge-stats", "a.stats", "b.stats", "--out", "m.stats"],

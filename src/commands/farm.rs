@@ -279,7 +279,14 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
         );
     }
     let (bundled, bundle) = bundle_files(&scene)?;
-    let samplers: Vec<&str> = LightSampler::ALL.iter().map(|s| s.name()).collect();
+    // Frames that carry statistics have steps that merge and pass on each frame's files: a
+    // sampler that learns nothing writes none, and the job failed at its first merge with
+    // "cannot read the statistics file" (an audit, 2026-12-06). Offer only those that learn.
+    let carries = frames.is_some() && req.carry && req.sampler.learned();
+    let samplers: Vec<&str> = (LightSampler::ALL.iter())
+        .filter(|s| s.learned() || !carries)
+        .map(|s| s.name())
+        .collect();
     let parameters = json!([
         {"name": "SceneFile", "type": "PATH", "objectType": "FILE", "dataFlow": "IN",
          "default": bundled,
@@ -297,7 +304,12 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
         {"name": "MaxDepth", "type": "INT", "minValue": 1, "maxValue": super::MAX_DEPTH,
          "default": req.max_depth, "description": "Surface vertices of a path (1 = direct light)."},
         {"name": "Sampler", "type": "STRING", "allowedValues": samplers,
-         "default": req.sampler.name()},
+         "default": req.sampler.name(),
+         "description": if carries {
+             "The light sampler; the frames carry its learned statistics, so one that learns."
+         } else {
+             "The light sampler."
+         }},
         {"name": "Seed", "type": "INT", "minValue": 0, "default": req.seed},
     ]);
     let chunk_list = |f: &dyn Fn(u32) -> String| (0..req.chunks).map(f).collect::<Vec<_>>();
@@ -324,7 +336,7 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
             tasks += req.chunks as usize + 1;
         }
         Some((first, last)) => {
-            let stats = req.carry && req.sampler.learned();
+            let stats = carries;
             for f in first..=last {
                 let dir = format!("chunks/frame-{f:04}");
                 let mut a = args(&[

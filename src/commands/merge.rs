@@ -307,6 +307,21 @@ pub fn stats(
         .iter()
         .map(|p| Ok((SavedStats::load(p)?, p.display().to_string())))
         .collect::<Result<_>>()?;
+    // A copy of a part under another name passed the path check and counted its samples
+    // twice with exit 0 (an audit, 2026-12-06). Two renders that learned anything do not
+    // end with the same totals bit for bit unless they are one.
+    for (i, (a, an)) in loaded.iter().enumerate() {
+        let learned = |s: &SavedStats| s.stats.iter().any(|t| t.n_zero + t.n_nonzero > 0.0);
+        if let Some((_, bn)) = loaded[i + 1..].iter().find(|(b, _)| {
+            learned(a)
+                && (&a.header, &a.index, &a.cuts, &a.stats)
+                    == (&b.header, &b.index, &b.cuts, &b.stats)
+        }) {
+            bail!(
+                "'{an}' and '{bn}' hold the same statistics bit for bit (one a copy of the other?): its samples would count twice; give each part once"
+            );
+        }
+    }
     if let Some(b) = base.filter(|b| crate::io::same_path(b, out)) {
         bail!(
             "--out '{}' is the --base file; name another file",

@@ -206,6 +206,15 @@ impl SavedStats {
         let hbytes = bytes.get(16..16 + hlen).ok_or_else(truncated)?;
         let header: StatsHeader = serde_json::from_slice(hbytes)
             .with_context(|| format!("'{p}' has a damaged header; save it again"))?;
+        // A chunk's skipped passes are part of its samples_done; more of them than that
+        // wrapped `merge-stats`'s count of learned passes to 294967304 with exit 0 (an edited
+        // header with its checksum made again: an audit, 2026-12-06).
+        if let Some(skipped) = header.skipped_passes.filter(|&k| k > header.samples_done) {
+            bail!(
+                "'{p}' is damaged: its header says {skipped} passes were skipped of {} done; save it again",
+                header.samples_done
+            );
+        }
         let mut at = 16 + hlen;
         let mut take = |n: usize| -> Result<&[u8]> {
             let end = at.checked_add(n).ok_or_else(truncated)?;
