@@ -673,6 +673,30 @@ fn the_frames_become_a_video_when_ffmpeg_is_installed() {
         !out.join("frame-0000.exr").exists(),
         "--frames 1..3 starts at 1"
     );
+    // A frame number past ffmpeg's ints: the frame is written, the video is not, and that
+    // is said (it failed after the frames, exit 1: an audit, 2026-12-06).
+    let far = dir.path().join("far");
+    let o = run(&[
+        "animate",
+        root().join("scenes/cornell.glb").to_str().unwrap(),
+        "--out",
+        far.to_str().unwrap(),
+        "--frame",
+        "4294967295",
+        "--spp",
+        "1",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--max-depth",
+        "1",
+    ]);
+    ok(&o);
+    assert!(far.join("frame-4294967295.exr").exists());
+    assert!(!far.join("animation.mp4").exists());
+    let said = String::from_utf8_lossy(&o.stderr);
+    assert!(said.contains("past the numbers ffmpeg reads"), "{said}");
 }
 
 #[test]

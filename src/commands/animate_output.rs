@@ -97,7 +97,7 @@ fn contiguous_span(listed: &[u32], k: u32) -> (u32, u32) {
     while a > 0 && listed.contains(&(a - 1)) {
         a -= 1;
     }
-    while listed.contains(&(b + 1)) {
+    while b < u32::MAX && listed.contains(&(b + 1)) {
         b += 1;
     }
     (a, b - a + 1)
@@ -125,6 +125,14 @@ pub(super) fn encode_video(
         .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).contains("libx264"));
     if !x264 {
         ui.message("this ffmpeg has no libx264 encoder, so no animation.mp4 was written; the frames are the PNG/EXR files");
+        return Ok(None);
+    }
+    // ffmpeg's image sequence numbers are ints: frames past 2^31 − 1 made it fail after
+    // every frame was written, and `animate` exit 1 (an audit, 2026-12-06); at 2^31 − 1
+    // itself it looks for the next number, wrapped to a negative one, and says so.
+    let last = first as u64 + count.max(1) as u64 - 1;
+    if last >= i32::MAX as u64 {
+        ui.message(&format!("frame {last} is past the numbers ffmpeg reads (below 2^31 − 1), so no animation.mp4 was written; the frames are the PNG/EXR files"));
         return Ok(None);
     }
     let out = req.out.join("animation.mp4");
