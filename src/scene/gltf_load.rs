@@ -198,9 +198,13 @@ impl Document {
         stack.reverse();
         let mut visited = 0usize;
         while let Some((node, parent)) = stack.pop() {
+            // gltf_check::check_node_tree refused cycles and shared children, so each node
+            // comes once; this only guards that. (A fixed 1 000 000 here refused a flat file
+            // of more nodes, `scene strings --lights 1000000`, as "too deep or cyclic": an
+            // audit, 2026-12-06.)
             visited += 1;
-            if visited > 1_000_000 {
-                bail!("'{name}': the node hierarchy is too deep or cyclic");
+            if visited > doc.nodes().len() {
+                bail!("'{name}': the node hierarchy is not a tree (a node is reached twice); give each node one parent");
             }
             let local = match pose.nodes.get(&node.index()) {
                 Some(p) => {

@@ -5,6 +5,7 @@
 //! binary buffer is laid out in call order, so the same calls give byte-identical files.
 
 use glam::{Mat3, Quat, Vec3};
+use serde_json::value::RawValue;
 use serde_json::{json, Value};
 
 #[derive(Default)]
@@ -14,12 +15,17 @@ pub struct GltfBuilder {
     accessors: Vec<Value>,
     materials: Vec<Value>,
     meshes: Vec<Value>,
-    nodes: Vec<Value>,
-    lights: Vec<Value>,
+    /// Nodes and lights as their JSON text: a scene of a million punctual lights held them
+    /// as `Value` maps (~3 KB each), copied them again into the document, and `scene strings
+    /// --lights 1000000` took 6.6 GB (an audit, 2026-12-06).
+    nodes: Vec<Box<RawValue>>,
+    lights: Vec<Box<RawValue>>,
     cameras: Vec<Value>,
     images: Vec<Value>,
     samplers: Vec<Value>,
     textures: Vec<Value>,
+    /// Triangles in the meshes so far.
+    triangles: usize,
     /// One animation's channels and samplers (written when any were added).
     channels: Vec<Value>,
     anim_samplers: Vec<Value>,
@@ -165,12 +171,13 @@ impl GltfBuilder {
             }));
             attributes["TEXCOORD_0"] = json!(self.accessors.len() - 1);
         }
+        self.triangles += indices.len() / 3;
         self.meshes.push(json!({
             "name": name,
             "primitives": [{"attributes": attributes, "indices": pa + 1, "material": material, "mode": 4}]
         }));
         self.nodes
-            .push(json!({"name": name, "mesh": self.meshes.len() - 1}));
+            .push(raw(json!({"name": name, "mesh": self.meshes.len() - 1})));
     }
 
     /// A quad with corners in counter-clockwise order seen from its front.
@@ -185,13 +192,13 @@ impl GltfBuilder {
     }
 
     pub fn point_light(&mut self, name: &str, position: Vec3, color: Vec3, intensity: f32) {
-        self.lights.push(json!({
+        self.lights.push(raw(json!({
             "name": name, "type": "point", "color": color.to_array(), "intensity": intensity
-        }));
-        self.nodes.push(json!({
+        })));
+        self.nodes.push(raw(json!({
             "name": name, "translation": position.to_array(),
             "extensions": {"KHR_lights_punctual": {"light": self.lights.len() - 1}}
-        }));
+        })));
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -205,15 +212,15 @@ impl GltfBuilder {
         inner_cone: f32,
         outer_cone: f32,
     ) {
-        self.lights.push(json!({
+        self.lights.push(raw(json!({
             "name": name, "type": "spot", "color": color.to_array(), "intensity": intensity,
             "spot": {"innerConeAngle": inner_cone, "outerConeAngle": outer_cone}
-        }));
+        })));
         let rot = Quat::from_rotation_arc(Vec3::NEG_Z, direction.normalize());
-        self.nodes.push(json!({
+        self.nodes.push(raw(json!({
             "name": name, "translation": position.to_array(), "rotation": rot.to_array(),
             "extensions": {"KHR_lights_punctual": {"light": self.lights.len() - 1}}
-        }));
+        })));
     }
 
     /// A perspective camera at `position` looking at `target` (world up +Y).
@@ -223,10 +230,15 @@ impl GltfBuilder {
             "type": "perspective",
             "perspective": {"yfov": yfov, "znear": 0.01}
         }));
-        self.nodes.push(json!({
+        self.nodes.push(raw(json!({
             "name": "camera", "camera": self.cameras.len() - 1,
             "translation": position.to_array(), "rotation": rot.to_array()
-        }));
+        })));
+    }
+
+    /// Triangles in the meshes added so far.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles
     }
 
     /// The index of the node added last (a mesh, light or camera).
@@ -280,38 +292,15 @@ impl GltfBuilder {
         self.animate(node, "rotation", &times, &rotations);
     }
 
-    fn document(&self, buffer_uri: Option<String>) -> Value {
-        let mut buffer = json!({"byteLength": self.padded_bin().len()});
+    /// The glTF JSON, borrowing the builder's arrays (serialized in place, not copied).
+    fn document(&self, buffer_uri: Option<String>) -> Document<'_> {
+        let mut buffer = json!({"byteLength": self.padded_bin_len()});
         if let Some(uri) = buffer_uri {
             buffer["uri"] = json!(uri);
         }
-        let mut doc = json!({
-            "asset": {"version": "2.0", "generator": "lightlearn"},
-            "scene": 0,
-            "scenes": [{"nodes": (0..self.nodes.len()).collect::<Vec<_>>()}],
-            "nodes": self.nodes,
-            "meshes": self.meshes,
-            "materials": self.materials,
-            "accessors": self.accessors,
-            "bufferViews": self.buffer_views,
-            "buffers": [buffer],
-        });
+        let textured = !self.textures.is_empty();
         let mut used = Vec::new();
-        if !self.cameras.is_empty() {
-            doc["cameras"] = json!(self.cameras);
-        }
-        if !self.textures.is_empty() {
-            doc["images"] = json!(self.images);
-            doc["samplers"] = json!(self.samplers);
-            doc["textures"] = json!(self.textures);
-        }
-        if !self.channels.is_empty() {
-            doc["animations"] = json!([{
-                "name": "animation", "channels": self.channels, "samplers": self.anim_samplers
-            }]);
-        }
         if !self.lights.is_empty() {
-            doc["extensions"] = json!({"KHR_lights_punctual": {"lights": self.lights}});
             used.push("KHR_lights_punctual");
         }
         for ext in ["KHR_materials_emissive_strength", "KHR_materials_specular"] {
@@ -323,10 +312,38 @@ impl GltfBuilder {
                 used.push(ext);
             }
         }
-        if !used.is_empty() {
-            doc["extensionsUsed"] = json!(used);
+        Document {
+            accessors: &self.accessors,
+            animations: (!self.channels.is_empty()).then(|| {
+                json!([{
+                    "name": "animation", "channels": self.channels, "samplers": self.anim_samplers
+                }])
+            }),
+            asset: json!({"version": "2.0", "generator": "lightlearn"}),
+            buffer_views: &self.buffer_views,
+            buffers: [buffer],
+            cameras: (!self.cameras.is_empty()).then_some(self.cameras.as_slice()),
+            extensions: (!self.lights.is_empty()).then_some(Extensions {
+                lights: Lights {
+                    lights: &self.lights,
+                },
+            }),
+            extensions_used: used,
+            images: if textured { Some(&self.images) } else { None },
+            materials: &self.materials,
+            meshes: &self.meshes,
+            nodes: &self.nodes,
+            samplers: if textured { Some(&self.samplers) } else { None },
+            scene: 0,
+            scenes: [SceneNodes {
+                nodes: (0..self.nodes.len()).collect(),
+            }],
+            textures: if textured { Some(&self.textures) } else { None },
         }
-        doc
+    }
+
+    fn padded_bin_len(&self) -> usize {
+        self.bin.len().next_multiple_of(4)
     }
 
     fn padded_bin(&self) -> Vec<u8> {
@@ -410,4 +427,54 @@ fn look_rotation(position: Vec3, target: Vec3) -> Quat {
     let r = f.cross(Vec3::Y).normalize();
     let u = r.cross(f);
     Quat::from_mat3(&Mat3::from_cols(r, u, -f)).normalize()
+}
+
+fn raw(v: Value) -> Box<RawValue> {
+    serde_json::value::to_raw_value(&v).expect("JSON of plain values")
+}
+
+/// A glTF document's top level, its fields in the order serde_json's maps sort keys (so the
+/// bytes are those the builder wrote when it assembled a `Value`).
+#[derive(serde::Serialize)]
+struct Document<'a> {
+    accessors: &'a [Value],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    animations: Option<Value>,
+    asset: Value,
+    #[serde(rename = "bufferViews")]
+    buffer_views: &'a [Value],
+    buffers: [Value; 1],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    cameras: Option<&'a [Value]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    extensions: Option<Extensions<'a>>,
+    #[serde(rename = "extensionsUsed", skip_serializing_if = "Vec::is_empty")]
+    extensions_used: Vec<&'static str>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    images: Option<&'a [Value]>,
+    materials: &'a [Value],
+    meshes: &'a [Value],
+    nodes: &'a [Box<RawValue>],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    samplers: Option<&'a [Value]>,
+    scene: u32,
+    scenes: [SceneNodes; 1],
+    #[serde(skip_serializing_if = "Option::is_none")]
+    textures: Option<&'a [Value]>,
+}
+
+#[derive(serde::Serialize)]
+struct Extensions<'a> {
+    #[serde(rename = "KHR_lights_punctual")]
+    lights: Lights<'a>,
+}
+
+#[derive(serde::Serialize)]
+struct Lights<'a> {
+    lights: &'a [Box<RawValue>],
+}
+
+#[derive(serde::Serialize)]
+struct SceneNodes {
+    nodes: Vec<usize>,
 }

@@ -147,13 +147,24 @@ pub fn generate(family: Family, p: &FamilyParams) -> Result<GltfBuilder> {
     if p.animate && !matches!(family, Family::Rooms | Family::City) {
         bail!("--animate is supported for rooms (a camera walk) and city (moving headlights); {family:?} has no animated variant");
     }
-    Ok(match family {
+    let g = match family {
         Family::Rooms => rooms::build(p)?,
         Family::Hall => hall::build(p),
         Family::City => city::build(p)?,
         Family::Strings => strings::build(p),
         Family::Cornell => cornell::build(p),
-    })
+    };
+    // hall makes ~8.5 triangles a light: `scene hall --lights 1000000` wrote 8.5 M triangles
+    // that `render` refuses (an audit, 2026-12-06). Said here, with the count that fits.
+    let (triangles, most) = (g.triangle_count(), super::gltf_load::MAX_TRIANGLES);
+    if triangles > most {
+        bail!(
+            "{family:?} with --lights {} has {triangles} triangles, more than the {most} lightlearn renders; use at most about {} lights",
+            p.lights,
+            (p.lights as f64 * most as f64 / triangles as f64 * 0.99) as usize
+        );
+    }
+    Ok(g)
 }
 
 /// Triangles gathered for one glTF mesh (one material), so thousands of boxes or windows
@@ -323,6 +334,31 @@ mod tests {
                 "city with {n} lights has no animation"
             );
         }
+    }
+
+    /// Light counts the families accept but `render` could not take, or a default the
+    /// family's own check refused (an audit, 2026-12-06): hall past the triangle cap is
+    /// refused with the count that fits; rooms past 250 000 lights gets a grid it allows.
+    #[test]
+    fn large_light_counts_fit_what_render_takes() {
+        let err = generate(Family::Hall, &params(400_000))
+            .err()
+            .expect("hall of 400000 lights has ~3.4 M triangles")
+            .to_string();
+        assert!(err.contains("triangles, more than the 2500000"), "{err}");
+        let most: usize = err
+            .rsplit("at most about ")
+            .next()
+            .unwrap()
+            .split(' ')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        let g = generate(Family::Hall, &params(most)).unwrap();
+        assert!(g.triangle_count() <= gltf_load::MAX_TRIANGLES);
+        let g = generate(Family::Rooms, &params(250_001)).unwrap();
+        assert!(g.triangle_count() <= gltf_load::MAX_TRIANGLES);
     }
 
     #[test]

@@ -27,7 +27,9 @@ pub fn build(p: &FamilyParams) -> Result<GltfBuilder> {
     let (rx, rz) = match p.rooms {
         Some((x, z)) => (x, z),
         None => {
-            let n = p.lights.div_ceil(LIGHTS_PER_ROOM).max(1);
+            // At most MAX_ROOMS: `--lights 1000000` alone asked for a 200x200 grid and was
+            // refused as "--rooms 200x200", a flag not given (an audit, 2026-12-06).
+            let n = p.lights.div_ceil(LIGHTS_PER_ROOM).clamp(1, MAX_ROOMS);
             let x = (n as f64).sqrt().ceil() as usize;
             (x, n.div_ceil(x))
         }
