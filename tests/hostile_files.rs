@@ -50,6 +50,33 @@ fn oversized_endless_or_special_files_are_refused_not_read() {
         "{err}"
     );
 
+    // Within the 8192² a texture may have, but past the device's largest buffer together
+    // (lavapipe: 128 MiB, 33.5 M texels): the error named no texture ("buffer 'texels'
+    // needs … bytes; use a smaller scene or image": an audit, 2026-12-06). A flat grey
+    // 8192×4200 PNG (34.4 M texels); skipped where the device's buffers are larger.
+    let (w, h) = (8192u32, 4200u32);
+    let mut big = Vec::new();
+    let mut enc = png::Encoder::new(&mut big, w, h);
+    enc.set_color(png::ColorType::Grayscale);
+    enc.set_compression(png::Compression::Fast);
+    let mut wr = enc.write_header().unwrap();
+    wr.write_image_data(&vec![128u8; (w * h) as usize]).unwrap();
+    wr.finish().unwrap();
+    std::fs::write(d.join("wide.png"), &big).unwrap();
+    write_json(&d.join("big.gltf"), &textured(&doc, "wide.png"));
+    let o = render("big.gltf", &["--out", "big.exr"], d);
+    if common::ctx().properties.limits.max_storage_buffer_range as u64 <= 4 * (w * h) as u64 {
+        refused(
+            &o,
+            &[
+                "big.gltf",
+                "34406400 texels",
+                "largest is 8192×4200",
+                "scale it down",
+            ],
+        );
+    }
+
     let mut zero_buffer = doc.clone();
     zero_buffer["buffers"][0]["uri"] = "/dev/zero".into();
     write_json(&d.join("zb.gltf"), &zero_buffer);

@@ -68,6 +68,42 @@ pub fn hit_epsilon(x: Vec3, o: Vec3, t: f32, tri: [Vec3; 3]) -> f32 {
 /// 1e-4 of the scene's size: how far the host widens boxes in the tests of what a pixel's
 /// rays can meet (coverage.rs: a larger margin only keeps more rows); rays themselves
 /// leave surfaces by [`hit_epsilon`].
+/// The scene's largest buffers against the device's limits, named by what the scene holds
+/// and checked before the light tree is built: lavapipe's 128 MiB storage buffers hold the
+/// tree of about 1 048 576 lights and 33.5 M texels, and past them the error came after 17 s
+/// of building the tree, or read "buffer 'texels' needs 268435456 bytes … use a smaller
+/// scene or image" for one 8192² texture (an audit, 2026-12-06).
+fn check_fits(ctx: &Context, scene: &Scene) -> Result<()> {
+    let limits = &ctx.properties.limits;
+    let storage = limits.max_storage_buffer_range as u64;
+    let node = std::mem::size_of::<crate::abi::GpuLightNode>() as u64;
+    // The tree is read as 16-byte texels, and bound as a storage buffer.
+    let most = storage.min(limits.max_texel_buffer_elements as u64 * 16);
+    let n = scene.lights.len() as u64;
+    let tree = (2 * n).saturating_sub(1) * node;
+    if tree > most {
+        anyhow::bail!(
+            "'{}': its {n} lights need a light tree of {tree} bytes, more than this device's largest buffer ({most} bytes: about {} lights); use fewer lights",
+            scene.source,
+            (most / node + 1) / 2
+        );
+    }
+    let size = |t: &crate::scene::Texture| t.width as u64 * t.height as u64;
+    let texels: u64 = scene.textures.iter().map(size).sum();
+    if let Some(largest) = scene.textures.iter().max_by_key(|t| size(t)) {
+        if texels * 4 > storage {
+            anyhow::bail!(
+                "'{}': its base-colour textures hold {texels} texels ({} bytes), more than this device's largest buffer ({storage} bytes); the largest is {}×{}: scale it down",
+                scene.source,
+                texels * 4,
+                largest.width,
+                largest.height
+            );
+        }
+    }
+    Ok(())
+}
+
 pub fn ray_epsilon(scene: &Scene) -> f32 {
     let (lo, hi) = scene.bounds();
     let size = (hi - lo).length().max(lo.abs().max(hi.abs()).max_element());
@@ -98,6 +134,7 @@ impl GpuScene {
         bvh: &Bvh,
         topology: Option<&lights::tree::LightTree>,
     ) -> Result<GpuScene> {
+        check_fits(ctx, scene)?;
         let weights = lights::power_weights(scene);
         let emission_scale = lights::emission_scale(&weights);
         let materials: Vec<GpuMaterial> = scene
