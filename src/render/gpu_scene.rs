@@ -85,7 +85,7 @@ fn check_fits(ctx: &Context, scene: &Scene) -> Result<()> {
         anyhow::bail!(
             "'{}': its {n} lights need a light tree of {tree} bytes, more than this device's largest buffer ({most} bytes: about {} lights); use fewer lights",
             scene.source,
-            (most / node + 1) / 2
+            (most / node).div_ceil(2)
         );
     }
     let size = |t: &crate::scene::Texture| t.width as u64 * t.height as u64;

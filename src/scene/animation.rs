@@ -329,6 +329,76 @@ impl Animations {
     }
 }
 
+/// The accessor types glTF 2.0 allows for an animation sampler (§5.6, "animation.sampler"):
+/// key times SCALAR float; translations and scales VEC3 float; rotations VEC4 float or
+/// normalized (U)BYTE/(U)SHORT; weights SCALAR, the same. The gltf crate reads an accessor of
+/// another type as if it were the right one (a VEC4 translation re-sliced as VEC3, a SHORT
+/// one read as floats), and a camera ended elsewhere with exit 0 (an audit, 2026-12-06).
+fn check_types(ch: &gltf::animation::Channel) -> std::result::Result<(), String> {
+    use gltf::accessor::{DataType, Dimensions};
+    use gltf::animation::Property as Path;
+    let sampler = ch.sampler();
+    let spell = |a: &gltf::Accessor| {
+        let normalized = if a.normalized() { "normalized " } else { "" };
+        let kind = match a.data_type() {
+            DataType::I8 => "BYTE",
+            DataType::U8 => "UNSIGNED_BYTE",
+            DataType::I16 => "SHORT",
+            DataType::U16 => "UNSIGNED_SHORT",
+            DataType::U32 => "UNSIGNED_INT",
+            DataType::F32 => "FLOAT",
+        };
+        format!(
+            "{} {normalized}{kind}",
+            format!("{:?}", a.dimensions()).to_uppercase()
+        )
+    };
+    let input = sampler.input();
+    if (input.dimensions(), input.data_type()) != (Dimensions::Scalar, DataType::F32) {
+        return Err(format!(
+            "its input (key times) accessor {} is {}; glTF requires SCALAR FLOAT; fix the sampler",
+            input.index(),
+            spell(&input)
+        ));
+    }
+    let output = sampler.output();
+    let float = output.data_type() == DataType::F32;
+    let normalized_int = output.normalized()
+        && matches!(
+            output.data_type(),
+            DataType::I8 | DataType::U8 | DataType::I16 | DataType::U16
+        );
+    let path = match ch.target().property() {
+        Path::Translation => "translation",
+        Path::Rotation => "rotation",
+        Path::Scale => "scale",
+        Path::MorphTargetWeights => "weights",
+    };
+    let (ok, wanted) = match ch.target().property() {
+        Path::Translation | Path::Scale => (
+            output.dimensions() == Dimensions::Vec3 && float,
+            "VEC3 FLOAT",
+        ),
+        Path::Rotation => (
+            output.dimensions() == Dimensions::Vec4 && (float || normalized_int),
+            "VEC4 FLOAT or normalized BYTE, UNSIGNED_BYTE, SHORT, UNSIGNED_SHORT",
+        ),
+        Path::MorphTargetWeights => (
+            output.dimensions() == Dimensions::Scalar && (float || normalized_int),
+            "SCALAR FLOAT or normalized BYTE, UNSIGNED_BYTE, SHORT, UNSIGNED_SHORT",
+        ),
+    };
+    if ok {
+        Ok(())
+    } else {
+        Err(format!(
+            "its output (key values) accessor {} is {} for a {path} channel; glTF requires {wanted}; fix the sampler",
+            output.index(),
+            spell(&output),
+        ))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -508,75 +578,5 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("zero quaternion"));
-    }
-}
-
-/// The accessor types glTF 2.0 allows for an animation sampler (§5.6, "animation.sampler"):
-/// key times SCALAR float; translations and scales VEC3 float; rotations VEC4 float or
-/// normalized (U)BYTE/(U)SHORT; weights SCALAR, the same. The gltf crate reads an accessor of
-/// another type as if it were the right one (a VEC4 translation re-sliced as VEC3, a SHORT
-/// one read as floats), and a camera ended elsewhere with exit 0 (an audit, 2026-12-06).
-fn check_types(ch: &gltf::animation::Channel) -> std::result::Result<(), String> {
-    use gltf::accessor::{DataType, Dimensions};
-    use gltf::animation::Property as Path;
-    let sampler = ch.sampler();
-    let spell = |a: &gltf::Accessor| {
-        let normalized = if a.normalized() { "normalized " } else { "" };
-        let kind = match a.data_type() {
-            DataType::I8 => "BYTE",
-            DataType::U8 => "UNSIGNED_BYTE",
-            DataType::I16 => "SHORT",
-            DataType::U16 => "UNSIGNED_SHORT",
-            DataType::U32 => "UNSIGNED_INT",
-            DataType::F32 => "FLOAT",
-        };
-        format!(
-            "{} {normalized}{kind}",
-            format!("{:?}", a.dimensions()).to_uppercase()
-        )
-    };
-    let input = sampler.input();
-    if (input.dimensions(), input.data_type()) != (Dimensions::Scalar, DataType::F32) {
-        return Err(format!(
-            "its input (key times) accessor {} is {}; glTF requires SCALAR FLOAT; fix the sampler",
-            input.index(),
-            spell(&input)
-        ));
-    }
-    let output = sampler.output();
-    let float = output.data_type() == DataType::F32;
-    let normalized_int = output.normalized()
-        && matches!(
-            output.data_type(),
-            DataType::I8 | DataType::U8 | DataType::I16 | DataType::U16
-        );
-    let path = match ch.target().property() {
-        Path::Translation => "translation",
-        Path::Rotation => "rotation",
-        Path::Scale => "scale",
-        Path::MorphTargetWeights => "weights",
-    };
-    let (ok, wanted) = match ch.target().property() {
-        Path::Translation | Path::Scale => (
-            output.dimensions() == Dimensions::Vec3 && float,
-            "VEC3 FLOAT",
-        ),
-        Path::Rotation => (
-            output.dimensions() == Dimensions::Vec4 && (float || normalized_int),
-            "VEC4 FLOAT or normalized BYTE, UNSIGNED_BYTE, SHORT, UNSIGNED_SHORT",
-        ),
-        Path::MorphTargetWeights => (
-            output.dimensions() == Dimensions::Scalar && (float || normalized_int),
-            "SCALAR FLOAT or normalized BYTE, UNSIGNED_BYTE, SHORT, UNSIGNED_SHORT",
-        ),
-    };
-    if ok {
-        Ok(())
-    } else {
-        Err(format!(
-            "its output (key values) accessor {} is {} for a {path} channel; glTF requires {wanted}; fix the sampler",
-            output.index(),
-            spell(&output),
-        ))
     }
 }
