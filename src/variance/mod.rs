@@ -13,7 +13,7 @@
 //! and s_l come from many shadow rays at fixed first hits ([`crate::reference::light_samples`]);
 //! the squares of their estimates are corrected for the estimates' own noise, so every term is
 //! an unbiased estimate. The pmfs are the CPU mirrors of the kernels' samplers (tested
-//! against the GPU in tests/regions.rs, tests/learning.rs and tests/light_tree.rs), evaluated
+//! against the GPU in tests/regions.rs, tests/learning/pmfs.rs and tests/light_tree.rs), evaluated
 //! on the statistics a session's passes sampled by.
 //!
 //! Plain data: no device. The command (src/commands/variance.rs) drives the sessions.

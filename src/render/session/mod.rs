@@ -15,7 +15,7 @@
 //! the film's sample count. A film reset therefore never replays a stream the statistics
 //! were learned from (the weights of a pass would then depend on its own random numbers:
 //! a bias), and a `--load-stats` continuation goes on exactly where the saved render
-//! stopped (tested bit for bit in tests/learning.rs).
+//! stopped (tested bit for bit in tests/learning/files.rs).
 
 mod film;
 mod growth;
