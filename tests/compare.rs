@@ -469,3 +469,159 @@ fn a_reference_written_by_compare_is_checked_when_given_back() {
         "{err}"
     );
 }
+
+/// References whose own error cannot be subtracted or that hold the runs' own samples (an
+/// audit, 2026-12-06): a stratified render (`render`'s default) overstated its error 17×
+/// and the "reference noise out" MSEs came out negative; one by a compared sampler with the
+/// comparison's seed gave MSE 0 and a speed-up of "inf"; a 16-spp reference beside 256-spp
+/// runs was subtracted without a word; another scene's cache entry copied under this one's
+/// name was used and relabelled. Each now says so, refuses, or renders again.
+#[test]
+fn references_that_cannot_measure_are_said() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let s = scene();
+    let path = |n: &str| dir.path().join(n).display().to_string();
+    let tiny = ["--width", "16", "--height", "12", "--max-depth", "1"];
+    let with = |args: &[&str]| {
+        let mut a = args.to_vec();
+        a.extend_from_slice(&tiny);
+        run(&a, &cache)
+    };
+    let ok = |o: &Output| {
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stderr).to_string()
+    };
+    let strat = path("strat.exr");
+    ok(&with(&[
+        "render",
+        &s,
+        "--sampler",
+        "lightbvh",
+        "--spp",
+        "64",
+        "--seed",
+        "9",
+        "--out",
+        &strat,
+    ]));
+    let out = path("a");
+    let err = ok(&with(&[
+        "compare",
+        &s,
+        "--samplers",
+        "uniform,power",
+        "--spp",
+        "16",
+        "--reference",
+        &strat,
+        "--out",
+        &out,
+    ]));
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("a/metrics.json")).unwrap()).unwrap();
+    for r in m["comparisons"][0]["runs"].as_array().unwrap() {
+        assert!(r["corrected"].is_null(), "{r}");
+    }
+    let html = std::fs::read_to_string(dir.path().join("a/index.html")).unwrap();
+    assert!(html.contains("stratified (--stratify sobol)"), "{err}");
+    // The same sampler and seed as a run.
+    let own = path("own.exr");
+    ok(&with(&[
+        "render",
+        &s,
+        "--sampler",
+        "power",
+        "--spp",
+        "16",
+        "--out",
+        &own,
+    ]));
+    let o = with(&[
+        "compare",
+        &s,
+        "--samplers",
+        "uniform,power",
+        "--spp",
+        "16",
+        "--reference",
+        &own,
+        "--out",
+        &path("b"),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("holds that run's own samples"), "{err}");
+    // A reference too noisy for the runs.
+    let err = ok(&with(&[
+        "compare",
+        &s,
+        "--samplers",
+        "uniform,power",
+        "--spp",
+        "256",
+        "--reference-spp",
+        "16",
+        "--out",
+        &path("c"),
+    ]));
+    assert!(err.contains("cannot resolve them"), "{err}");
+    // Another scene's entry under this one's name.
+    let strings = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes/strings.glb")
+        .display()
+        .to_string();
+    ok(&with(&[
+        "compare",
+        &strings,
+        "--samplers",
+        "uniform",
+        "--spp",
+        "1",
+        "--reference-spp",
+        "16",
+        "--out",
+        &path("d"),
+    ]));
+    let entries = |ext: &str| -> Vec<std::path::PathBuf> {
+        let mut v: Vec<_> = std::fs::read_dir(&cache)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == ext))
+            .collect();
+        v.sort();
+        v
+    };
+    let strings_entry = entries("exr").into_iter().find(|p| {
+        let r: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(p.with_extension("json")).unwrap()).unwrap();
+        r["scene"].as_str().is_some_and(|s| s.contains("strings"))
+    });
+    let strings_entry = strings_entry.expect("the strings entry");
+    let cornell_entry = entries("exr")
+        .into_iter()
+        .find(|p| *p != strings_entry && p.display().to_string().contains("-16spp"))
+        .expect("cornell's 16-spp entry");
+    std::fs::copy(&strings_entry, &cornell_entry).unwrap();
+    std::fs::copy(
+        strings_entry.with_extension("json"),
+        cornell_entry.with_extension("json"),
+    )
+    .unwrap();
+    let err = ok(&with(&[
+        "compare",
+        &s,
+        "--samplers",
+        "uniform",
+        "--spp",
+        "1",
+        "--reference-spp",
+        "16",
+        "--out",
+        &path("e"),
+    ]));
+    assert!(
+        err.contains("scene_hash") && err.contains("rendering it again"),
+        "{err}"
+    );
+}

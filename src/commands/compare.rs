@@ -164,6 +164,7 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
     if let Some((p, _, sidecar)) = &given {
         if let Some(r) = sidecar {
             check_reference_matches(p, r, &scene_hash, a.max_depth)?;
+            check_reference_independent(p, r, &samplers, a.seed, ui)?;
         }
         if !verified {
             // Not an error: a reference from another renderer (Mitsuba) has no report. But
@@ -182,12 +183,15 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
     }
     let (reference_image, reference_note, reference_noise) = match given {
         Some((p, px, sidecar)) => {
-            let noise = sidecar.as_ref().and_then(reference::noise);
-            let note = noise.map_or(
-                String::from("its own error is unknown (no report beside it gives an estimate)"),
-                |e| format!("its own estimated relMSE {:.2e}", e.rel_mse),
-            );
-            (px, format!("{} (given); {note}", p.display()), noise)
+            let noise = match sidecar.as_ref() {
+                Some(r) => reference::noise(r),
+                None => Err("no report beside it gives an estimate".to_string()),
+            };
+            let note = match &noise {
+                Ok(e) => format!("its own estimated relMSE {:.2e}", e.rel_mse),
+                Err(why) => format!("its own error is unknown ({why}), so no corrected numbers"),
+            };
+            (px, format!("{} (given); {note}", p.display()), noise.ok())
         }
         None => {
             // Progress and messages both go to the one Ui, as they happen.
@@ -308,6 +312,36 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
         comparisons,
         report: a.out.join("index.html"),
     })
+}
+
+/// A given reference must not share the runs' random numbers: one rendered by a compared
+/// sampler with the comparison's seed holds that run's own first samples, and its MSE came
+/// out 0 and its speed-up "inf" with exit 0 (an audit, 2026-12-06) — refused; another
+/// sampler with the same seed shares its camera jitter and light numbers, which lowers every
+/// MSE a little — said.
+fn check_reference_independent(
+    p: &std::path::Path,
+    report: &serde_json::Value,
+    samplers: &[LightSampler],
+    seed: u32,
+    ui: &mut dyn Ui,
+) -> Result<()> {
+    if report["seed"].as_u64() != Some(seed as u64) {
+        return Ok(());
+    }
+    let by = report["sampler"].as_str().unwrap_or("");
+    if let Some(s) = samplers.iter().find(|s| s.name() == by) {
+        bail!(
+            "reference '{}' is {by} with --seed {seed}, as this comparison's {} run: it holds that run's own samples; render the reference with another --seed, or give this comparison another",
+            p.display(),
+            s.name()
+        );
+    }
+    ui.message(&format!(
+        "warning: reference '{}' was rendered with --seed {seed}, as these runs: it shares their random numbers, which lowers every MSE a little; render it with another --seed",
+        p.display()
+    ));
+    Ok(())
 }
 
 /// A given reference must be an image of this scene at this depth where its report says

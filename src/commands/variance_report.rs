@@ -110,7 +110,14 @@ pub(super) fn table(a: &VarianceRequest, rows: &[Row]) -> String {
             100.0 * r.top_pixel_share(),
         );
         if let Some(g) = r.measured_gi {
-            t += &format!(" {:.3e} | {:.1} % |", g, 100.0 * (g - r.measured_r2) / g);
+            // No variance at all (no hit lit: a camera facing away) printed "NaN %" (an
+            // audit, 2026-12-06); the other columns say "—".
+            let later = if g > 0.0 {
+                format!("{:.1} %", 100.0 * (g - r.measured_r2) / g)
+            } else {
+                "—".into()
+            };
+            t += &format!(" {g:.3e} | {later} |");
         }
         t += "\n";
     }

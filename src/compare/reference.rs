@@ -254,6 +254,7 @@ fn seal(report_path: &std::path::Path, entry: &OutputPaths) -> Result<()> {
 fn read_entry(
     paths: &OutputPaths,
     settings: &RenderSettings,
+    scene_hash: &str,
 ) -> Result<Option<(Vec<[f32; 3]>, serde_json::Value)>> {
     let (width, height) = (settings.width, settings.height);
     if !paths.exr.exists() && !paths.json.exists() {
@@ -281,6 +282,9 @@ fn read_entry(
         ("max_depth", serde_json::json!(settings.max_depth)),
         ("seed", serde_json::json!(settings.seed)),
         ("sampler", serde_json::json!(settings.sampler.name())),
+        // Another scene's entry copied under this one's name was used, and its report
+        // relabelled with this scene (an audit, 2026-12-06).
+        ("scene_hash", serde_json::json!(scene_hash)),
     ] {
         let got = &report[field];
         if !got.is_null() && *got != want {
@@ -308,14 +312,30 @@ fn read_entry(
     Ok(Some((px, report)))
 }
 
-/// A reference's own estimated error (variance of its mean), from its JSON report.
-pub fn noise(report: &serde_json::Value) -> Option<super::Metrics> {
-    let mse = report["estimated_mse_of_mean"].as_f64()?;
-    Some(super::Metrics {
-        mse,
-        rel_mse: report["estimated_rel_mse_of_mean"].as_f64()?,
-        rmse: mse.sqrt(),
-    })
+/// A reference's own estimated error (variance of its mean), from its JSON report, or why
+/// there is none. The estimate is the pixels' sample variance over their spp, which holds
+/// for independent samples only: a render with stratified numbers (`--stratify sobol`, the
+/// default of `render`) overstated it 17× and the corrected MSEs came out negative, and one
+/// of 1 spp has no variance at all (an audit, 2026-12-06).
+pub fn noise(report: &serde_json::Value) -> std::result::Result<super::Metrics, String> {
+    let stratify = report["stratify"].as_str().unwrap_or("off");
+    if stratify != "off" {
+        return Err(format!("its samples are stratified (--stratify {stratify}), so its per-pixel variance overstates its error; render it with --stratify off for an estimate"));
+    }
+    if report["spp"].as_u64().is_some_and(|n| n < 2) {
+        return Err("it has 1 spp, and a variance needs 2".to_string());
+    }
+    match (
+        report["estimated_mse_of_mean"].as_f64(),
+        report["estimated_rel_mse_of_mean"].as_f64(),
+    ) {
+        (Some(mse), Some(rel_mse)) => Ok(super::Metrics {
+            mse,
+            rel_mse,
+            rmse: mse.sqrt(),
+        }),
+        _ => Err("its report gives no estimate".to_string()),
+    }
 }
 
 /// The cached reference for these settings, rendered (and cached) now if missing. Returns
@@ -331,18 +351,25 @@ pub fn cached(
     let (_, paths) = cache_paths(scene, settings);
     let spp = reference_spp(settings);
     let note = |report: &serde_json::Value, cached: bool| {
+        let own = match noise(report) {
+            Ok(n) => format!("its own estimated relMSE {:.2e} (a floor under every raw relMSE below; the corrected numbers subtract it)", n.rel_mse),
+            Err(why) => format!("its own error is unknown ({why}), so no corrected numbers"),
+        };
         format!(
-            "{} at {spp} spp, {} {}; its own estimated relMSE {:.2e} (a floor under every raw relMSE below; the corrected numbers subtract it)",
+            "{} at {spp} spp, {} {}; {own}",
             settings.sampler.name(),
-            if cached { "cached as" } else { "not cached: could not write" },
+            if cached {
+                "cached as"
+            } else {
+                "not cached: could not write"
+            },
             paths.exr.display(),
-            report["estimated_rel_mse_of_mean"].as_f64().unwrap_or(f64::NAN)
         )
     };
-    match read_entry(&paths, settings) {
+    match read_entry(&paths, settings, &scene_hash(scene)) {
         Ok(Some((px, report))) => {
             log(format!("using cached reference {}", paths.exr.display()));
-            return Ok((px, note(&report, true), noise(&report)));
+            return Ok((px, note(&report, true), noise(&report).ok()));
         }
         Ok(None) => {}
         Err(why) => log(format!(
@@ -368,5 +395,5 @@ pub fn cached(
             "warning: the reference is used but not cached ({e:#}); set LIGHTLEARN_CACHE to a writable folder to keep it"
         ));
     }
-    Ok((image, note(&report, stored.is_ok()), noise(&report)))
+    Ok((image, note(&report, stored.is_ok()), noise(&report).ok()))
 }
