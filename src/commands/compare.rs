@@ -48,6 +48,11 @@ pub struct CompareOutcome {
 
 /// Runs the comparison; the folders it creates are removed again if it fails.
 pub fn run(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
+    // A stop is honoured at a render's next batch (the comparison then writes nothing and
+    // its folder goes) or after the writes, never in the middle of them: one during the
+    // writes ended the program there, every render lost and temporaries left, and one
+    // between renders left an empty folder (an audit, 2026-12-06).
+    let _active = crate::interrupt::Active::begin();
     crate::io::removing_created_folders_on_error(Some(&a.out), || run_checked(a, ui))
 }
 

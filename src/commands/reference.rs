@@ -31,6 +31,10 @@ pub fn run(a: &ReferenceRequest, ui: &mut dyn Ui) -> Result<serde_json::Value> {
     crate::io::check_outputs_spare_scene(&paths.all(), a.scene.as_deref(), &[])?;
     paths.check_not_foreign()?;
     let (scene, ctx, gpu, _) = prepare(a.scene.as_deref(), &a.device, ui)?;
+    // From the render to the cache's copy: a stop asked for while the finished reference
+    // was being written ended the program there, the reference lost and its temporaries
+    // left (an audit, 2026-12-06); now the writes finish first.
+    let _active = crate::interrupt::Active::begin();
     let (_, report) = reference::render_to(&ctx, &scene, &gpu, &settings, &paths, &mut |s, f| {
         ui.progress("reference", s, f)
     })?;

@@ -431,10 +431,15 @@ pub fn run_session_until(
                 mean: session.image()?,
             })?;
         }
-        if let Budget::Seconds(s) = budget {
-            if elapsed >= s {
-                break;
-            }
+        // A budget met is a finished render, whatever was asked meanwhile: a stop during
+        // the last batch of `--spp` was reported as an interruption and a complete
+        // reference thrown away (an audit, 2026-12-06).
+        let met = match budget {
+            Budget::Seconds(s) => elapsed >= s,
+            Budget::Samples(n) => done >= n,
+        };
+        if met {
+            break;
         }
         if crate::interrupt::requested() {
             interrupted = true;
