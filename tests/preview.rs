@@ -319,9 +319,13 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
         .status
         .success());
     // P before any move: the same estimator as `render` at that many samples, bit for bit.
+    // The user's preview-0000.json (no .exr beside it) stays: P takes the next number (it
+    // was replaced: an audit, 2026-12-06).
+    let notes = dir.path().join("preview-0000.json");
+    std::fs::write(&notes, "my notes").unwrap();
     let mut shots = Shots {
         dir: dir.path().to_path_buf(),
-        next: 0,
+        next: 1,
     };
     let (first, report) = shots.take(&x);
     let spp = report["spp"].as_u64().unwrap().to_string();
@@ -446,6 +450,27 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
         app.try_wait().unwrap().is_none(),
         "the preview exited on a resize"
     );
+    // Larger than lavapipe's film (4.2 M pixels): a smaller film, shown scaled; it ended the
+    // preview (an audit, 2026-12-06).
+    let limits = common::ctx().properties.limits;
+    let most = (limits.max_storage_buffer_range as u64 / 32)
+        .min(limits.max_texel_buffer_elements as u64 / 2);
+    let want = if 3000 * 1500 <= most {
+        "at 3000×1500"
+    } else {
+        "at 1500×750"
+    };
+    assert!(x
+        .run("xdotool", &["windowsize", &window, "3000", "1500"])
+        .status
+        .success());
+    wait_for("the large window's film", 60, || {
+        title(&x, &window).contains(want)
+    });
+    assert!(
+        app.try_wait().unwrap().is_none(),
+        "the preview exited on a large window"
+    );
     x.run("xdotool", &["key", "Escape"]);
     let t0 = Instant::now();
     let status = loop {
@@ -459,6 +484,7 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(status.success(), "exit {status}: {err}");
     assert!(!err.to_lowercase().contains("validation"), "{err}");
+    assert_eq!(std::fs::read_to_string(&notes).unwrap(), "my notes");
 }
 
 /// What the preview relies on when the camera moves: the learned state stays and keeps

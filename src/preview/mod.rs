@@ -238,12 +238,21 @@ impl<'a> App<'a, '_> {
     /// The film size now: the window's, or 1/`move_factor` of it while the camera moves.
     fn film_size(&self) -> (u32, u32) {
         let (w, h) = self.display.extent();
-        if self.moving() {
-            let f = self.move_factor;
-            ((w / f).max(1), (h / f).max(1))
-        } else {
-            (w.max(1), h.max(1))
+        let mut f = if self.moving() { self.move_factor } else { 1 };
+        // A window larger than the device's film (lavapipe: 4.2 M pixels, 128 MiB of
+        // accumulators) renders a smaller film, shown scaled as while moving: a maximised
+        // window of 3000×1500 ended the preview (an audit, 2026-12-06).
+        let most = render::max_film_pixels(&self.ctx);
+        let fits = |f: u32| {
+            let (a, b) = ((w / f).max(1) as u64, (h / f).max(1) as u64);
+            a * b <= most
+                && a <= crate::commands::MAX_SIZE as u64
+                && b <= crate::commands::MAX_SIZE as u64
+        };
+        while !fits(f) {
+            f += 1;
         }
+        ((w / f).max(1), (h / f).max(1))
     }
 
     /// The current session, made on first use, at the current camera and film size.
@@ -406,8 +415,14 @@ impl<'a> App<'a, '_> {
 
     /// P: the current film as preview-NNNN.exr (+ .png, .json) in the working folder.
     fn screenshot(&mut self) -> Result<()> {
+        // A number none of whose three files exists: the user's preview-0000.json and .png
+        // beside no .exr were replaced (an audit, 2026-12-06).
         let n = (0..10_000)
-            .find(|n| !Path::new(&format!("preview-{n:04}.exr")).exists())
+            .find(|n| {
+                ["exr", "png", "json"]
+                    .iter()
+                    .all(|e| !Path::new(&format!("preview-{n:04}.{e}")).exists())
+            })
             .ok_or_else(|| anyhow!("preview-0000 … preview-9999 all exist; move them away"))?;
         let out = PathBuf::from(format!("preview-{n:04}.exr"));
         let device = self.ctx.describe();
@@ -482,7 +497,15 @@ impl<'a> App<'a, '_> {
                 self.changed_camera();
                 self.view = self.scene.camera;
             }
-            KeyCode::KeyP => self.screenshot()?,
+            // A failed save (a read-only folder) is said, and the preview goes on: it ended
+            // the window, and what it had learned, with exit 1 (an audit, 2026-12-06).
+            KeyCode::KeyP => {
+                if let Err(e) = self.screenshot() {
+                    self.ui.message(&format!(
+                        "error: {e:#}; nothing was saved, the preview goes on"
+                    ));
+                }
+            }
             _ => {}
         }
         Ok(())
@@ -569,7 +592,12 @@ impl ApplicationHandler for App<'_, '_> {
                     MouseScrollDelta::LineDelta(_, y) => y,
                     MouseScrollDelta::PixelDelta(p) => (p.y / 40.0) as f32,
                 };
-                self.camera.speed *= 1.25f32.powf(lines);
+                // Within 10⁻⁴…10⁴ of the starting speed: 420 notches up made it infinite and
+                // the next move ended the preview ("a camera needs a finite position"), ~450
+                // down made it 0 for good (an audit, 2026-12-06).
+                let start = 0.25 * (self.bounds.1 - self.bounds.0).length().max(1e-3);
+                self.camera.speed =
+                    (self.camera.speed * 1.25f32.powf(lines)).clamp(1e-4 * start, 1e4 * start);
                 Ok(())
             }
             _ => Ok(()),

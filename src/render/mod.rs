@@ -33,7 +33,7 @@ pub use gpu_scene::{
 pub use learned_state::{touched_list, HostReduction};
 pub use passes::{FOLD_BINDINGS, RENDER_BINDINGS};
 pub use result::{Learned, RegionStats, RenderResult};
-pub use session::{Session, MAX_PASSES, POOL_AGE_MAX};
+pub use session::{max_film_pixels, Session, MAX_PASSES, POOL_AGE_MAX};
 
 /// The light samplers, a closed set: one value per `SAMPLER` case in `shaders/render.comp`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]

@@ -20,6 +20,14 @@ pub(super) struct Film {
     pub(super) seconds: f64,
 }
 
+/// The most pixels a film may have on this device: its accumulators are one storage buffer
+/// of 32 bytes a pixel, read as two texels a pixel.
+pub fn max_film_pixels(ctx: &Context) -> u64 {
+    let limits = &ctx.properties.limits;
+    (limits.max_storage_buffer_range as u64 / std::mem::size_of::<PixelAccum>() as u64)
+        .min(limits.max_texel_buffer_elements as u64 / 2)
+}
+
 impl Film {
     pub(super) fn new(ctx: &Arc<Context>, width: u32, height: u32) -> Result<Film> {
         if width == 0 || height == 0 || width > 16384 || height > 16384 {

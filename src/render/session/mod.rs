@@ -38,6 +38,7 @@ use crate::learning::stats_file::{SavedStats, StatsHeader};
 use crate::learning::LearningClock;
 use crate::scene::{Camera, Scene};
 
+pub use film::max_film_pixels;
 use film::Film;
 use growth::next_growth_point;
 pub use growth::{growth_point, POOL_AGE_MAX};
