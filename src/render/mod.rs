@@ -420,11 +420,18 @@ pub fn run_session_until(
             Budget::Seconds(s) => (elapsed / s).min(1.0),
         };
         progress(done, fraction);
+        // Every checkpoint this batch passed, given once: several that fell inside one
+        // batch (the first, on a cold shader cache) were each written, the same point up to
+        // six times in compare's convergence.csv (an audit, 2026-12-06).
+        let mut passed = false;
         while let Some(&(t, n)) = pending.front() {
             if elapsed < t && done < n {
                 break;
             }
             pending.pop_front();
+            passed = true;
+        }
+        if passed {
             on_checkpoint(Checkpoint {
                 spp: done,
                 seconds: elapsed,
