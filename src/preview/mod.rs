@@ -437,8 +437,10 @@ impl<'a> App<'a, '_> {
         let settings = session.settings().clone();
         let paths = crate::film::OutputPaths::new(&out)?;
         let mut report = render::report_json(scene, &settings, &result, &device);
-        // The camera flown to, not the scene's.
+        // The camera flown to, not the scene's; the samples the window had, not its
+        // session's open-ended budget (4294967295 spp: an audit, 2026-12-06).
         report["camera"] = render::camera_json(&session.camera());
+        report["budget"] = serde_json::json!({"spp": result.spp, "preview": true});
         crate::film::write_outputs(&paths, result.width, result.height, &result.mean(), &report)?;
         self.ui.message(&format!(
             "wrote {} (+ .png, .json): {} spp at {}×{}",
