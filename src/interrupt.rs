@@ -15,8 +15,10 @@ pub fn request() {
 /// pass loops and the checkpoints' writes between them, each pass loop one more).
 static ACTIVE: AtomicUsize = AtomicUsize::new(0);
 
-/// Marks a pass loop as running while the guard lives: only then can a stop be honoured
-/// after the current batch (elsewhere a Ctrl-C should end the program at once).
+/// Marks a pass loop as running while the guard lives, or a command's span that must not
+/// be cut (its renders and the writes after them: `render --checkpoint`, `compare`,
+/// `reference`): only then can a stop be honoured after the current batch or write
+/// (elsewhere a Ctrl-C should end the program at once).
 pub struct Active;
 
 impl Active {

@@ -37,8 +37,10 @@ macro_rules! out {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    // First Ctrl-C during a render: finish the current batch and write what is done; a
-    // second one, or one at any other time (loading, building, writing): quit now. SIGTERM
+    // First Ctrl-C during a render (and, for `render --checkpoint`, `compare` and
+    // `reference`, across their writes: `interrupt::Active`): finish the current batch and
+    // write what is done; a second one, or one at any other time (loading, building): quit
+    // now. SIGTERM
     // and SIGHUP too (ctrlc's `termination`): `timeout`, `kill`, a CI job's or a closed
     // terminal's stop had lost every sample of a long render.
     let _ = ctrlc::set_handler(|| {

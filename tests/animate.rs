@@ -744,6 +744,12 @@ fn the_reference_report_compares_every_variant_on_every_frame() {
         assert!(html.contains(want), "report.html lacks {want}");
     }
     assert!(out.join("reference/frame-0002.exr").exists());
+    // Independent numbers, so that their noise estimate holds (with Sobol' ones it was many
+    // times their error and variants' MSEs came out 0: a review, 2026-12-06).
+    let r: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("reference/frame-0002.json")).unwrap())
+            .unwrap();
+    assert_eq!(r["stratify"], "off");
 }
 
 /// Two groups of four bulbs that swap sides at t = 1 and come back at t = 2: frame 0's tree

@@ -114,6 +114,7 @@ impl AnimateArgs {
             video: !self.no_video,
             chunk: self.chunk,
             device: self.device.options(),
+            stratify: lightlearn::render::Stratify::Sobol,
         })
     }
 }

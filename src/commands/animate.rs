@@ -64,6 +64,9 @@ pub struct AnimateRequest {
     /// A farm chunk of a single frame: samples [K·spp, (K+1)·spp) after what it loaded.
     pub chunk: Option<u32>,
     pub device: ContextOptions,
+    /// The frames' numbers: Sobol' (`animate`'s default) or independent, which the
+    /// evaluation's references use so that their noise can be estimated and subtracted.
+    pub stratify: crate::render::Stratify,
 }
 
 /// One frame's record in `animation.json`.
@@ -261,6 +264,8 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
     let scene0 = anim
         .scene_at(t0, &mut warn_once(ui))
         .with_context(|| format!("frame 0 (t = {t0} s)"))?;
+    // Before the tree is built (twice: this and the frame's own), as an upload would.
+    crate::render::check_fits(&ctx, &scene0)?;
     let topology = LightTree::build(&scene0);
     ui.message(&format!(
         "{}: {} triangles, {} lights, {} animation channels; frames {first}..{last} at {} fps; device {}",
@@ -347,7 +352,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
             regions: req.regions,
             learn: req.learn,
             resume: None,
-            stratify: crate::render::Stratify::Sobol,
+            stratify: req.stratify,
             max_depth: req.max_depth,
             light_point: Default::default(),
             indirect_light_samples: 1,

@@ -123,6 +123,10 @@ pub fn run(
         video: false,
         chunk: None,
         seed: req.seed ^ 0x5EED_0001,
+        // Independent numbers, so that a reference's own noise can be estimated: with
+        // animate's Sobol' numbers its estimate was many times its error, and every
+        // variant's MSE came out 0 (a review, 2026-12-06).
+        stratify: crate::render::Stratify::Off,
         ..req.clone()
     };
     let references = animate::run(&reference_req, ui)?;
@@ -130,6 +134,7 @@ pub fn run(
         bail!("interrupted (Ctrl-C or a stop signal) while rendering the references; nothing compared");
     }
     let mut results = Vec::new();
+    let mut unresolved: Vec<String> = Vec::new();
     for v in variants {
         ui.message(&format!("variant {}", v.name()));
         let vreq = AnimateRequest {
@@ -150,10 +155,14 @@ pub fn run(
             let (_, _, image) = film::read_exr(&f.exr)?;
             let (_, _, reference) = film::read_exr(&r.exr)?;
             let m = metrics(&image, &reference);
-            // The reference's own noise adds its variance to the measured MSE.
-            let noise = read_json(&r.exr.with_extension("json"))?["estimated_mse_of_mean"]
-                .as_f64()
-                .unwrap_or(0.0);
+            // The reference's own noise adds its variance to the measured MSE; where it is
+            // not below the measured MSE the frame's error is unresolved, said below.
+            let noise =
+                crate::compare::reference::noise(&read_json(&r.exr.with_extension("json"))?)
+                    .map_or(0.0, |n| n.mse);
+            if m.mse <= noise {
+                unresolved.push(format!("{} frame {}", v.name(), r.frame));
+            }
             mse.push((m.mse - noise).max(0.0));
             rel.push(m.rel_mse);
             seconds.push(f.render_seconds);
@@ -167,6 +176,12 @@ pub fn run(
             flicker: fl,
             step,
         });
+    }
+    if !unresolved.is_empty() {
+        ui.message(&format!(
+            "warning: the references' own error is not below the measured error of {}: those MSEs are written as 0, not measured; use a larger --reference-spp",
+            unresolved.join(", ")
+        ));
     }
     let frames: Vec<u32> = references.frames.iter().map(|f| f.frame).collect();
     crate::io::write_atomic(

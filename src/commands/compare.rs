@@ -48,12 +48,12 @@ pub struct CompareOutcome {
 
 /// Runs the comparison; the folders it creates are removed again if it fails.
 pub fn run(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
-    // A stop is honoured at a render's next batch (the comparison then writes nothing and
-    // its folder goes) or after the writes, never in the middle of them: one during the
-    // writes ended the program there, every render lost and temporaries left, and one
-    // between renders left an empty folder (an audit, 2026-12-06).
-    let _active = crate::interrupt::Active::begin();
-    crate::io::removing_created_folders_on_error(Some(&a.out), || run_checked(a, ui))
+    let outcome =
+        crate::io::removing_created_folders_on_error(Some(&a.out), || run_checked(a, ui))?;
+    if crate::interrupt::requested() {
+        ui.message("a stop was asked for while the comparison was being written; it is complete");
+    }
+    Ok(outcome)
 }
 
 fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
@@ -155,6 +155,12 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
     };
 
     let (scene, ctx, gpu, _) = prepare(a.scene.as_deref(), &a.device, ui)?;
+    // From here on a stop is honoured at a render's next batch (the comparison then writes
+    // nothing and its folder goes) or after the writes, never in the middle of them: one
+    // during the writes ended the program there, every render lost and temporaries left,
+    // and one between renders left an empty folder (an audit, 2026-12-06). While the scene
+    // loads, one still ends the program at once.
+    let _active = crate::interrupt::Active::begin();
     let scene_hash = reference::scene_hash(&scene);
     // Whether the reference is known to be of this scene at this depth: made here, or given
     // with a report that says so, tied to its pixels by the EXR's checksum (checked when it
@@ -331,7 +337,19 @@ fn check_reference_independent(
     seed: u32,
     ui: &mut dyn Ui,
 ) -> Result<()> {
-    if report["seed"].as_u64() != Some(seed as u64) {
+    // A merge's report keeps its parts' seeds in `merged_from` (a farm's chunk 0 of the
+    // compared sampler with this seed holds the run's own first samples: a review).
+    let seeds: Vec<u64> = std::iter::once(&report["seed"])
+        .chain(
+            report["merged_from"]
+                .as_array()
+                .into_iter()
+                .flatten()
+                .map(|p| &p["seed"]),
+        )
+        .filter_map(|v| v.as_u64())
+        .collect();
+    if !seeds.contains(&(seed as u64)) {
         return Ok(());
     }
     let by = report["sampler"].as_str().unwrap_or("");

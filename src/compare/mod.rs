@@ -82,8 +82,8 @@ pub struct SamplerRun {
     pub speedup: f64,
     /// The errors with the reference's own noise taken out: E[(x − ref)²] = error(x) +
     /// Var(ref) for an independent reference, so its estimated variance is subtracted (None
-    /// when the reference's noise is unknown). Can come out ≤ 0 when the reference's noise
-    /// dominates: then only the raw numbers mean something.
+    /// when the reference's noise is unknown, or not below this run's error: then only the
+    /// raw numbers mean something, and the comparison's warning says so).
     pub corrected: Option<Metrics>,
     /// The speed-up from the corrected MSEs (None unless both are > 0).
     pub speedup_corrected: Option<f64>,
@@ -298,7 +298,7 @@ fn over_budget(c: &Comparison) -> Option<String> {
 fn unresolved(c: &Comparison, noise: Option<Metrics>) -> Option<String> {
     let n = noise?;
     let weak: Vec<String> = (c.runs.iter())
-        .filter(|r| 2.0 * n.mse >= r.metrics.mse)
+        .filter(|r| 2.0 * n.mse >= r.metrics.mse || r.corrected.is_none())
         .map(|r| {
             format!(
                 "{} (MSE {:.2e}{})",

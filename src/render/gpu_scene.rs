@@ -65,15 +65,12 @@ pub fn hit_epsilon(x: Vec3, o: Vec3, t: f32, tri: [Vec3; 3]) -> f32 {
     surface_epsilon(x.abs().max_element(), far)
 }
 
-/// 1e-4 of the scene's size: how far the host widens boxes in the tests of what a pixel's
-/// rays can meet (coverage.rs: a larger margin only keeps more rows); rays themselves
-/// leave surfaces by [`hit_epsilon`].
 /// The scene's largest buffers against the device's limits, named by what the scene holds
 /// and checked before the light tree is built: lavapipe's 128 MiB storage buffers hold the
 /// tree of about 1 048 576 lights and 33.5 M texels, and past them the error came after 17 s
 /// of building the tree, or read "buffer 'texels' needs 268435456 bytes … use a smaller
 /// scene or image" for one 8192² texture (an audit, 2026-12-06).
-fn check_fits(ctx: &Context, scene: &Scene) -> Result<()> {
+pub fn check_fits(ctx: &Context, scene: &Scene) -> Result<()> {
     let limits = &ctx.properties.limits;
     let storage = limits.max_storage_buffer_range as u64;
     let node = std::mem::size_of::<crate::abi::GpuLightNode>() as u64;
@@ -104,6 +101,9 @@ fn check_fits(ctx: &Context, scene: &Scene) -> Result<()> {
     Ok(())
 }
 
+/// 1e-4 of the scene's size: how far the host widens boxes in the tests of what a pixel's
+/// rays can meet (coverage.rs: a larger margin only keeps more rows); rays themselves
+/// leave surfaces by [`hit_epsilon`].
 pub fn ray_epsilon(scene: &Scene) -> f32 {
     let (lo, hi) = scene.bounds();
     let size = (hi - lo).length().max(lo.abs().max(hi.abs()).max_element());

@@ -337,6 +337,10 @@ impl Animations {
 fn check_types(ch: &gltf::animation::Channel) -> std::result::Result<(), String> {
     use gltf::accessor::{DataType, Dimensions};
     use gltf::animation::Property as Path;
+    // Morph-target weights are ignored with a warning, whatever their type (a review).
+    if ch.target().property() == Path::MorphTargetWeights {
+        return Ok(());
+    }
     let sampler = ch.sampler();
     let spell = |a: &gltf::Accessor| {
         let normalized = if a.normalized() { "normalized " } else { "" };
@@ -383,10 +387,7 @@ fn check_types(ch: &gltf::animation::Channel) -> std::result::Result<(), String>
             output.dimensions() == Dimensions::Vec4 && (float || normalized_int),
             "VEC4 FLOAT or normalized BYTE, UNSIGNED_BYTE, SHORT, UNSIGNED_SHORT",
         ),
-        Path::MorphTargetWeights => (
-            output.dimensions() == Dimensions::Scalar && (float || normalized_int),
-            "SCALAR FLOAT or normalized BYTE, UNSIGNED_BYTE, SHORT, UNSIGNED_SHORT",
-        ),
+        Path::MorphTargetWeights => (true, ""),
     };
     if ok {
         Ok(())
