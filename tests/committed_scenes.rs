@@ -184,3 +184,43 @@ fn gltf_text_output_loads_like_glb() {
         assert_eq!(s.lights.len(), 40);
     }
 }
+
+/// The smallest halls (1–3 lights: 3 m) had a partition closed around the camera: a black
+/// image at direct light, ~1e-6 at depth 8, an all-zero PNG (an audit, 2026-12-06).
+#[test]
+fn small_halls_keep_the_camera_in_the_open() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let run = |args: &[&str]| {
+        let o = Command::new(common::exe())
+            .args(args)
+            .current_dir(d)
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        String::from_utf8_lossy(&o.stderr).to_string()
+    };
+    for n in ["1", "2", "3"] {
+        run(&["scene", "hall", "--lights", n, "--out", "h.glb"]);
+        let err = run(&[
+            "render",
+            "h.glb",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--spp",
+            "4",
+            "--max-depth",
+            "1",
+            "--out",
+            "h.exr",
+            "--force",
+        ]);
+        assert!(!err.contains("the image is black"), "hall of {n}: {err}");
+    }
+}

@@ -238,6 +238,24 @@ fn black_images_are_said_and_not_compared() {
     );
     let o = render("c.gltf", &["--out", "c.exr"], d);
     assert!(!stderr(&o).contains("black"), "{}", stderr(&o));
+    // Lit, but below the PNG's first step everywhere: an all-zero PNG with no word (an
+    // audit, 2026-12-06). The emission × 1e-6.
+    let mut dim = cornell(d);
+    for m in dim["materials"].as_array_mut().unwrap() {
+        if let Some(s) =
+            m["extensions"]["KHR_materials_emissive_strength"]["emissiveStrength"].as_f64()
+        {
+            m["extensions"]["KHR_materials_emissive_strength"]["emissiveStrength"] =
+                json!(s * 1e-6);
+        }
+    }
+    write_json(&d.join("dim.gltf"), &dim);
+    let o = render("dim.gltf", &["--out", "dim.exr"], d);
+    assert!(
+        stderr(&o).contains("warning: the PNG is black"),
+        "{}",
+        stderr(&o)
+    );
     let cache = d.join("cache");
     let o = compare(
         d,

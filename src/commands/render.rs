@@ -294,6 +294,16 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
             "warning: the image is black: no light reached the camera in {} spp; check that the camera looks at the scene (a node of negative scale turns it round) and that the lights are not hidden",
             result.spp
         ));
+    } else if result.spp > 0 {
+        // Lit, but below the PNG's first 8-bit step everywhere (sRGB 12.92·x < 0.5/255): an
+        // all-zero PNG with no word (a hall whose camera sat in a partition, 1e-6; strings
+        // of one bulb, 1.8e-5: an audit, 2026-12-06).
+        let peak = result.mean().iter().flatten().fold(0f32, |m, &v| m.max(v));
+        if peak < 0.5 / (255.0 * 12.92) {
+            ui.message(&format!(
+                "warning: the PNG is black: the brightest pixel is {peak:.2e}, below its first 8-bit step; the EXR holds the image"
+            ));
+        }
     }
     let samples = result.spp as f64 * req.width as f64 * req.height as f64;
     Ok(RenderOutcome {
