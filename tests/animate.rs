@@ -646,25 +646,28 @@ fn the_frames_become_a_video_when_ffmpeg_is_installed() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("walk");
-    let o = run(&[
-        "animate",
-        root().join("scenes/rooms-walk.glb").to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--frames",
-        "1..3",
-        "--fps",
-        "2",
-        "--spp",
-        "2",
-        "--width",
-        "23",
-        "--height",
-        "17",
-        "--max-depth",
-        "1",
-    ]);
+    // `animate` of a committed scene into dir/out at a tiny size, direct light.
+    let tiny = |scene: &str, out: &str, extra: &[&str]| {
+        let out = dir.path().join(out);
+        let scene = root().join("scenes").join(scene);
+        let mut args = vec![
+            "animate",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--max-depth",
+            "1",
+        ];
+        args.extend_from_slice(extra);
+        (run(&args), out)
+    };
+    let (o, out) = tiny(
+        "rooms-walk.glb",
+        "walk",
+        &[
+            "--frames", "1..3", "--fps", "2", "--spp", "2", "--width", "23", "--height", "17",
+        ],
+    );
     ok(&o);
     let video = std::fs::read(out.join("animation.mp4")).expect("animation.mp4");
     // An MP4 starts with its `ftyp` box.
@@ -675,23 +678,20 @@ fn the_frames_become_a_video_when_ffmpeg_is_installed() {
     );
     // A frame number past ffmpeg's ints: the frame is written, the video is not, and that
     // is said (it failed after the frames, exit 1: an audit, 2026-12-06).
-    let far = dir.path().join("far");
-    let o = run(&[
-        "animate",
-        root().join("scenes/cornell.glb").to_str().unwrap(),
-        "--out",
-        far.to_str().unwrap(),
-        "--frame",
-        "4294967295",
-        "--spp",
-        "1",
-        "--width",
-        "8",
-        "--height",
-        "8",
-        "--max-depth",
-        "1",
-    ]);
+    let (o, far) = tiny(
+        "cornell.glb",
+        "far",
+        &[
+            "--frame",
+            "4294967295",
+            "--spp",
+            "1",
+            "--width",
+            "8",
+            "--height",
+            "8",
+        ],
+    );
     ok(&o);
     assert!(far.join("frame-4294967295.exr").exists());
     assert!(!far.join("animation.mp4").exists());

@@ -497,32 +497,46 @@ fn references_that_cannot_measure_are_said() {
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         String::from_utf8_lossy(&o.stderr).to_string()
     };
+    // `render` of cornell, and `compare` of `scene` with its reference given (`--reference
+    // F`) or made (`--reference-spp N`).
+    let render = |sampler: &str, spp: &str, extra: &[&str], out: &str| {
+        let mut a = vec![
+            "render",
+            s.as_str(),
+            "--sampler",
+            sampler,
+            "--spp",
+            spp,
+            "--out",
+            out,
+        ];
+        a.extend_from_slice(extra);
+        with(&a)
+    };
+    let cmp = |scene: &str, samplers: &str, spp: &str, reference: [&str; 2], out: &str| {
+        let (flag, value) = (reference[0], reference[1]);
+        with(&[
+            "compare",
+            scene,
+            "--samplers",
+            samplers,
+            "--spp",
+            spp,
+            flag,
+            value,
+            "--out",
+            out,
+        ])
+    };
     let strat = path("strat.exr");
-    ok(&with(&[
-        "render",
+    ok(&render("lightbvh", "64", &["--seed", "9"], &strat));
+    let err = ok(&cmp(
         &s,
-        "--sampler",
-        "lightbvh",
-        "--spp",
-        "64",
-        "--seed",
-        "9",
-        "--out",
-        &strat,
-    ]));
-    let out = path("a");
-    let err = ok(&with(&[
-        "compare",
-        &s,
-        "--samplers",
         "uniform,power",
-        "--spp",
         "16",
-        "--reference",
-        &strat,
-        "--out",
-        &out,
-    ]));
+        ["--reference", &strat],
+        &path("a"),
+    ));
     let m: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("a/metrics.json")).unwrap()).unwrap();
     for r in m["comparisons"][0]["runs"].as_array().unwrap() {
@@ -532,62 +546,32 @@ fn references_that_cannot_measure_are_said() {
     assert!(html.contains("stratified (--stratify sobol)"), "{err}");
     // The same sampler and seed as a run.
     let own = path("own.exr");
-    ok(&with(&[
-        "render",
-        &s,
-        "--sampler",
-        "power",
-        "--spp",
-        "16",
-        "--out",
-        &own,
-    ]));
-    let o = with(&[
-        "compare",
-        &s,
-        "--samplers",
-        "uniform,power",
-        "--spp",
-        "16",
-        "--reference",
-        &own,
-        "--out",
-        &path("b"),
-    ]);
+    ok(&render("power", "16", &[], &own));
+    let o = cmp(&s, "uniform,power", "16", ["--reference", &own], &path("b"));
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(err.contains("holds that run's own samples"), "{err}");
     // A reference too noisy for the runs.
-    let err = ok(&with(&[
-        "compare",
+    let err = ok(&cmp(
         &s,
-        "--samplers",
         "uniform,power",
-        "--spp",
         "256",
-        "--reference-spp",
-        "16",
-        "--out",
+        ["--reference-spp", "16"],
         &path("c"),
-    ]));
+    ));
     assert!(err.contains("cannot resolve them"), "{err}");
     // Another scene's entry under this one's name.
     let strings = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("scenes/strings.glb")
         .display()
         .to_string();
-    ok(&with(&[
-        "compare",
+    ok(&cmp(
         &strings,
-        "--samplers",
         "uniform",
-        "--spp",
         "1",
-        "--reference-spp",
-        "16",
-        "--out",
+        ["--reference-spp", "16"],
         &path("d"),
-    ]));
+    ));
     let entries = |ext: &str| -> Vec<std::path::PathBuf> {
         let mut v: Vec<_> = std::fs::read_dir(&cache)
             .unwrap()
@@ -613,18 +597,13 @@ fn references_that_cannot_measure_are_said() {
         cornell_entry.with_extension("json"),
     )
     .unwrap();
-    let err = ok(&with(&[
-        "compare",
+    let err = ok(&cmp(
         &s,
-        "--samplers",
         "uniform",
-        "--spp",
         "1",
-        "--reference-spp",
-        "16",
-        "--out",
+        ["--reference-spp", "16"],
         &path("e"),
-    ]));
+    ));
     assert!(
         err.contains("scene_hash") && err.contains("rendering it again"),
         "{err}"

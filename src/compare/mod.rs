@@ -284,7 +284,7 @@ fn over_budget(c: &Comparison) -> Option<String> {
         "equal time is not equal here: {} against --time {} s (a render stops at the end of a pass, and on a cold shader cache its first pass holds lavapipe's kernel compile), so their speed-ups compare longer renders; give a longer --time",
         over.join(", "),
         // Rust writes 1e-300 out in 300 digits (an audit, 2026-12-06).
-        if (1e-3..1e6).contains(&t) {
+        if (1e-6..1e9).contains(&t) {
             format!("{t}")
         } else {
             format!("{t:e}")
