@@ -158,9 +158,10 @@ pub fn table(times: &[StageTime]) -> String {
             100.0 * saved / full
         ));
     }
-    // A variant that took longer than the full pass is noise, not a stage: `--repeats 1`
+    // A variant that took longer than the full pass (a row printed below 0 %) is noise, not
+    // a stage: `--repeats 1`
     // at 16×12 printed "statistics atomics −69 %" with no word (an audit, 2026-12-06).
-    if times.iter().any(|t| t.seconds > full * 1.02) {
+    if times.iter().any(|t| (full - t.seconds) / full < -0.005) {
         s.push_str("
 warning: a row below 0 % is this machine's noise, not the stage: the times are too short or too few to resolve it; use more --repeats, --spp or pixels\n");
     }

@@ -135,6 +135,7 @@ pub fn run(
     }
     let mut results = Vec::new();
     let mut unresolved: Vec<String> = Vec::new();
+    let mut unknown: Option<String> = None;
     for v in variants {
         ui.message(&format!("variant {}", v.name()));
         let vreq = AnimateRequest {
@@ -157,9 +158,15 @@ pub fn run(
             let m = metrics(&image, &reference);
             // The reference's own noise adds its variance to the measured MSE; where it is
             // not below the measured MSE the frame's error is unresolved, said below.
-            let noise =
-                crate::compare::reference::noise(&read_json(&r.exr.with_extension("json"))?)
-                    .map_or(0.0, |n| n.mse);
+            let noise = match crate::compare::reference::noise(&read_json(
+                &r.exr.with_extension("json"),
+            )?) {
+                Ok(n) => n.mse,
+                Err(why) => {
+                    unknown.get_or_insert(why);
+                    0.0
+                }
+            };
             if m.mse <= noise {
                 unresolved.push(format!("{} frame {}", v.name(), r.frame));
             }
@@ -179,8 +186,13 @@ pub fn run(
     }
     if !unresolved.is_empty() {
         ui.message(&format!(
-            "warning: the references' own error is not below the measured error of {}: those MSEs are written as 0, not measured; use a larger --reference-spp",
+            "warning: the references' own error is not below the measured error of {}: those MSEs are written as 0, not measured, and the flicker and step count them; use a larger --reference-spp",
             unresolved.join(", ")
+        ));
+    }
+    if let Some(why) = unknown {
+        ui.message(&format!(
+            "warning: the references' own error is unknown ({why}), so it is not taken out of the MSEs; use a larger --reference-spp"
         ));
     }
     let frames: Vec<u32> = references.frames.iter().map(|f| f.frame).collect();

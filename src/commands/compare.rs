@@ -51,7 +51,7 @@ pub fn run(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
     let outcome =
         crate::io::removing_created_folders_on_error(Some(&a.out), || run_checked(a, ui))?;
     if crate::interrupt::requested() {
-        ui.message("a stop was asked for while the comparison was being written; it is complete");
+        ui.message("a stop was asked for after the last render met its budget or while the comparison was written; it is complete");
     }
     Ok(outcome)
 }
@@ -118,10 +118,6 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
         others.push(("the --reference", r));
     }
     crate::io::check_outputs_spare_scene(&written, a.scene.as_deref(), &others)?;
-    crate::io::create_output_folder(&a.out, "output folder")?;
-    crate::io::write_atomic(&a.out.join(".write-test"), b"")
-        .with_context(|| format!("the output folder '{}' is not writable", a.out.display()))?;
-    let _ = std::fs::remove_file(a.out.join(".write-test"));
     let given = match &a.reference {
         Some(p) => {
             let (w, h, px) = film::read_exr(p)?;
@@ -161,6 +157,11 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
     // and one between renders left an empty folder (an audit, 2026-12-06). While the scene
     // loads, one still ends the program at once.
     let _active = crate::interrupt::Active::begin();
+    // Made here, under the guard: a stop while the scene loaded left it empty.
+    crate::io::create_output_folder(&a.out, "output folder")?;
+    crate::io::write_atomic(&a.out.join(".write-test"), b"")
+        .with_context(|| format!("the output folder '{}' is not writable", a.out.display()))?;
+    let _ = std::fs::remove_file(a.out.join(".write-test"));
     let scene_hash = reference::scene_hash(&scene);
     // Whether the reference is known to be of this scene at this depth: made here, or given
     // with a report that says so, tied to its pixels by the EXR's checksum (checked when it

@@ -274,6 +274,12 @@ impl Animations {
             let name = anim.name().unwrap_or("").to_string();
             for (ci, ch) in anim.channels().enumerate() {
                 let label = format!("animation {} ('{name}') channel {ci}", anim.index());
+                // Before anything reads them: the parser cannot read weights of every type
+                // (an UNSIGNED_INT one reached its `unreachable!`: a review, 2026-12-06).
+                if ch.target().property() == gltf::animation::Property::MorphTargetWeights {
+                    warn(format!("'{file}': {label} animates morph-target weights, which lightlearn does not support; ignored"));
+                    continue;
+                }
                 // Sparse keys out of range were dropped as in meshes (a review, 2026-12-06).
                 for a in [ch.sampler().input(), ch.sampler().output()] {
                     super::gltf_data::check_sparse(&a, buffers, &format!("'{file}': {label}"))?;
@@ -297,10 +303,7 @@ impl Animations {
                         Property::Rotation,
                         r.into_f32().map(Vec4::from).collect::<Vec<_>>(),
                     ),
-                    ReadOutputs::MorphTargetWeights(_) => {
-                        warn(format!("'{file}': {label} animates morph-target weights, which lightlearn does not support; ignored"));
-                        continue;
-                    }
+                    ReadOutputs::MorphTargetWeights(_) => continue,
                 };
                 let interpolation = match ch.sampler().interpolation() {
                     gltf::animation::Interpolation::Step => Interpolation::Step,
@@ -337,10 +340,6 @@ impl Animations {
 fn check_types(ch: &gltf::animation::Channel) -> std::result::Result<(), String> {
     use gltf::accessor::{DataType, Dimensions};
     use gltf::animation::Property as Path;
-    // Morph-target weights are ignored with a warning, whatever their type (a review).
-    if ch.target().property() == Path::MorphTargetWeights {
-        return Ok(());
-    }
     let sampler = ch.sampler();
     let spell = |a: &gltf::Accessor| {
         let normalized = if a.normalized() { "normalized " } else { "" };
@@ -387,6 +386,7 @@ fn check_types(ch: &gltf::animation::Channel) -> std::result::Result<(), String>
             output.dimensions() == Dimensions::Vec4 && (float || normalized_int),
             "VEC4 FLOAT or normalized BYTE, UNSIGNED_BYTE, SHORT, UNSIGNED_SHORT",
         ),
+        // Skipped before this check (`Animations::read`).
         Path::MorphTargetWeights => (true, ""),
     };
     if ok {

@@ -178,6 +178,19 @@ fn check_animations(root: &Root, name: &str) -> Result<()> {
                 bail!("{at} targets node {}, but the file has {} nodes; fix the channel's target or drop the channel", ch.target.node.value(), root.nodes.len());
             }
         }
+        // The samplers lightlearn reads: those of channels other than morph-target weights
+        // (ignored with a warning, whatever their data).
+        let read: Vec<usize> = (anim.channels.iter())
+            .filter(|ch| {
+                !matches!(
+                    ch.target.path,
+                    gltf::json::validation::Checked::Valid(
+                        gltf::json::animation::Property::MorphTargetWeights
+                    )
+                )
+            })
+            .map(|ch| ch.sampler.value())
+            .collect();
         for (s, sampler) in anim.samplers.iter().enumerate() {
             let at = format!("'{name}': {label} sampler {s}");
             for (what, acc) in [
@@ -187,7 +200,7 @@ fn check_animations(root: &Root, name: &str) -> Result<()> {
                 if acc >= accessors {
                     bail!("{at}: its {what} names accessor {acc}, but the file has {accessors}; fix the index");
                 }
-                check_accessor(root, acc, &at, true)?;
+                check_accessor(root, acc, &at, read.contains(&s))?;
             }
         }
     }
