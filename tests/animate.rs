@@ -752,6 +752,18 @@ fn the_reference_report_compares_every_variant_on_every_frame() {
     assert_eq!(r["stratify"], "off");
 }
 
+/// `animate` of the scene `g` with `extra`: animation.json's frame records.
+fn frame_records(g: &GltfBuilder, extra: &[&str]) -> Vec<serde_json::Value> {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.glb");
+    std::fs::write(&scene, g.to_glb()).unwrap();
+    let out = dir.path().join("out");
+    animate(&scene, &out, extra);
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("animation.json")).unwrap()).unwrap();
+    summary["frames"].as_array().unwrap().clone()
+}
+
 /// Two groups of four bulbs that swap sides at t = 1 and come back at t = 2: frame 0's tree
 /// refitted at frame 1 groups lights 10 m apart, so the frame builds its own tree and learns
 /// afresh; frame 2 refits frame 0's tree again and cannot use frame 1's statistics either.
@@ -778,14 +790,7 @@ fn a_degraded_light_tree_is_rebuilt_and_learning_restarts() {
         );
     }
     g.camera(Vec3::new(0.0, 6.0, 8.0), Vec3::ZERO, 1.0);
-    let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("swap.glb");
-    std::fs::write(&scene, g.to_glb()).unwrap();
-    let out = dir.path().join("out");
-    animate(&scene, &out, &["--fps", "1", "--spp", "4"]);
-    let summary: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("animation.json")).unwrap()).unwrap();
-    let f = summary["frames"].as_array().unwrap();
+    let f = frame_records(&g, &["--fps", "1", "--spp", "4"]);
     assert_eq!(f.len(), 3);
     assert!(f[1]["tree_cost_ratio"].as_f64().unwrap() > 2.0, "{}", f[1]);
     assert_eq!(f[1]["learning"], "restarted (light tree rebuilt)");
@@ -816,14 +821,8 @@ fn a_light_moved_far_away_rebuilds_the_tree() {
         &[vec![1.0, 1.0, 0.0], vec![1.0, 1000.0, 0.0]],
     );
     g.camera(Vec3::new(0.0, 3.0, 4.0), Vec3::ZERO, 1.0);
-    let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("far.glb");
-    std::fs::write(&scene, g.to_glb()).unwrap();
-    let out = dir.path().join("out");
-    animate(&scene, &out, &["--fps", "1", "--spp", "1"]);
-    let summary: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("animation.json")).unwrap()).unwrap();
-    let f = &summary["frames"][1];
+    let frames = frame_records(&g, &["--fps", "1", "--spp", "1"]);
+    let f = &frames[1];
     let ratio = f["tree_cost_ratio"].as_f64().unwrap();
     assert!(ratio > lightlearn::commands::animate::DEGRADED, "{f}");
     assert_eq!(f["learning"], "restarted (light tree rebuilt)", "{f}");
