@@ -452,9 +452,7 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
     );
     // Larger than lavapipe's film (4.2 M pixels): a smaller film, shown scaled; it ended the
     // preview (an audit, 2026-12-06).
-    let limits = common::ctx().properties.limits;
-    let most = (limits.max_storage_buffer_range as u64 / 32)
-        .min(limits.max_texel_buffer_elements as u64 / 2);
+    let most = lightlearn::render::max_film_pixels(&common::ctx());
     let want = if 3000 * 1500 <= most {
         "at 3000×1500"
     } else {

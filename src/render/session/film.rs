@@ -34,13 +34,13 @@ impl Film {
             bail!("image size {width}×{height} is out of range; use 1..=16384 for --width and --height");
         }
         let pixels = width as u64 * height as u64;
-        // Two texels a pixel (render.comp film_read): the device's texel-buffer limit bounds
-        // the film as its storage-buffer limit does (Buffer::new).
-        let max = ctx.properties.limits.max_texel_buffer_elements as u64;
-        if 2 * pixels > max {
+        // Both of the device's limits on the accumulators ([`max_film_pixels`], which the
+        // preview sizes its film by): the storage buffer's was met only in Buffer::new, with
+        // a message that named a buffer, not the film.
+        let most = max_film_pixels(ctx);
+        if pixels > most {
             bail!(
-                "a {width}×{height} film needs {} texels but this device allows texel buffers of at most {max}; use a smaller --width/--height",
-                2 * pixels
+                "a {width}×{height} film has {pixels} pixels but this device's film holds at most {most} (its accumulators' buffer); use a smaller --width/--height"
             );
         }
         Ok(Film {
