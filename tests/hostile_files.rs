@@ -594,8 +594,8 @@ fn buffer_layouts_matrices_and_camera_planes_are_named() {
 
 /// What lightlearn renders without is said (an audit, 2026-12-06; each rendered with exit 0
 /// and silence with the build before: tried): an extension it does not read, a material that
-/// is not opaque, a skinned node, morph targets with weights. Required extensions it does not
-/// read are refused.
+/// is not opaque, vertex colours (2026-12-07), a skinned node, morph targets with weights.
+/// Required extensions it does not read are refused.
 #[test]
 fn features_rendered_without_are_warned_about() {
     let dir = tempfile::tempdir().unwrap();
@@ -623,6 +623,14 @@ fn features_rendered_without_are_warned_about() {
         "cutout.gltf",
         &|g| g["materials"][0]["alphaMode"] = "MASK".into(),
         &["material 0", "alphaMode MASK", "opaque"],
+    );
+    warned(
+        "painted.gltf",
+        &|g| {
+            let pos = g["meshes"][0]["primitives"][0]["attributes"]["POSITION"].clone();
+            g["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = pos;
+        },
+        &["mesh 0", "COLOR_0", "renders without them"],
     );
     warned(
         "skinned.gltf",

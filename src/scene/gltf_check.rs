@@ -470,7 +470,7 @@ pub const SUPPORTED_EXTENSIONS: [&str; 3] = [
 ];
 
 /// Warnings for what a file uses that lightlearn renders without: extensions it does not
-/// read, materials that are not opaque, skins and morph targets (an audit, 2026-12-06:
+/// read, materials that are not opaque, vertex colours, skins and morph targets (an audit, 2026-12-06:
 /// each rendered a different picture with exit 0 and silence: cutout leaves as solid quads,
 /// glass as an opaque surface, a posed character in its bind pose). Required extensions are
 /// refused by the crate's validation.
@@ -517,6 +517,20 @@ pub fn unsupported_features(doc: &gltf::Document, name: &str) -> Vec<String> {
         if morphs && weights.iter().any(|w| *w != 0.0) {
             morphed.push(label);
         }
+    }
+    // glTF multiplies COLOR_0 into the base colour (§3.9.2); an exporter writes it where a
+    // material paints with vertex colours, which rendered as the plain factor in silence (an
+    // audit, 2026-12-07). Sets beyond COLOR_0 mean nothing to a glTF material.
+    let painted: Vec<String> = doc
+        .meshes()
+        .filter(|m| {
+            m.primitives()
+                .any(|p| p.get(&gltf::Semantic::Colors(0)).is_some())
+        })
+        .map(|m| format!("{} ('{}')", m.index(), m.name().unwrap_or("")))
+        .collect();
+    if !painted.is_empty() {
+        out.push(format!("'{name}': {} vertex colours (COLOR_0), which glTF multiplies into the base colour; lightlearn renders without them", listed("mesh", "has", "have", &painted)));
     }
     if !skinned.is_empty() {
         out.push(format!("'{name}': {} skinned; lightlearn renders the meshes as stored (the bind pose), without the skin", listed("node", "is", "are", &skinned)));
