@@ -197,33 +197,96 @@ fn statistics_of_two_sessions_merge_by_addition() {
     let merged = SavedStats::merge(&[(pa.clone(), "a".into()), (pb.clone(), "b".into())]).unwrap();
     assert_eq!(merged.header.samples_done, 40);
 
-    // Per region: the sum of the parts where both have it, the part itself where one has.
-    let slots = |p: &SavedStats, r: usize| {
-        let o = p.index[r] as usize;
-        (o != 0).then(|| p.stats[o + 1..o + 1 + p.cuts[o] as usize].to_vec())
+    // Per cut of the merge: the sum of what each part holds for its regions, a part's own
+    // cut of a region or the cut a block without lights shares among its regions, each
+    // part's cut counted once (merging region by region counted a block's statistics once
+    // for each of its regions: 3.2× the observations, an audit of 2026-12-07).
+    let slots = |p: &SavedStats, o: u32| {
+        let o = o as usize;
+        p.stats[o + 1..o + 1 + p.cuts[o] as usize].to_vec()
+    };
+    let distinct = |p: &SavedStats| {
+        let mut o: Vec<u32> = p.index.iter().copied().filter(|&o| o != 0).collect();
+        o.sort_unstable();
+        o.dedup();
+        o
+    };
+    let observations = |p: &SavedStats| -> f64 {
+        distinct(p)
+            .iter()
+            .flat_map(|&o| slots(p, o))
+            .map(|s| s.n_zero as f64 + s.n_nonzero as f64)
+            .sum()
     };
     let (mut both, mut one) = (0, 0);
-    for r in 0..merged.index.len() {
-        let (a, b, m) = (slots(&pa, r), slots(&pb, r), slots(&merged, r));
-        match (a, b) {
-            (None, None) => assert!(m.is_none()),
-            (Some(x), None) | (None, Some(x)) => {
+    for m in distinct(&merged) {
+        let group: Vec<usize> = (0..merged.index.len())
+            .filter(|&r| merged.index[r] == m)
+            .collect();
+        let held: Vec<Vec<SlotStats>> = [&pa, &pb]
+            .iter()
+            .filter_map(|p| {
+                let mut o: Vec<u32> = group
+                    .iter()
+                    .map(|&r| p.index[r])
+                    .filter(|&o| o != 0)
+                    .collect();
+                o.dedup();
+                assert!(o.len() <= 1, "a part splits merged cut {m}: {o:?}");
+                o.first().map(|&o| slots(p, o))
+            })
+            .collect();
+        let got = slots(&merged, m);
+        match &held[..] {
+            [x] => {
                 one += 1;
-                assert_eq!(m.unwrap(), x, "region {r}: taken as it is");
+                assert_eq!(&got, x, "cut {m}: taken as it is");
             }
-            (Some(x), Some(y)) => {
+            [x, y] => {
                 both += 1;
-                for ((m, x), y) in m.unwrap().iter().zip(&x).zip(&y) {
+                for ((m, x), y) in got.iter().zip(x).zip(y) {
                     assert_eq!(m.n_zero, x.n_zero + y.n_zero);
                     assert_eq!(m.n_nonzero, x.n_nonzero + y.n_nonzero);
                     assert_eq!(m.sum, (x.sum as f64 + y.sum as f64) as f32);
                     assert_eq!(m.sum_sq, (x.sum_sq as f64 + y.sum_sq as f64) as f32);
                 }
             }
+            _ => panic!("merged cut {m} held by no part"),
         }
     }
-    eprintln!("merge: {both} regions in both parts, {one} in one");
+    eprintln!("merge: {both} cuts in both parts, {one} in one");
     assert!(both > 50 && one > 50, "both {both}, one {one}");
+    let (oa, ob, om) = (observations(&pa), observations(&pb), observations(&merged));
+    assert!(
+        (om - (oa + ob)).abs() <= 1e-6 * om,
+        "observations {om} against {oa} + {ob}"
+    );
+
+    // A part merged alone is itself: the same regions, sharing the same cuts, with the same
+    // statistics (block sharing must be there for this to test anything).
+    let alone = SavedStats::merge(&[(pa.clone(), "a".into())]).unwrap();
+    let shared = |p: &SavedStats| distinct(p).len() < p.index.iter().filter(|&&o| o != 0).count();
+    assert!(shared(&pa), "no block shares a cut in this part");
+    assert_eq!(distinct(&alone).len(), distinct(&pa).len());
+    for r in 0..pa.index.len() {
+        assert_eq!(pa.index[r] == 0, alone.index[r] == 0, "region {r}");
+        if pa.index[r] != 0 {
+            assert_eq!(
+                slots(&pa, pa.index[r]),
+                slots(&alone, alone.index[r]),
+                "region {r}"
+            );
+            for q in [r.saturating_sub(1), r + 1] {
+                if q < pa.index.len() && pa.index[q] != 0 {
+                    assert_eq!(
+                        pa.index[q] == pa.index[r],
+                        alone.index[q] == alone.index[r],
+                        "regions {r}, {q}"
+                    );
+                }
+            }
+        }
+    }
 
     // The merged file is whole, loads and renders unbiased.
     let merged = SavedStats::from_bytes(&merged.to_bytes(), "merged").unwrap();

@@ -40,24 +40,45 @@ impl SavedStats {
         let mut cuts = cut_of(first, 0);
         let mut stats = first.stats[..cuts.len()].to_vec();
         let mut index = vec![0u32; first.index.len()];
-        for (r, slot) in index.iter_mut().enumerate() {
-            let holders: Vec<&(SavedStats, String)> =
-                parts.iter().filter(|(p, _)| p.index[r] != 0).collect();
-            let Some(((h, _), others)) = holders.split_first() else {
-                continue;
-            };
-            let cut = cut_of(h, h.index[r]);
-            let holder = &holders[0].1;
-            for (p, name) in others {
-                if cut_of(p, p.index[r]) != cut {
+        // Regions that share one cut and its statistics in a part (a block without lights
+        // under --coarse-blocks) share them in the merge: each part's statistics of a block
+        // count once. Merging regions one by one gave every region of a block its own copy
+        // of the block's totals (a file merged with nothing held 3.2× its observations: an
+        // audit, 2026-12-07).
+        for group in shared_cut_groups(parts) {
+            let r = group[0];
+            // Each part's one offset for the group (the regions that share in a part share
+            // one offset there).
+            let mut held: Vec<(&SavedStats, &str, u32)> = Vec::new();
+            for (p, name) in parts {
+                let mut offsets: Vec<u32> = group
+                    .iter()
+                    .map(|&m| p.index[m as usize])
+                    .filter(|&o| o != 0)
+                    .collect();
+                offsets.sort_unstable();
+                offsets.dedup();
+                match offsets[..] {
+                    [] => {}
+                    [o] => held.push((p, name, o)),
+                    _ => bail!("'{name}' gives the regions that share region {r}'s cut elsewhere {} cuts of their own; it was saved with other --coarse-blocks settings, so they cannot be merged", offsets.len()),
+                }
+            }
+            let (h, holder, ho) = held[0];
+            let cut = cut_of(h, ho);
+            for &(p, name, o) in &held[1..] {
+                if cut_of(p, o) != cut {
                     bail!("'{name}' has another cut for region {r} than '{holder}': other cut settings, or cuts refined apart (--refine-cuts); they cannot be merged");
                 }
             }
-            *slot = cuts.len() as u32;
+            let o = cuts.len() as u32;
+            for &m in &group {
+                index[m as usize] = o;
+            }
             for k in 0..cut.len() {
-                let slots: Vec<&SlotStats> = holders
+                let slots: Vec<&SlotStats> = held
                     .iter()
-                    .map(|(p, _)| &p.stats[p.index[r] as usize + k])
+                    .map(|&(p, _, po)| &p.stats[po as usize + k])
                     .collect();
                 stats.push(if k == 0 { *slots[0] } else { sum_slots(&slots) });
             }
@@ -114,6 +135,8 @@ impl SavedStats {
         let cut_len = |s: &SavedStats, o: u32| 1 + s.cuts[o as usize] as usize;
         // Regions with a cut in the base (the fallback cut, offset 0, is the first part's in
         // `merge`, as for any merge).
+        // A cut shared by a block's regions is taken out once (the audit of 2026-12-07).
+        let mut done = std::collections::HashSet::new();
         for (r, &bo) in base.index.iter().enumerate() {
             if bo == 0 {
                 continue;
@@ -121,6 +144,9 @@ impl SavedStats {
             let mo = merged.index[r];
             if mo == 0 {
                 bail!("region {r} has a cut in the --base file but in none of the parts: they did not start from it");
+            }
+            if !done.insert(mo) {
+                continue;
             }
             fn cut(s: &SavedStats, o: u32) -> &[u32] {
                 &s.cuts[o as usize..o as usize + 1 + s.cuts[o as usize] as usize]
@@ -164,6 +190,49 @@ impl SavedStats {
         merged.header.start_forget = None;
         Ok(merged)
     }
+}
+
+/// The regions with a cut in some part, in groups that share one cut: two regions that share
+/// a cut in any part are in one group (transitively). Regions of one block without lights
+/// share a cut in every part that reached them, so a group is a block's reached regions, or
+/// one region. Groups in the order of their first region, each in region order.
+fn shared_cut_groups(parts: &[(SavedStats, String)]) -> Vec<Vec<u32>> {
+    let n = parts[0].0.index.len();
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    fn root(parent: &mut [u32], mut r: u32) -> u32 {
+        while parent[r as usize] != r {
+            let up = parent[parent[r as usize] as usize];
+            parent[r as usize] = up;
+            r = up;
+        }
+        r
+    }
+    for (p, _) in parts {
+        let mut first_with = std::collections::HashMap::new();
+        for (r, &o) in p.index.iter().enumerate() {
+            if o == 0 {
+                continue;
+            }
+            let f = *first_with.entry(o).or_insert(r as u32);
+            let (a, b) = (root(&mut parent, f), root(&mut parent, r as u32));
+            // The smaller region is the root, so a group is met first at its root.
+            parent[a.max(b) as usize] = a.min(b);
+        }
+    }
+    let mut groups: Vec<Vec<u32>> = Vec::new();
+    let mut slot_of_root = std::collections::HashMap::new();
+    for r in 0..n {
+        if parts.iter().all(|(p, _)| p.index[r] == 0) {
+            continue;
+        }
+        let g = root(&mut parent, r as u32);
+        let i = *slot_of_root.entry(g).or_insert_with(|| {
+            groups.push(Vec::new());
+            groups.len() - 1
+        });
+        groups[i].push(r as u32);
+    }
+    groups
 }
 
 /// The totals of several parts' copies of one slot, added.
