@@ -8,6 +8,7 @@ mod common;
 use std::path::Path;
 
 use lightlearn::accel::Bvh;
+use lightlearn::gpu::layout::SlotStats;
 use lightlearn::learning::stats_file::SavedStats;
 use lightlearn::render::{
     self, Budget, GpuScene, LightPoint, LightSampler, RenderResult, RenderSettings,
@@ -318,6 +319,34 @@ fn damaged_statistics_files_are_refused() {
     s.header.skipped_passes = Some(s.header.samples_done + 1);
     let err = SavedStats::from_bytes(&s.to_bytes(), "a.stats").unwrap_err();
     assert!(err.to_string().contains("passes were skipped"), "{err}");
+    // An animation's tempering factor outside (0, 1]: merge-stats --base multiplied by it
+    // (an audit, 2026-12-07: −1 and 1e30 merged with exit 0 into other counts).
+    for g in [-1.0, 0.0, 1e30] {
+        let mut s = saved.clone();
+        s.header.start_forget = Some(g);
+        let err = SavedStats::from_bytes(&s.to_bytes(), "a.stats").unwrap_err();
+        assert!(err.to_string().contains("start_forget"), "{g}: {err}");
+    }
+    // Totals that a file may hold but two of which overflow f32 when merged, and a part with
+    // a NaN: merge-stats wrote both with exit 0 for --load-stats to call damaged (the same
+    // audit). The checks are merge's; the first slot of a used cut is edited.
+    let mut big = saved.clone();
+    big.stats[o + 1] = SlotStats {
+        n_nonzero: 1e30,
+        sum: 3e38,
+        sum_sq: 3e38,
+        scale: 1e19,
+        ..big.stats[o + 1]
+    };
+    let one = SavedStats::merge(&[(big.clone(), "x1".into())]).unwrap();
+    assert_eq!(one.stats.len(), big.stats.len());
+    let err =
+        SavedStats::merge(&[(big.clone(), "x1".into()), (big.clone(), "x2".into())]).unwrap_err();
+    assert!(err.to_string().contains("add up past"), "{err}");
+    let mut nan = saved.clone();
+    nan.stats[o + 1].sum = f32::NAN;
+    let err = SavedStats::merge(&[(saved.clone(), "x1".into()), (nan, "x2".into())]).unwrap_err();
+    assert!(err.to_string().contains("'x2' is damaged"), "{err}");
     // A cut longer than the kernels' cut array (64) that still lies inside the file.
     let mut s = saved.clone();
     s.cuts[0] = 65;

@@ -50,6 +50,13 @@ pub struct StatsHeader {
     pub tau: Option<f32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub k_max: Option<u32>,
+    /// `--coarse-blocks` (on: a block without lights shares one cut) and `--in-cluster`
+    /// (importance or power) the cuts and statistics were learned with (absent in files
+    /// saved before 2026-12-07, which were loaded under either without a word: an audit).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coarse_blocks: Option<bool>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub in_cluster_importance: Option<bool>,
     /// The factor the statistics this render started from were tempered by (`animate
     /// --forget`), so `merge-stats --base` can take out the shared start exactly.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -215,6 +222,13 @@ impl SavedStats {
                 header.samples_done
             );
         }
+        // The factor an animation tempered the start by: merge-stats --base multiplies by it
+        // (an edited −1 or 1e30 merged with exit 0 into other counts: an audit, 2026-12-07).
+        if let Some(g) = header.start_forget.filter(|g| !(*g > 0.0 && *g <= 1.0)) {
+            bail!(
+                "'{p}' is damaged: its header's start_forget {g} is outside (0, 1]; save it again"
+            );
+        }
         let mut at = 16 + hlen;
         let mut take = |n: usize| -> Result<&[u8]> {
             let end = at.checked_add(n).ok_or_else(truncated)?;
@@ -294,12 +308,28 @@ impl SavedStats {
                     "the cut at {o} does not cover every light exactly once"
                 )));
             }
-            for i in slots {
+        }
+        self.check_totals(path)
+    }
+
+    /// Errors unless every total of every cut the regions use (and the fallback's) is a
+    /// possible one (see [`SavedStats::check_cuts`]); needs no light tree, so `merge-stats`
+    /// checks its parts and its sum with it (it wrote a sum that overflowed to inf, or a
+    /// part's NaN, with exit 0, for `--load-stats` to call damaged: an audit, 2026-12-07).
+    pub fn check_totals(&self, path: &Path) -> Result<()> {
+        let mut offsets: Vec<u32> = self.index.clone();
+        offsets.push(0);
+        offsets.sort_unstable();
+        offsets.dedup();
+        for o in offsets {
+            let o = o as usize;
+            for i in o + 1..o + 1 + self.cuts[o] as usize {
                 if !possible_totals(&self.stats[i]) {
-                    return Err(damaged(format!(
-                        "statistics entry {i} holds impossible totals ({:?})",
+                    bail!(
+                        "'{}' is damaged: statistics entry {i} holds impossible totals ({:?}); save it again",
+                        path.display(),
                         self.stats[i]
-                    )));
+                    );
                 }
             }
         }
@@ -373,6 +403,13 @@ impl SavedStats {
         if let (Some(a), Some(b)) = (h.k_max, want.k_max) {
             fields.push(("--k-max", a.to_string(), b.to_string()));
         }
+        if let (Some(a), Some(b)) = (h.coarse_blocks, want.coarse_blocks) {
+            fields.push(("--coarse-blocks", on_off(a), on_off(b)));
+        }
+        if let (Some(a), Some(b)) = (h.in_cluster_importance, want.in_cluster_importance) {
+            let name = |i: bool| if i { "importance" } else { "power" }.to_string();
+            fields.push(("--in-cluster", name(a), name(b)));
+        }
         for (flag, saved, now) in fields {
             if saved != now {
                 let fix = match part {
@@ -413,7 +450,7 @@ fn pod_vec<T: bytemuck::Pod>(bytes: &[u8]) -> Vec<T> {
 /// no sum without data, and a positive scale that keeps y / scale and (y / scale)² f32
 /// numbers (the kernels work with those; a tiny scale made the weights Inf). (Σy)² ≤ n Σy²
 /// is not required: the window's 24-bit fixed point rounds (y / scale)² ≪ 2^-24 to 0.
-fn possible_totals(s: &SlotStats) -> bool {
+pub(crate) fn possible_totals(s: &SlotStats) -> bool {
     let count_ok = |n: f32| n >= 0.0 && n.is_finite();
     let (s1, s2) = (s.sum / s.scale, s.sum_sq / (s.scale * s.scale));
     count_ok(s.n_zero)
@@ -451,6 +488,8 @@ mod tests {
             cuts_len: 0,
             tau: None,
             k_max: None,
+            coarse_blocks: None,
+            in_cluster_importance: None,
             start_forget: None,
             skipped_passes: None,
             animation_frame: None,

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use anyhow::{bail, Context, Result};
 
-use super::stats_file::SavedStats;
+use super::stats_file::{possible_totals, SavedStats};
 use crate::abi::SlotStats;
 
 impl SavedStats {
@@ -27,6 +27,9 @@ impl SavedStats {
             if p.index.len() != first.index.len() {
                 bail!("'{name}' has {} regions but '{first_name}' has {}; they were saved for other region grids", p.index.len(), first.index.len());
             }
+        }
+        for (p, name) in parts {
+            p.check_totals(Path::new(name))?;
         }
         let cut_of = |s: &SavedStats, o: u32| {
             let o = o as usize;
@@ -80,7 +83,11 @@ impl SavedStats {
                     .iter()
                     .map(|&(p, _, po)| &p.stats[po as usize + k])
                     .collect();
-                stats.push(if k == 0 { *slots[0] } else { sum_slots(&slots) });
+                let sum = if k == 0 { *slots[0] } else { sum_slots(&slots) };
+                if k > 0 && !possible_totals(&sum) {
+                    bail!("the parts' statistics for region {r}'s cut add up past what a statistics file holds ({sum:?}); merge fewer files");
+                }
+                stats.push(sum);
             }
             cuts.extend_from_slice(&cut);
         }

@@ -95,6 +95,8 @@ pub fn stats_header(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) ->
         cuts_len: 0,
         tau: Some(settings.regions.tau),
         k_max: Some(settings.regions.k_max),
+        coarse_blocks: Some(settings.regions.coarse_blocks),
+        in_cluster_importance: Some(settings.regions.in_cluster_importance),
         start_forget: None,
         skipped_passes: None,
         animation_frame: None,

@@ -175,6 +175,25 @@ fn bad_statistics_files_are_refused_with_the_fix() {
             "--regression importance",
         ),
         (vec!["--sampler".into(), "wang".into()], "learning sampler"),
+        // Not in the files before 2026-12-07: loaded under either without a word.
+        (
+            vec![
+                "--sampler".into(),
+                "bayes".into(),
+                "--coarse-blocks".into(),
+                "off".into(),
+            ],
+            "--coarse-blocks on",
+        ),
+        (
+            vec![
+                "--sampler".into(),
+                "bayes".into(),
+                "--in-cluster".into(),
+                "power".into(),
+            ],
+            "--in-cluster importance",
+        ),
     ];
     for (extra, want) in cases {
         let mut a: Vec<&str> = extra.iter().map(String::as_str).collect();
