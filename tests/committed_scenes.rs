@@ -126,6 +126,20 @@ fn scene_command_refuses_bad_requests() {
         &["rooms", "--lights", "5", "--rooms", "0x4", "--out", "x.glb"],
         "at least 1x1",
     );
+    // A product that wraps to 0 in usize passed the limit and ran out of memory (an audit,
+    // 2026-12-07: abort, exit 134).
+    fail(
+        &[
+            "rooms",
+            "--lights",
+            "5",
+            "--rooms",
+            "9223372036854775808x2",
+            "--out",
+            "x.glb",
+        ],
+        "at most",
+    );
     // Another family's option was ignored without a word.
     fail(
         &[

@@ -515,6 +515,106 @@ fn a_damaged_cached_reference_is_rendered_again() {
     }
 }
 
+/// Where the reference cache goes by the environment (an audit, 2026-12-07): an empty
+/// LIGHTLEARN_CACHE put its entries in the current folder, a relative XDG_CACHE_HOME or HOME
+/// a relative folder; `reference` said nothing when it could not cache.
+#[test]
+fn the_reference_cache_follows_the_environment_or_says_why_not() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let home = d.join("home");
+    // Mesa's shader cache follows XDG_CACHE_HOME and HOME too: kept out of `d`.
+    let mesa = tempfile::tempdir().unwrap();
+    let mesa = (
+        "MESA_SHADER_CACHE_DIR",
+        mesa.path().to_str().unwrap().to_string(),
+    );
+    let args = [
+        "compare",
+        "--samplers",
+        "wang",
+        "--spp",
+        "1",
+        "--reference-spp",
+        "2",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--max-depth",
+        "1",
+        "--out",
+        "c",
+    ];
+    let entries = |p: &Path| std::fs::read_dir(p).map_or(0, |r| r.count());
+    let home_s = home.to_str().unwrap();
+    // Empty values are unset: HOME's cache.
+    let env = [
+        ("LIGHTLEARN_CACHE", ""),
+        ("XDG_CACHE_HOME", "rel"),
+        ("HOME", home_s),
+        (mesa.0, &mesa.1),
+    ];
+    let o = run(&args, d, &env);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        entries(&home.join(".cache/lightlearn")),
+        3,
+        "{}",
+        stderr(&o)
+    );
+    let top: Vec<_> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(top.len(), 2, "{top:?}"); // home and c: no "rel"
+                                         // No absolute folder left: rendered, not cached, and said.
+    let env = [
+        ("LIGHTLEARN_CACHE", ""),
+        ("XDG_CACHE_HOME", ""),
+        ("HOME", ""),
+    ];
+    let o = run(&args, d, &env);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("no reference cache") && err.contains("LIGHTLEARN_CACHE"),
+        "{err}"
+    );
+    let top: Vec<_> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(top.len(), 2, "{top:?}");
+    // `reference` into a cache that cannot be made (a file in the folder's place).
+    std::fs::write(d.join("afile"), b"x").unwrap();
+    let o = run(
+        &[
+            "reference",
+            "--spp",
+            "2",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--out",
+            "r.exr",
+        ],
+        d,
+        &[
+            ("LIGHTLEARN_CACHE", d.join("afile/cache").to_str().unwrap()),
+            (mesa.0, &mesa.1),
+        ],
+    );
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(d.join("r.exr").exists());
+    assert!(
+        err.contains("warning") && err.contains("not cached"),
+        "{err}"
+    );
+}
+
 #[test]
 fn bench_rays_checks_its_arguments() {
     let d = Path::new(".");

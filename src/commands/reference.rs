@@ -40,6 +40,11 @@ pub fn run(a: &ReferenceRequest, ui: &mut dyn Ui) -> Result<serde_json::Value> {
     })?;
     ui.phase_done();
     // Also into the cache, so `compare` with the same settings reuses it.
-    reference::store_in_cache(&scene, &settings, &paths);
+    if let Err(e) = reference::store_in_cache(&scene, &settings, &paths) {
+        ui.message(&format!(
+            "warning: {} is written but not cached for `compare` ({e:#}); set LIGHTLEARN_CACHE to a writable folder",
+            paths.exr.display()
+        ));
+    }
     Ok(report)
 }

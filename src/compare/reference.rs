@@ -41,17 +41,26 @@ pub fn reference_seed(seed: u32) -> u32 {
 /// layer of F0 = 1 no longer gives NaN: references of such scenes converge elsewhere.
 const INTEGRATOR_VERSION: &str = "direct-v3";
 
-pub fn cache_dir() -> PathBuf {
-    if let Some(d) = std::env::var_os("LIGHTLEARN_CACHE") {
-        return PathBuf::from(d);
+/// The reference cache: `LIGHTLEARN_CACHE`, else `$XDG_CACHE_HOME/lightlearn`, else
+/// `$HOME/.cache/lightlearn`. Empty values are unset and a relative XDG_CACHE_HOME or HOME is
+/// ignored (the XDG base-directory rule): an empty `LIGHTLEARN_CACHE` put entries in the
+/// current folder (an audit, 2026-12-07). An error when none is left: no cache.
+pub fn cache_dir() -> Result<PathBuf> {
+    let var = |k: &str| {
+        std::env::var_os(k)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+    };
+    if let Some(d) = var("LIGHTLEARN_CACHE") {
+        return Ok(d);
     }
-    if let Some(d) = std::env::var_os("XDG_CACHE_HOME") {
-        return PathBuf::from(d).join("lightlearn");
+    if let Some(d) = var("XDG_CACHE_HOME").filter(|d| d.is_absolute()) {
+        return Ok(d.join("lightlearn"));
     }
-    let home = std::env::var_os("HOME")
-        .map(PathBuf::from)
-        .unwrap_or_default();
-    home.join(".cache").join("lightlearn")
+    match var("HOME").filter(|d| d.is_absolute()) {
+        Some(h) => Ok(h.join(".cache").join("lightlearn")),
+        None => bail!("no reference cache: HOME is unset or not an absolute path; set LIGHTLEARN_CACHE to a folder to keep references"),
+    }
 }
 
 /// FNV-1a, 64 bit: stable across platforms and Rust versions (unlike `DefaultHasher`).
@@ -203,7 +212,7 @@ fn reference_spp(settings: &RenderSettings) -> u32 {
     }
 }
 
-fn cache_paths(scene: &Scene, settings: &RenderSettings) -> (String, OutputPaths) {
+fn cache_paths(scene: &Scene, settings: &RenderSettings) -> Result<(String, OutputPaths)> {
     let spp = reference_spp(settings);
     let key = key(
         scene,
@@ -213,25 +222,30 @@ fn cache_paths(scene: &Scene, settings: &RenderSettings) -> (String, OutputPaths
         settings.seed,
         settings.max_depth,
     );
-    let dir = cache_dir();
+    let dir = cache_dir()?;
     let paths = OutputPaths {
         exr: dir.join(format!("{key}.exr")),
         png: dir.join(format!("{key}.png")),
         json: dir.join(format!("{key}.json")),
     };
-    (key, paths)
+    Ok((key, paths))
 }
 
-/// Copies a reference written elsewhere into the cache (best effort: a cache that cannot be
-/// written only costs a re-render later).
-pub fn store_in_cache(scene: &Scene, settings: &RenderSettings, written: &OutputPaths) {
-    let (_, cached) = cache_paths(scene, settings);
-    if std::fs::create_dir_all(cache_dir()).is_ok() {
-        let _ = crate::io::read_all(&written.exr)
-            .map_err(anyhow::Error::from)
-            .and_then(|b| crate::io::write_atomic(&cached.exr, &b))
-            .and_then(|_| seal(&written.json, &cached));
-    }
+/// Copies a reference written elsewhere into the cache. An error is for a warning, not a
+/// failure: a cache that cannot be written only costs a re-render later (`reference` said
+/// nothing of it while its help promised the cache: an audit, 2026-12-07).
+pub fn store_in_cache(
+    scene: &Scene,
+    settings: &RenderSettings,
+    written: &OutputPaths,
+) -> Result<()> {
+    let (_, cached) = cache_paths(scene, settings)?;
+    let dir = cached.exr.parent().unwrap_or(std::path::Path::new("."));
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("cannot create the reference cache '{}'", dir.display()))?;
+    let b = crate::io::read_all(&written.exr)?;
+    crate::io::write_atomic(&cached.exr, &b)?;
+    seal(&written.json, &cached)
 }
 
 /// The key of the EXR's checksum in the JSON of entries cached before every report carried
@@ -348,8 +362,20 @@ pub fn cached(
     progress: &mut dyn FnMut(u32, f64),
     log: &mut dyn FnMut(String),
 ) -> Result<(Vec<[f32; 3]>, String, Option<super::Metrics>)> {
-    let (_, paths) = cache_paths(scene, settings);
     let spp = reference_spp(settings);
+    let paths = match cache_paths(scene, settings) {
+        Ok((_, paths)) => paths,
+        Err(why) => {
+            log(format!("warning: {why:#}"));
+            log(format!("rendering the reference ({spp} spp; not cached)"));
+            let (image, report) = render_image(ctx, scene, gpu, settings, progress)?;
+            let note = format!(
+                "{} at {spp} spp, not cached ({why:#})",
+                settings.sampler.name()
+            );
+            return Ok((image, note, noise(&report).ok()));
+        }
+    };
     let note = |report: &serde_json::Value, cached: bool| {
         let own = match noise(report) {
             Ok(n) => format!("its own estimated relMSE {:.2e} (a floor under every raw relMSE below; the corrected numbers subtract it)", n.rel_mse),
@@ -377,7 +403,11 @@ pub fn cached(
             paths.exr.display()
         )),
     }
-    let dir = cache_dir();
+    let dir = paths
+        .exr
+        .parent()
+        .unwrap_or(std::path::Path::new("."))
+        .to_path_buf();
     log(format!(
         "rendering the reference once ({spp} spp; cached for later runs)"
     ));

@@ -34,7 +34,8 @@ pub fn build(p: &FamilyParams) -> Result<GltfBuilder> {
             (x, n.div_ceil(x))
         }
     };
-    if rx == 0 || rz == 0 || rx * rz > MAX_ROOMS {
+    // Checked: a product that wraps passed the limit (an audit, 2026-12-07).
+    if rx == 0 || rz == 0 || rx.checked_mul(rz).is_none_or(|n| n > MAX_ROOMS) {
         bail!("--rooms {rx}x{rz}: use at least 1x1 and at most {MAX_ROOMS} rooms");
     }
     let mut rng = SplitMix64(p.seed);
