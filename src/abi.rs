@@ -300,7 +300,8 @@ pub struct BsdfResult {
 }
 
 /// One texture of the texture table: where its texels start in the texel buffer (packed
-/// sRGB RGBA8), its size, and its wrap modes (wrapS | wrapT << 8, `scene::Wrap` codes).
+/// sRGB RGBA8, or RGBA16 in two words with `TEXTURE_16_BIT`), its size, and its wrap modes
+/// (wrapS | wrapT << 8, `scene::Wrap` codes) with the flags below.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuTexture {
@@ -309,6 +310,11 @@ pub struct GpuTexture {
     pub height: u32,
     pub wrap: u32,
 }
+
+/// `GpuTexture::wrap` flag: the sampler's magFilter is NEAREST (one texel, no interpolation).
+pub const TEXTURE_NEAREST: u32 = 1 << 16;
+/// `GpuTexture::wrap` flag: 16 bits a channel, two words a texel (R | G << 16, B | A << 16).
+pub const TEXTURE_16_BIT: u32 = 1 << 17;
 
 /// Push constants of `render.comp` (96 of the 128 bytes every device guarantees).
 #[repr(C)]

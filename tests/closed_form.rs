@@ -582,6 +582,71 @@ fn png_rgb(w: u32, h: u32, rgb: &[[u8; 3]]) -> Vec<u8> {
     out
 }
 
+/// A floor seen from straight above at depth 1 by the uniform sampler (so that two renders
+/// draw the same samples), white or with a base-colour texture (PNG, wrap modes, magFilter);
+/// its mean image and camera.
+fn render_floor(
+    texture: Option<(&[u8], [u32; 2], Option<u32>)>,
+) -> (Vec<[f32; 3]>, lightlearn::gpu::layout::RenderParams) {
+    let mut g = GltfBuilder::new();
+    let m = g.material("floor", Vec3::ONE, Vec3::ZERO, false);
+    // An untextured triangle first (hidden below the floor): the floor's coordinates must
+    // still line up with its triangles.
+    let grey = g.material("grey", Vec3::splat(0.5), Vec3::ZERO, false);
+    g.mesh(
+        "speck",
+        &[
+            Vec3::new(0.0, -5.0, 0.0),
+            Vec3::new(0.1, -5.0, 0.0),
+            Vec3::new(0.0, -5.0, 0.1),
+        ],
+        &[0, 1, 2],
+        grey,
+    );
+    if let Some((png, wrap, mag)) = texture {
+        let t = g.texture_png_filtered(png, wrap, mag);
+        g.set_base_color_texture(m, t);
+    }
+    let c = [
+        Vec3::new(-1.0, 0.0, -1.0),
+        Vec3::new(-1.0, 0.0, 1.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(1.0, 0.0, -1.0),
+    ];
+    let uv = [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]];
+    g.mesh_uv("floor", &c, Some(&uv), &[0, 1, 2, 0, 2, 3], m);
+    g.point_light("bulb", Vec3::new(0.3, 3.0, -0.2), Vec3::ONE, 5.0);
+    // Looking straight down from far away: the quad fills the view.
+    g.camera(
+        Vec3::new(0.0, 40.0, 1e-3),
+        Vec3::ZERO,
+        2.0 * (1.0f32 / 40.0).atan(),
+    );
+    let scene = common::load(&g, "texture");
+    assert_eq!(scene.textures.len(), texture.is_some() as usize);
+    let ctx = common::ctx();
+    let gpu = GpuScene::upload(&ctx, &scene, &Bvh::build(&scene.triangles)).unwrap();
+    let settings = RenderSettings {
+        width: 16,
+        height: 16,
+        budget: Budget::Samples(4),
+        seed: 9,
+        sampler: LightSampler::Uniform,
+        regions: Default::default(),
+        learn: Default::default(),
+        resume: None,
+        stratify: Stratify::Sobol,
+        max_depth: 1,
+        light_point: Default::default(),
+        indirect_light_samples: 1,
+        first_light_samples: 1,
+    };
+    let image = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {})
+        .unwrap()
+        .mean();
+    (image, render::camera_params(&scene, 16, 16))
+}
+
 /// A base-colour texture multiplies the albedo texel by texel: at depth 1 (and with the
 /// uniform sampler, so both renders draw the same samples) a textured floor's render is the
 /// white floor's render times the texel's linear colour, exactly where the bilinear lookup
@@ -600,66 +665,11 @@ fn base_color_texture_multiplies_the_albedo() {
     let texels: Vec<[u8; 3]> = (0..16)
         .map(|i| colours[(i / 8) * 2 + (i % 4) / 2])
         .collect();
-    let render_floor = |textured: bool| {
-        let mut g = GltfBuilder::new();
-        let m = g.material("floor", Vec3::ONE, Vec3::ZERO, false);
-        // An untextured triangle first (hidden below the floor): the floor's coordinates must
-        // still line up with its triangles.
-        let grey = g.material("grey", Vec3::splat(0.5), Vec3::ZERO, false);
-        g.mesh(
-            "speck",
-            &[
-                Vec3::new(0.0, -5.0, 0.0),
-                Vec3::new(0.1, -5.0, 0.0),
-                Vec3::new(0.0, -5.0, 0.1),
-            ],
-            &[0, 1, 2],
-            grey,
-        );
-        if textured {
-            let t = g.texture_png(&png_rgb(4, 4, &texels), [33071, 33648]);
-            g.set_base_color_texture(m, t);
-        }
-        let c = [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ];
-        let uv = [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]];
-        g.mesh_uv("floor", &c, Some(&uv), &[0, 1, 2, 0, 2, 3], m);
-        g.point_light("bulb", Vec3::new(0.3, 3.0, -0.2), Vec3::ONE, 5.0);
-        // Looking straight down from far away: the quad fills the view.
-        g.camera(
-            Vec3::new(0.0, 40.0, 1e-3),
-            Vec3::ZERO,
-            2.0 * (1.0f32 / 40.0).atan(),
-        );
-        let scene = common::load(&g, "texture");
-        assert_eq!(scene.textures.len(), textured as usize);
-        let ctx = common::ctx();
-        let gpu = GpuScene::upload(&ctx, &scene, &Bvh::build(&scene.triangles)).unwrap();
-        let settings = RenderSettings {
-            width: 16,
-            height: 16,
-            budget: Budget::Samples(4),
-            seed: 9,
-            sampler: LightSampler::Uniform,
-            regions: Default::default(),
-            learn: Default::default(),
-            resume: None,
-            stratify: Stratify::Sobol,
-            max_depth: 1,
-            light_point: Default::default(),
-            indirect_light_samples: 1,
-            first_light_samples: 1,
-        };
-        let image = render::render(&ctx, &scene, &gpu, &settings, &mut |_, _| {})
-            .unwrap()
-            .mean();
-        (image, render::camera_params(&scene, 16, 16))
-    };
-    let ((white, cam), (tex, _)) = (render_floor(false), render_floor(true));
+    let png = png_rgb(4, 4, &texels);
+    let ((white, cam), (tex, _)) = (
+        render_floor(None),
+        render_floor(Some((&png, [33071, 33648], None))),
+    );
     // The quadrant under each pixel centre (glTF: uv (0, 0) is the image's first texel).
     let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
     let quadrant = |i: usize| {
@@ -698,4 +708,124 @@ fn base_color_texture_multiplies_the_albedo() {
         found.iter().all(|&n| n >= 36),
         "pixels showing each quadrant's exact colour: {found:?}"
     );
+}
+
+/// A PNG of `w`×`h` 16-bit RGB texels (row 0 first).
+fn png_rgb16(w: u32, h: u32, rgb: &[[u16; 3]]) -> Vec<u8> {
+    let mut out = Vec::new();
+    let mut e = png::Encoder::new(&mut out, w, h);
+    e.set_color(png::ColorType::Rgb);
+    e.set_depth(png::BitDepth::Sixteen);
+    let mut wr = e.write_header().unwrap();
+    let bytes: Vec<u8> = rgb.iter().flatten().flat_map(|v| v.to_be_bytes()).collect();
+    wr.write_image_data(&bytes).unwrap();
+    wr.finish().unwrap();
+    out
+}
+
+fn srgb_to_linear(c: f64) -> f64 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// A 16-bit texture keeps its 16 bits, and a sampler's magFilter NEAREST shows whole texels
+/// (an audit against Mitsuba 3, 2026-12-07: 16-bit PNGs were cut to their high byte, 0x0AFF
+/// rendering 8.9 % dark, and NEAREST rendered bilinear, both in silence). Ratios to the white
+/// floor's render, as in the test above.
+#[test]
+fn sixteen_bit_and_nearest_textures_render_as_written() {
+    let (white, _) = render_floor(None);
+    // A flat 16-bit texture of samples whose low bytes matter (0x0AFF: sRGB 0.04296).
+    let samples = [0x0affu16, 0x3aff, 0x80ff];
+    let flat = png_rgb16(2, 2, &[samples; 4]);
+    let (tex, _) = render_floor(Some((&flat, [10497, 10497], None)));
+    let want: Vec<f64> = samples
+        .iter()
+        .map(|&v| srgb_to_linear(v as f64 / 65535.0))
+        .collect();
+    for (w, t) in white.iter().zip(&tex) {
+        for k in 0..3 {
+            let ratio = t[k] as f64 / w[k] as f64;
+            assert!(
+                (ratio / want[k] - 1.0).abs() < 1e-4,
+                "channel {k}: ratio {ratio} against the 16-bit texel's {} (its high byte alone gives {})",
+                want[k],
+                srgb_to_linear((samples[k] >> 8) as f64 / 255.0)
+            );
+        }
+    }
+    // Black and white columns, magnified 8× with NEAREST: every pixel is one or the other.
+    let bw = png_rgb(2, 1, &[[0, 0, 0], [255, 255, 255]]);
+    let (tex, _) = render_floor(Some((&bw, [33071, 33071], Some(9728))));
+    let (mut black, mut lit) = (0, 0);
+    for (w, t) in white.iter().zip(&tex) {
+        let ratio = t[0] / w[0];
+        assert!(
+            ratio.abs() < 1e-5 || (ratio - 1.0).abs() < 1e-5,
+            "ratio {ratio}: a blend of two texels under NEAREST"
+        );
+        if ratio < 0.5 {
+            black += 1;
+        } else {
+            lit += 1;
+        }
+    }
+    assert!(
+        black >= 96 && lit >= 96,
+        "black {black}, white {lit} of 256"
+    );
+    // The same texture bilinear blends across the middle.
+    let (tex, _) = render_floor(Some((&bw, [33071, 33071], Some(9729))));
+    let blends = white
+        .iter()
+        .zip(&tex)
+        .filter(|(w, t)| (0.05..0.95).contains(&(t[0] / w[0])))
+        .count();
+    assert!(blends >= 32, "{blends} blended pixels under LINEAR");
+}
+
+/// glTF textures that name one image with one sampler share its texels: each was decoded
+/// again, so 24 textures of one 82-KB 8192² PNG took 6 GB before any total was checked (an
+/// audit, 2026-12-07). Another sampler is another texture.
+#[test]
+fn textures_of_one_image_are_decoded_once() {
+    let mut g = GltfBuilder::new();
+    let png = png_rgb(2, 1, &[[0, 0, 0], [255, 255, 255]]);
+    for i in 0..4 {
+        let m = g.material(&format!("m{i}"), Vec3::ONE, Vec3::ZERO, false);
+        let t = g.texture_png(&png, [10497, 10497]);
+        g.set_base_color_texture(m, t);
+        let y = i as f32;
+        let c = [
+            Vec3::new(0.0, y, 0.0),
+            Vec3::new(1.0, y, 0.0),
+            Vec3::new(1.0, y, 1.0),
+        ];
+        g.mesh_uv(
+            "tri",
+            &c,
+            Some(&[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]),
+            &[0, 1, 2],
+            m,
+        );
+    }
+    g.point_light("bulb", Vec3::new(0.5, 9.0, 0.5), Vec3::ONE, 5.0);
+    g.camera(Vec3::new(0.5, 2.0, 6.0), Vec3::new(0.5, 1.5, 0.5), 0.8);
+    let mut doc: serde_json::Value = serde_json::from_str(&g.to_gltf_embedded()).unwrap();
+    for t in 1..4 {
+        doc["textures"][t]["source"] = 0.into();
+    }
+    // The last one with its own sampler (clamp to edge).
+    doc["samplers"][3]["wrapS"] = 33071.into();
+    let (scene, _) = common::load_warned(doc.to_string().as_bytes(), "shared.gltf");
+    assert_eq!(scene.textures.len(), 2, "textures decoded");
+    let used: Vec<_> = scene
+        .materials
+        .iter()
+        .map(|m| m.base_color_texture)
+        .collect();
+    assert_eq!(used, [Some(0), Some(0), Some(0), Some(1)]);
 }

@@ -501,6 +501,8 @@ fn glsl_defines_match_the_rust_constants() {
         ("LEARN_DEFENSIVE".into(), LEARN_DEFENSIVE),
         ("LEARN_REFINE".into(), LEARN_REFINE),
         ("MATERIAL_TWO_SIDED".into(), MATERIAL_TWO_SIDED),
+        ("TEXTURE_NEAREST".into(), TEXTURE_NEAREST),
+        ("TEXTURE_16_BIT".into(), TEXTURE_16_BIT),
     ];
     use lightlearn::render::Stratify;
     for s in [Stratify::Off, Stratify::R2, Stratify::Sobol] {

@@ -1,7 +1,8 @@
-// Base-colour textures: bilinear lookup with the glTF wrap modes, sRGB decoded to linear
-// (glTF stores base colour in sRGB). Mirror of src/scene (Texture, Wrap). The including
-// kernel declares `textures` (GpuTexture[]), `texels` (uint[]: packed RGBA8) and `tri_uv`
-// (float[6] per triangle).
+// Base-colour textures: bilinear lookup (or the nearest texel, TEXTURE_NEAREST) with the glTF
+// wrap modes, sRGB decoded to linear (glTF stores base colour in sRGB). Mirror of src/scene
+// (Texture, Wrap). The including kernel declares `textures` (GpuTexture[]), `texels` (uint[]:
+// packed RGBA8, or RGBA16 in two words with TEXTURE_16_BIT) and `tri_uv` (float[6] per
+// triangle).
 #ifndef TEXTURE_GLSL
 #define TEXTURE_GLSL
 
@@ -30,8 +31,14 @@ uint wrap_index(int i, uint n, uint w) {
 
 vec3 texel(GpuTexture t, int x, int y) {
     uint ix = wrap_index(x, t.width, t.wrap & 0xffu);
-    uint iy = wrap_index(y, t.height, t.wrap >> 8);
-    vec4 c = unpackUnorm4x8(texels[t.offset + iy * t.width + ix]);
+    uint iy = wrap_index(y, t.height, (t.wrap >> 8) & 0xffu);
+    uint i = iy * t.width + ix;
+    vec3 c;
+    if ((t.wrap & TEXTURE_16_BIT) != 0u) {
+        c = vec3(unpackUnorm2x16(texels[t.offset + 2u * i]), unpackUnorm2x16(texels[t.offset + 2u * i + 1u]).x);
+    } else {
+        c = unpackUnorm4x8(texels[t.offset + i]).rgb;
+    }
     return vec3(srgb_to_linear(c.r), srgb_to_linear(c.g), srgb_to_linear(c.b));
 }
 
@@ -41,8 +48,12 @@ vec3 sample_texture(uint index, vec2 uv) {
     // Coordinates far outside [0, 1] are reduced first so that the integer texel
     // coordinates stay exact (repeat and mirror have periods 1 and 2).
     if ((t.wrap & 0xffu) != 1u) uv.x -= 2.0 * floor(0.5 * uv.x);
-    if ((t.wrap >> 8) != 1u) uv.y -= 2.0 * floor(0.5 * uv.y);
+    if (((t.wrap >> 8) & 0xffu) != 1u) uv.y -= 2.0 * floor(0.5 * uv.y);
     uv = clamp(uv, vec2(-1.0), vec2(3.0));
+    if ((t.wrap & TEXTURE_NEAREST) != 0u) {
+        vec2 q = floor(uv * vec2(t.width, t.height));
+        return texel(t, int(q.x), int(q.y));
+    }
     vec2 p = uv * vec2(t.width, t.height) - 0.5;
     vec2 f = floor(p);
     vec2 w = p - f;

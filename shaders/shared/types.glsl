@@ -131,6 +131,9 @@ struct GpuMaterial {
 struct GpuTexture {
     uint offset; uint width; uint height; uint wrap;
 };
+// GpuTexture.wrap flags above wrapS (bits 0-7) and wrapT (bits 8-15).
+#define TEXTURE_NEAREST 65536u
+#define TEXTURE_16_BIT 131072u
 
 // RenderParams.stratified: independent numbers, R2/R5 (rng.glsl) or Owen-scrambled Sobol'.
 #define STRATIFY_OFF 0u

@@ -127,7 +127,11 @@ fn hash_content(h: &mut Fnv, scene: &Scene) {
     for t in &scene.textures {
         h.bytes(&[t.width.to_le_bytes(), t.height.to_le_bytes()].concat());
         h.bytes(&[t.wrap[0] as u8, t.wrap[1] as u8]);
-        h.bytes(bytemuck::cast_slice(&t.texels));
+        // The words of an 8-bit texture are its RGBA8 bytes as before, so their keys stay.
+        h.bytes(bytemuck::cast_slice(&t.words));
+        if t.wide || t.nearest {
+            h.bytes(&[t.wide as u8, t.nearest as u8]);
+        }
     }
     if !scene.textures.is_empty() {
         for m in &scene.materials {

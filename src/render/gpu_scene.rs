@@ -8,7 +8,9 @@ use anyhow::Result;
 use glam::Vec3;
 
 use crate::accel::Bvh;
-use crate::gpu::layout::{GpuMaterial, GpuTexture, MATERIAL_TWO_SIDED};
+use crate::gpu::layout::{
+    GpuMaterial, GpuTexture, MATERIAL_TWO_SIDED, TEXTURE_16_BIT, TEXTURE_NEAREST,
+};
 use crate::gpu::{Buffer, Context};
 use crate::learning::stats_file;
 use crate::lights;
@@ -87,12 +89,13 @@ pub fn check_fits(ctx: &Context, scene: &Scene) -> Result<()> {
     }
     let size = |t: &crate::scene::Texture| t.width as u64 * t.height as u64;
     let texels: u64 = scene.textures.iter().map(size).sum();
+    let words: u64 = scene.textures.iter().map(|t| t.words.len() as u64).sum();
     if let Some(largest) = scene.textures.iter().max_by_key(|t| size(t)) {
-        if texels * 4 > storage {
+        if words * 4 > storage {
             anyhow::bail!(
                 "'{}': its base-colour textures hold {texels} texels ({} bytes), more than this device's largest buffer ({storage} bytes); the largest is {}×{}: scale it down",
                 scene.source,
-                texels * 4,
+                words * 4,
                 largest.width,
                 largest.height
             );
@@ -165,9 +168,12 @@ impl GpuScene {
                 offset: texels.len() as u32,
                 width: t.width,
                 height: t.height,
-                wrap: t.wrap[0] as u32 | (t.wrap[1] as u32) << 8,
+                wrap: t.wrap[0] as u32
+                    | (t.wrap[1] as u32) << 8
+                    | if t.nearest { TEXTURE_NEAREST } else { 0 }
+                    | if t.wide { TEXTURE_16_BIT } else { 0 },
             });
-            texels.extend(t.texels.iter().map(|&c| u32::from_le_bytes(c)));
+            texels.extend_from_slice(&t.words);
         }
         if table.is_empty() {
             table.push(GpuTexture::default());

@@ -16,8 +16,10 @@ pub(super) struct Images<'a> {
 }
 
 impl Images<'_> {
-    /// The texture's image decoded (PNG only; the error says why it cannot be used).
-    pub(super) fn decode(&self, t: &gltf::Texture) -> Result<Texture> {
+    /// The texture's image decoded (PNG only; the error says why it cannot be used), when
+    /// its words and the `words_before` of the textures already decoded stay within
+    /// [`MAX_SCENE_TEXEL_WORDS`] (checked from the PNG's header, before decoding).
+    pub(super) fn decode(&self, t: &gltf::Texture, words_before: u64) -> Result<Texture> {
         let image = t.source();
         let bytes: Vec<u8> = match image.source() {
             gltf::image::Source::View { view, .. } => {
@@ -64,7 +66,8 @@ impl Images<'_> {
             );
         }
         let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
-        decoder.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
+        // 16-bit channels stay 16 bits (STRIP_16 kept the high byte: up to 9 % dark).
+        decoder.set_transformations(png::Transformations::EXPAND);
         let mut reader = decoder
             .read_info()
             .map_err(|e| anyhow!("image {}: {e}", image.index()))?;
@@ -77,29 +80,62 @@ impl Images<'_> {
                 image.index()
             );
         }
+        // The scene's textures together: each was checked alone, so 24 textures of one
+        // 82-KB 8192² PNG decoded 6 GB before any total was checked (an audit, 2026-12-07).
+        let wide = reader.info().bit_depth == png::BitDepth::Sixteen;
+        let words = w * h * if wide { 2 } else { 1 };
+        if words_before + words > MAX_SCENE_TEXEL_WORDS {
+            bail!(
+                "image {} ({w}×{h}) would take the scene's textures past {} MiB; lightlearn holds at most that: scale them down",
+                image.index(),
+                (MAX_SCENE_TEXEL_WORDS * 4) >> 20
+            );
+        }
         let mut buf = vec![0u8; reader.output_buffer_size()];
         let frame = reader
             .next_frame(&mut buf)
             .map_err(|e| anyhow!("image {}: {e}", image.index()))?;
         let (w, h) = (frame.width, frame.height);
         let data = &buf[..frame.buffer_size()];
-        let texels: Vec<[u8; 4]> = match frame.color_type {
-            png::ColorType::Rgba => data
-                .chunks_exact(4)
-                .map(|c| [c[0], c[1], c[2], c[3]])
-                .collect(),
-            png::ColorType::Rgb => data
-                .chunks_exact(3)
-                .map(|c| [c[0], c[1], c[2], 255])
-                .collect(),
-            png::ColorType::GrayscaleAlpha => data
-                .chunks_exact(2)
-                .map(|c| [c[0], c[0], c[0], c[1]])
-                .collect(),
-            png::ColorType::Grayscale => data.iter().map(|&g| [g, g, g, 255]).collect(),
+        let channels = match frame.color_type {
+            png::ColorType::Rgba => 4,
+            png::ColorType::Rgb => 3,
+            png::ColorType::GrayscaleAlpha => 2,
+            png::ColorType::Grayscale => 1,
             png::ColorType::Indexed => bail!("image {}: palette not expanded", image.index()),
         };
-        if w == 0 || h == 0 || texels.len() != (w * h) as usize {
+        let wide = frame.bit_depth == png::BitDepth::Sixteen;
+        // One texel's channels as RGBA (grey is all three; alpha 1 when absent), at the
+        // file's depth: 16-bit samples are big-endian in PNG.
+        let sample = |c: &[u8], k: usize| -> u32 {
+            if wide {
+                u16::from_be_bytes([c[2 * k], c[2 * k + 1]]) as u32
+            } else {
+                c[k] as u32
+            }
+        };
+        let one = if wide { 0xffff } else { 0xff };
+        let rgba = |c: &[u8]| -> [u32; 4] {
+            match channels {
+                4 => [sample(c, 0), sample(c, 1), sample(c, 2), sample(c, 3)],
+                3 => [sample(c, 0), sample(c, 1), sample(c, 2), one],
+                2 => [sample(c, 0), sample(c, 0), sample(c, 0), sample(c, 1)],
+                _ => [sample(c, 0), sample(c, 0), sample(c, 0), one],
+            }
+        };
+        let stride = channels * if wide { 2 } else { 1 };
+        let texels = data.chunks_exact(stride).map(rgba);
+        let words: Vec<u32> = if wide {
+            texels
+                .flat_map(|[r, g, b, a]| [r | g << 16, b | a << 16])
+                .collect()
+        } else {
+            texels
+                .map(|[r, g, b, a]| r | g << 8 | b << 16 | a << 24)
+                .collect()
+        };
+        let per = if wide { 2 } else { 1 };
+        if w == 0 || h == 0 || words.len() != (w * h * per) as usize {
             bail!("image {} has a bad size {w}×{h}", image.index());
         }
         let wrap = |m: gltf::texture::WrappingMode| match m {
@@ -111,7 +147,9 @@ impl Images<'_> {
         Ok(Texture {
             width: w,
             height: h,
-            texels,
+            words,
+            wide,
+            nearest: s.mag_filter() == Some(gltf::texture::MagFilter::Nearest),
             wrap: [wrap(s.wrap_s()), wrap(s.wrap_t())],
         })
     }
@@ -119,6 +157,10 @@ impl Images<'_> {
 
 /// The most texels of one texture (8192², 256 MiB as RGBA8).
 const MAX_TEXELS: u64 = 1 << 26;
+/// The most words (4 bytes) the scene's textures take together on the host: 1 GiB, four
+/// textures of MAX_TEXELS (the device's buffer is the tighter limit on most devices, checked
+/// after loading, `render::check_fits`).
+pub(super) const MAX_SCENE_TEXEL_WORDS: u64 = 1 << 28;
 /// The largest image file read (a PNG of MAX_TEXELS compresses far below this).
 const MAX_IMAGE_FILE_BYTES: u64 = 1 << 30;
 
@@ -294,4 +336,40 @@ fn remote(uri: &str) -> Option<&str> {
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || matches!(c, '+' | '-' | '.')))
     .then_some(scheme)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The scene's textures together stay within MAX_SCENE_TEXEL_WORDS, checked from the
+    /// PNG's header before decoding (an audit, 2026-12-07: 24 textures of one 8192² PNG
+    /// decoded 6 GB first).
+    #[test]
+    fn the_scene_texture_budget_is_checked_before_decoding() {
+        let mut png = Vec::new();
+        let mut e = png::Encoder::new(&mut png, 2, 2);
+        e.set_color(png::ColorType::Grayscale);
+        e.set_depth(png::BitDepth::Sixteen);
+        let mut w = e.write_header().unwrap();
+        w.write_image_data(&[0u8; 8]).unwrap();
+        w.finish().unwrap();
+        let mut g = crate::scene::gltf_write::GltfBuilder::new();
+        let m = g.material("m", glam::Vec3::ONE, glam::Vec3::ZERO, false);
+        let t = g.texture_png(&png, [10497, 10497]);
+        g.set_base_color_texture(m, t);
+        let gltf = gltf::Gltf::from_slice(&g.to_glb()).unwrap();
+        let buffers = vec![gltf.blob.clone().unwrap()];
+        let images = Images {
+            buffers: &buffers,
+            base: Path::new("."),
+            file: "t.glb",
+        };
+        let tex = gltf.document.textures().next().unwrap();
+        // 2×2 texels at 16 bits: 8 words.
+        let ok = images.decode(&tex, MAX_SCENE_TEXEL_WORDS - 8).unwrap();
+        assert!(ok.wide && ok.words.len() == 8);
+        let err = images.decode(&tex, MAX_SCENE_TEXEL_WORDS - 7).unwrap_err();
+        assert!(err.to_string().contains("1024 MiB"), "{err}");
+    }
 }

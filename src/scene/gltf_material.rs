@@ -16,8 +16,10 @@ pub(super) struct MaterialTable<'a> {
     pub textures: Vec<Texture>,
     /// glTF material index (None: the default material) → ours.
     index: HashMap<Option<usize>, u32>,
-    /// glTF texture index → ours (None: could not be used, already warned about).
-    texture_index: HashMap<usize, Option<u32>>,
+    /// glTF image and sampler (the image's index, wrapS, wrapT, magFilter) → ours (None: could
+    /// not be used, already warned about): textures that name one image with the same
+    /// sampler share its texels.
+    texture_index: HashMap<TextureKey, Option<u32>>,
     images: Images<'a>,
 }
 
@@ -128,10 +130,12 @@ impl<'a> MaterialTable<'a> {
             None => None,
             Some(info) => {
                 let t = info.texture();
-                if let Some(&known) = texture_index.get(&t.index()) {
+                let key = texture_key(&t);
+                if let Some(&known) = texture_index.get(&key) {
                     known
                 } else {
-                    let loaded = match images.decode(&t) {
+                    let words: u64 = textures.iter().map(|t| t.words.len() as u64).sum();
+                    let loaded = match images.decode(&t, words) {
                         Ok(tex) => {
                             textures.push(tex);
                             Some(textures.len() as u32 - 1)
@@ -141,7 +145,7 @@ impl<'a> MaterialTable<'a> {
                             None
                         }
                     };
-                    texture_index.insert(t.index(), loaded);
+                    texture_index.insert(key, loaded);
                     loaded
                 }
             }
@@ -161,4 +165,18 @@ impl<'a> MaterialTable<'a> {
         index.insert(m.index(), slot);
         Ok(slot)
     }
+}
+
+/// What makes two glTF textures the same texture for us: the image, the wrap modes and the
+/// magnification filter.
+type TextureKey = (usize, u32, u32, bool);
+
+fn texture_key(t: &gltf::Texture) -> TextureKey {
+    let s = t.sampler();
+    (
+        t.source().index(),
+        s.wrap_s().as_gl_enum(),
+        s.wrap_t().as_gl_enum(),
+        s.mag_filter() == Some(gltf::texture::MagFilter::Nearest),
+    )
 }

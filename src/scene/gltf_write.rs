@@ -91,11 +91,20 @@ impl GltfBuilder {
     /// Adds a PNG image as a texture with wrap modes (glTF codes: 10497 repeat, 33071 clamp
     /// to edge, 33648 mirrored repeat) for wrapS and wrapT; returns the texture index.
     pub fn texture_png(&mut self, png: &[u8], wrap: [u32; 2]) -> usize {
+        self.texture_png_filtered(png, wrap, None)
+    }
+
+    /// [`Self::texture_png`] with the sampler's magFilter (glTF's GL code: 9728 NEAREST,
+    /// 9729 LINEAR).
+    pub fn texture_png_filtered(&mut self, png: &[u8], wrap: [u32; 2], mag: Option<u32>) -> usize {
         let view = self.push_view(png, None);
         self.images
             .push(json!({"bufferView": view, "mimeType": "image/png"}));
-        self.samplers
-            .push(json!({"wrapS": wrap[0], "wrapT": wrap[1]}));
+        let mut sampler = json!({"wrapS": wrap[0], "wrapT": wrap[1]});
+        if let Some(m) = mag {
+            sampler["magFilter"] = json!(m);
+        }
+        self.samplers.push(sampler);
         self.textures.push(json!({
             "source": self.images.len() - 1, "sampler": self.samplers.len() - 1
         }));

@@ -71,7 +71,14 @@ pub enum Wrap {
 pub struct Texture {
     pub width: u32,
     pub height: u32,
-    pub texels: Vec<[u8; 4]>,
+    /// The texels as the kernels read them (sRGB-coded), row 0 first: RGBA8 in one
+    /// little-endian word a texel, or with `wide` RGBA16 in two (R | G << 16, B | A << 16).
+    pub words: Vec<u32>,
+    /// 16 bits a channel (a 16-bit PNG): cut to 8 bits they came out up to 9 % dark in the
+    /// darkest tones (an audit against Mitsuba 3, 2026-12-07).
+    pub wide: bool,
+    /// The sampler's magFilter is NEAREST: one texel, no interpolation (else bilinear).
+    pub nearest: bool,
     /// wrapS, wrapT.
     pub wrap: [Wrap; 2],
 }
