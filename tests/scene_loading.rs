@@ -210,7 +210,7 @@ fn line_primitives_are_skipped_with_a_warning() {
     assert!(e.contains("no triangles") && e.contains("skipped"), "{e}");
 }
 
-/// A texture that is not a PNG is named in a warning and the material keeps its factor;
+/// A texture that cannot be read is named in a warning and the material keeps its factor;
 /// a texture coordinate that is NaN is an error naming the primitive.
 #[test]
 fn unusable_textures_warn_and_bad_texture_coordinates_fail() {
@@ -230,15 +230,21 @@ fn unusable_textures_warn_and_bad_texture_coordinates_fail() {
         g.point_light("bulb", Vec3::ONE, Vec3::ONE, 1.0);
         g.to_glb()
     };
-    let (s, warnings) = common::load_warned(&build(b"\xff\xd8\xff\xe0 a JPEG", 1.0), "jpeg.glb");
-    assert!(s.textures.is_empty() && s.triangle_uv.is_empty());
-    assert_eq!(s.materials[0].base_color_texture, None);
-    assert!(
-        warnings.iter().any(|w| w.contains("jpeg.glb")
-            && w.contains("not a PNG")
-            && w.contains("baseColorFactor")),
-        "{warnings:?}"
-    );
+    // A damaged JPEG (JPEG is read since 2026-12-07), and neither a PNG nor a JPEG.
+    for (bytes, name, wants) in [
+        (&b"\xff\xd8\xff\xe0 a JPEG"[..], "jpeg.glb", "JPEG"),
+        (&b"GIF89a"[..], "gif.glb", "neither a PNG nor a JPEG"),
+    ] {
+        let (s, warnings) = common::load_warned(&build(bytes, 1.0), name);
+        assert!(s.textures.is_empty() && s.triangle_uv.is_empty());
+        assert_eq!(s.materials[0].base_color_texture, None);
+        assert!(
+            warnings
+                .iter()
+                .any(|w| w.contains(name) && w.contains(wants) && w.contains("baseColorFactor")),
+            "{warnings:?}"
+        );
+    }
     // A valid 1×1 PNG, so the coordinates are read.
     let mut png1 = Vec::new();
     let mut enc = png::Encoder::new(&mut png1, 1, 1);

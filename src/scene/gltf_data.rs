@@ -16,7 +16,7 @@ pub(super) struct Images<'a> {
 }
 
 impl Images<'_> {
-    /// The texture's image decoded (PNG only; the error says why it cannot be used), when
+    /// The texture's image decoded (PNG or JPEG; the error says why it cannot be used), when
     /// its words and the `words_before` of the textures already decoded stay within
     /// [`MAX_SCENE_TEXEL_WORDS`] (checked from the PNG's header, before decoding).
     pub(super) fn decode(&self, t: &gltf::Texture, words_before: u64) -> Result<Texture> {
@@ -59,85 +59,14 @@ impl Images<'_> {
                 }
             }
         };
-        if !bytes.starts_with(b"\x89PNG") {
-            bail!(
-                "image {} is not a PNG (only PNG textures are supported so far)",
-                image.index()
-            );
-        }
-        let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
-        // 16-bit channels stay 16 bits (STRIP_16 kept the high byte: up to 9 % dark).
-        decoder.set_transformations(png::Transformations::EXPAND);
-        let mut reader = decoder
-            .read_info()
-            .map_err(|e| anyhow!("image {}: {e}", image.index()))?;
-        // The header's size decides the allocation below: a 5-KB PNG that claims
-        // 100000×100000 asked for 30 GB and aborted the process.
-        let (w, h) = (reader.info().width as u64, reader.info().height as u64);
-        if w * h > MAX_TEXELS || reader.output_buffer_size() as u64 > 8 * MAX_TEXELS {
-            bail!(
-                "image {} is {w}×{h} texels; lightlearn reads textures of at most {MAX_TEXELS} texels (8192×8192): scale it down",
-                image.index()
-            );
-        }
-        // The scene's textures together: each was checked alone, so 24 textures of one
-        // 82-KB 8192² PNG decoded 6 GB before any total was checked (an audit, 2026-12-07).
-        let wide = reader.info().bit_depth == png::BitDepth::Sixteen;
-        let words = w * h * if wide { 2 } else { 1 };
-        if words_before + words > MAX_SCENE_TEXEL_WORDS {
-            bail!(
-                "image {} ({w}×{h}) would take the scene's textures past {} MiB; lightlearn holds at most that: scale them down",
-                image.index(),
-                (MAX_SCENE_TEXEL_WORDS * 4) >> 20
-            );
-        }
-        let mut buf = vec![0u8; reader.output_buffer_size()];
-        let frame = reader
-            .next_frame(&mut buf)
-            .map_err(|e| anyhow!("image {}: {e}", image.index()))?;
-        let (w, h) = (frame.width, frame.height);
-        let data = &buf[..frame.buffer_size()];
-        let channels = match frame.color_type {
-            png::ColorType::Rgba => 4,
-            png::ColorType::Rgb => 3,
-            png::ColorType::GrayscaleAlpha => 2,
-            png::ColorType::Grayscale => 1,
-            png::ColorType::Indexed => bail!("image {}: palette not expanded", image.index()),
-        };
-        let wide = frame.bit_depth == png::BitDepth::Sixteen;
-        // One texel's channels as RGBA (grey is all three; alpha 1 when absent), at the
-        // file's depth: 16-bit samples are big-endian in PNG.
-        let sample = |c: &[u8], k: usize| -> u32 {
-            if wide {
-                u16::from_be_bytes([c[2 * k], c[2 * k + 1]]) as u32
-            } else {
-                c[k] as u32
-            }
-        };
-        let one = if wide { 0xffff } else { 0xff };
-        let rgba = |c: &[u8]| -> [u32; 4] {
-            match channels {
-                4 => [sample(c, 0), sample(c, 1), sample(c, 2), sample(c, 3)],
-                3 => [sample(c, 0), sample(c, 1), sample(c, 2), one],
-                2 => [sample(c, 0), sample(c, 0), sample(c, 0), sample(c, 1)],
-                _ => [sample(c, 0), sample(c, 0), sample(c, 0), one],
-            }
-        };
-        let stride = channels * if wide { 2 } else { 1 };
-        let texels = data.chunks_exact(stride).map(rgba);
-        let words: Vec<u32> = if wide {
-            texels
-                .flat_map(|[r, g, b, a]| [r | g << 16, b | a << 16])
-                .collect()
+        let index = image.index();
+        let (w, h, words, wide) = if bytes.starts_with(b"\x89PNG") {
+            decode_png(bytes, index, words_before)?
+        } else if bytes.starts_with(&[0xff, 0xd8, 0xff]) {
+            decode_jpeg(bytes, index, words_before)?
         } else {
-            texels
-                .map(|[r, g, b, a]| r | g << 8 | b << 16 | a << 24)
-                .collect()
+            bail!("image {index} is neither a PNG nor a JPEG (the formats glTF allows)");
         };
-        let per = if wide { 2 } else { 1 };
-        if w == 0 || h == 0 || words.len() != (w * h * per) as usize {
-            bail!("image {} has a bad size {w}×{h}", image.index());
-        }
         let wrap = |m: gltf::texture::WrappingMode| match m {
             gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
             gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
@@ -153,6 +82,132 @@ impl Images<'_> {
             wrap: [wrap(s.wrap_s()), wrap(s.wrap_t())],
         })
     }
+}
+
+/// A PNG's texels as [`Texture::words`]: (width, height, words, 16 bits a channel).
+fn decode_png(
+    bytes: Vec<u8>,
+    index: usize,
+    words_before: u64,
+) -> Result<(u32, u32, Vec<u32>, bool)> {
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    // 16-bit channels stay 16 bits (STRIP_16 kept the high byte: up to 9 % dark).
+    decoder.set_transformations(png::Transformations::EXPAND);
+    let mut reader = decoder
+        .read_info()
+        .map_err(|e| anyhow!("image {index}: {e}"))?;
+    // The header's size decides the allocation below: a 5-KB PNG that claims
+    // 100000×100000 asked for 30 GB and aborted the process.
+    let (w, h) = (reader.info().width as u64, reader.info().height as u64);
+    let wide = reader.info().bit_depth == png::BitDepth::Sixteen;
+    check_texels(index, w, h, w * h * if wide { 2 } else { 1 }, words_before)?;
+    if reader.output_buffer_size() as u64 > 8 * MAX_TEXELS {
+        bail!("image {index} is {w}×{h} texels; lightlearn reads textures of at most {MAX_TEXELS} texels (8192×8192): scale it down");
+    }
+    let mut buf = vec![0u8; reader.output_buffer_size()];
+    let frame = reader
+        .next_frame(&mut buf)
+        .map_err(|e| anyhow!("image {index}: {e}"))?;
+    let (w, h) = (frame.width, frame.height);
+    let data = &buf[..frame.buffer_size()];
+    let channels = match frame.color_type {
+        png::ColorType::Rgba => 4,
+        png::ColorType::Rgb => 3,
+        png::ColorType::GrayscaleAlpha => 2,
+        png::ColorType::Grayscale => 1,
+        png::ColorType::Indexed => bail!("image {index}: palette not expanded"),
+    };
+    let wide = frame.bit_depth == png::BitDepth::Sixteen;
+    // One texel's channels as RGBA (grey is all three; alpha 1 when absent), at the
+    // file's depth: 16-bit samples are big-endian in PNG.
+    let sample = |c: &[u8], k: usize| -> u32 {
+        if wide {
+            u16::from_be_bytes([c[2 * k], c[2 * k + 1]]) as u32
+        } else {
+            c[k] as u32
+        }
+    };
+    let one = if wide { 0xffff } else { 0xff };
+    let rgba = |c: &[u8]| -> [u32; 4] {
+        match channels {
+            4 => [sample(c, 0), sample(c, 1), sample(c, 2), sample(c, 3)],
+            3 => [sample(c, 0), sample(c, 1), sample(c, 2), one],
+            2 => [sample(c, 0), sample(c, 0), sample(c, 0), sample(c, 1)],
+            _ => [sample(c, 0), sample(c, 0), sample(c, 0), one],
+        }
+    };
+    let stride = channels * if wide { 2 } else { 1 };
+    let texels = data.chunks_exact(stride).map(rgba);
+    let words: Vec<u32> = if wide {
+        texels
+            .flat_map(|[r, g, b, a]| [r | g << 16, b | a << 16])
+            .collect()
+    } else {
+        texels
+            .map(|[r, g, b, a]| r | g << 8 | b << 16 | a << 24)
+            .collect()
+    };
+    let per = if wide { 2 } else { 1 };
+    if w == 0 || h == 0 || words.len() != (w * h * per) as usize {
+        bail!("image {index} has a bad size {w}×{h}");
+    }
+    Ok((w, h, words, wide))
+}
+
+/// A JPEG's texels as [`Texture::words`] (RGB, 8 bits; grey and CMYK converted by the
+/// decoder). JPEG was skipped with a warning before 2026-12-07, and it is the format most
+/// exporters write base colours in.
+fn decode_jpeg(
+    bytes: Vec<u8>,
+    index: usize,
+    words_before: u64,
+) -> Result<(u32, u32, Vec<u32>, bool)> {
+    use zune_jpeg::zune_core::{
+        bytestream::ZCursor, colorspace::ColorSpace, options::DecoderOptions,
+    };
+    let options = DecoderOptions::default()
+        .jpeg_set_out_colorspace(ColorSpace::RGB)
+        .set_max_width(1 << 16)
+        .set_max_height(1 << 16);
+    let mut decoder = zune_jpeg::JpegDecoder::new_with_options(ZCursor::new(bytes), options);
+    decoder
+        .decode_headers()
+        .map_err(|e| anyhow!("image {index}: not a JPEG lightlearn can read ({e:?})"))?;
+    let (w, h) = decoder
+        .dimensions()
+        .ok_or_else(|| anyhow!("image {index}: a JPEG without a size"))?;
+    let (w, h) = (w as u64, h as u64);
+    check_texels(index, w, h, w * h, words_before)?;
+    let rgb = decoder
+        .decode()
+        .map_err(|e| anyhow!("image {index}: a damaged JPEG ({e:?})"))?;
+    if w == 0 || h == 0 || rgb.len() as u64 != 3 * w * h {
+        bail!("image {index} has a bad size {w}×{h}");
+    }
+    let words = rgb
+        .chunks_exact(3)
+        .map(|c| c[0] as u32 | (c[1] as u32) << 8 | (c[2] as u32) << 16 | 0xff << 24)
+        .collect();
+    Ok((w as u32, h as u32, words, false))
+}
+
+/// Errors unless an image of w×h texels (`words` words) fits one texture's limit and, with
+/// the `words_before` of the scene's textures already decoded, the scene's.
+fn check_texels(index: usize, w: u64, h: u64, words: u64, words_before: u64) -> Result<()> {
+    if w * h > MAX_TEXELS {
+        bail!(
+            "image {index} is {w}×{h} texels; lightlearn reads textures of at most {MAX_TEXELS} texels (8192×8192): scale it down"
+        );
+    }
+    // The scene's textures together: each was checked alone, so 24 textures of one
+    // 82-KB 8192² PNG decoded 6 GB before any total was checked (an audit, 2026-12-07).
+    if words_before + words > MAX_SCENE_TEXEL_WORDS {
+        bail!(
+            "image {index} ({w}×{h}) would take the scene's textures past {} MiB; lightlearn holds at most that: scale them down",
+            (MAX_SCENE_TEXEL_WORDS * 4) >> 20
+        );
+    }
+    Ok(())
 }
 
 /// The most texels of one texture (8192², 256 MiB as RGBA8).

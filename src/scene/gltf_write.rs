@@ -97,9 +97,21 @@ impl GltfBuilder {
     /// [`Self::texture_png`] with the sampler's magFilter (glTF's GL code: 9728 NEAREST,
     /// 9729 LINEAR).
     pub fn texture_png_filtered(&mut self, png: &[u8], wrap: [u32; 2], mag: Option<u32>) -> usize {
-        let view = self.push_view(png, None);
+        self.texture_image(png, "image/png", wrap, mag)
+    }
+
+    /// A texture of an image in the file's buffer (`mime`: image/png or image/jpeg), with
+    /// the sampler's wrap modes and magFilter.
+    pub fn texture_image(
+        &mut self,
+        image: &[u8],
+        mime: &str,
+        wrap: [u32; 2],
+        mag: Option<u32>,
+    ) -> usize {
+        let view = self.push_view(image, None);
         self.images
-            .push(json!({"bufferView": view, "mimeType": "image/png"}));
+            .push(json!({"bufferView": view, "mimeType": mime}));
         let mut sampler = json!({"wrapS": wrap[0], "wrapT": wrap[1]});
         if let Some(m) = mag {
             sampler["magFilter"] = json!(m);
