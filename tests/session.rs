@@ -276,17 +276,46 @@ fn statistics_of_two_sessions_merge_by_addition() {
                 slots(&alone, alone.index[r]),
                 "region {r}"
             );
-            for q in [r.saturating_sub(1), r + 1] {
-                if q < pa.index.len() && pa.index[q] != 0 {
-                    assert_eq!(
-                        pa.index[q] == pa.index[r],
-                        alone.index[q] == alone.index[r],
-                        "regions {r}, {q}"
-                    );
-                }
-            }
         }
     }
+    // The part's offsets map one to one onto the merge's (regions share in one iff in both).
+    let mut to: std::collections::HashMap<u32, u32> = Default::default();
+    let mut from: std::collections::HashMap<u32, u32> = Default::default();
+    for (&o, &m) in pa.index.iter().zip(&alone.index) {
+        assert_eq!(*to.entry(o).or_insert(m), m, "part offset {o} split");
+        assert_eq!(
+            *from.entry(m).or_insert(o),
+            o,
+            "merged offset {m} joins two cuts"
+        );
+    }
+
+    // A block that two parts reached in other regions stays split in their merge (nothing
+    // there tells a light-free block from cells with equal cuts) and joins in a later merge
+    // with a part that reached both (a review, 2026-12-07: that was refused as "other
+    // --coarse-blocks settings", so merging was not associative).
+    let (r1, r2) = (0..pa.index.len())
+        .filter(|&r| pa.index[r] != 0)
+        .find_map(|r| {
+            let q = (r + 1..pa.index.len()).find(|&q| pa.index[q] == pa.index[r])?;
+            Some((r, q))
+        })
+        .expect("a shared cut");
+    let (mut a1, mut a2) = (pa.clone(), pa.clone());
+    for r in 0..pa.index.len() {
+        if pa.index[r] == pa.index[r1] {
+            if r == r1 { &mut a2 } else { &mut a1 }.index[r] = 0;
+        }
+    }
+    let m12 = SavedStats::merge(&[(a1, "a1".into()), (a2, "a2".into())]).unwrap();
+    assert_ne!(m12.index[r1], m12.index[r2], "split");
+    let m = SavedStats::merge(&[(m12.clone(), "m12".into()), (pa.clone(), "a".into())]).unwrap();
+    assert_eq!(m.index[r1], m.index[r2], "joined again");
+    let (o12, om) = (observations(&m12), observations(&m));
+    assert!(
+        (om - (o12 + oa)).abs() <= 1e-6 * om,
+        "observations {om} against {o12} + {oa}"
+    );
 
     // The merged file is whole, loads and renders unbiased.
     let merged = SavedStats::from_bytes(&merged.to_bytes(), "merged").unwrap();
@@ -338,6 +367,50 @@ fn resize_gives_a_new_film_and_keeps_the_learning() {
     assert!(r.mean().iter().flatten().all(|v| v.is_finite()));
     assert!(r.mean().iter().flatten().any(|&v| v > 0.0));
     assert!(x.resize(0, 10).is_err());
+}
+
+/// What the library takes that the CLI's flags never let through (an audit by reading,
+/// 2026-12-07): a sample budget below what the film holds ran one more batch (u32 wrap), a
+/// NaN time budget never ended, path settings of 0 or u32::MAX were taken (2^32 dispatches,
+/// weights of 1/0), and an image of another size panicked in the EXR writer.
+#[test]
+fn the_library_refuses_what_the_cli_never_passes() {
+    use lightlearn::render::{run_session, Checkpoints};
+    let ctx = common::ctx();
+    let s = scene("cornell.glb");
+    let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
+    let mut x = Session::new(&ctx, &s, &gpu, &settings(LightSampler::Wang, 1)).unwrap();
+    let run = |x: &mut Session, b: Budget| {
+        run_session(x, b, &Checkpoints::None, &mut |_| Ok(()), &mut |_, _| {})
+    };
+    run(&mut x, Budget::Samples(8)).unwrap();
+    assert_eq!(x.spp(), 8);
+    let r = run(&mut x, Budget::Samples(4)).unwrap();
+    assert_eq!((x.spp(), r.spp), (8, 8), "a smaller budget ran passes");
+    for t in [f64::NAN, -1.0, 0.0, f64::INFINITY] {
+        assert!(run(&mut x, Budget::Seconds(t)).is_err(), "{t} s");
+    }
+    for (depth, indirect, first) in [
+        (0, 1, 1),
+        (u32::MAX, 1, 1),
+        (2, 0, 1),
+        (2, 1, 0),
+        (2, 17, 1),
+    ] {
+        let mut set = settings(LightSampler::Wang, 1);
+        (
+            set.max_depth,
+            set.indirect_light_samples,
+            set.first_light_samples,
+        ) = (depth, indirect, first);
+        let err = Session::new(&ctx, &s, &gpu, &set).err().expect("refused");
+        assert!(err.to_string().contains("out of range"), "{err}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("x.exr");
+    let err = lightlearn::film::write_exr(&p, 4, 4, &[[0.0; 3]; 15]).unwrap_err();
+    assert!(err.to_string().contains("15 pixels, not 4×4"), "{err}");
+    assert!(!p.exists());
 }
 
 /// The path tracer (one dispatch per bounce, paths queued between them) gives the same

@@ -186,6 +186,32 @@ fn the_split_adds_up_to_the_measured_variance() {
     }
 }
 
+/// A second run into one folder with fewer samplers leaves no map of the first beside its
+/// report (an audit, 2026-12-07: row1.exr stayed while variance.json listed row0 alone).
+#[test]
+fn a_smaller_run_into_one_folder_leaves_no_earlier_maps() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_file(dir.path());
+    let out = dir.path().join("v");
+    let small = |samplers| VarianceRequest {
+        width: 16,
+        height: 12,
+        spp: 8,
+        hits: 2,
+        area_samples: 4,
+        out: Some(out.clone()),
+        ..request(scene.clone(), samplers, None)
+    };
+    run(
+        &small(vec![LightSampler::Uniform, LightSampler::Wang]),
+        &mut Silent,
+    )
+    .unwrap();
+    assert!(out.join("row1.exr").is_file());
+    run(&small(vec![LightSampler::Wang]), &mut Silent).unwrap();
+    assert!(out.join("row0.exr").is_file() && !out.join("row1.exr").exists());
+}
+
 /// Runs `lightlearn ARGS` in the crate folder, expecting a refusal: its stderr (no panic).
 fn refused(args: &[&str]) -> String {
     let out = std::process::Command::new(common::exe())

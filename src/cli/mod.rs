@@ -365,7 +365,7 @@ pub fn parse_grid(s: &str) -> std::result::Result<(usize, usize), String> {
 
 #[derive(Args)]
 pub struct BenchArgs {
-    /// Triangles in the procedural benchmark mesh.
+    /// About this many triangles in the procedural benchmark mesh (rounded to its grid).
     #[arg(long, default_value_t = 120_000)]
     pub triangles: usize,
     /// Rays per kind = width × height.

@@ -18,10 +18,13 @@ pub struct ProfileArgs {
     /// Passes (samples per pixel) timed per variant.
     #[arg(long, default_value_t = 16, value_name = "N")]
     pub spp: u32,
+    /// Image width in pixels.
     #[arg(long, default_value_t = 160)]
     pub width: u32,
+    /// Image height in pixels.
     #[arg(long, default_value_t = 120)]
     pub height: u32,
+    /// Seed of the random numbers (the same seed gives the same numbers).
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
     /// Surface vertices of a path (1 = direct light).

@@ -22,13 +22,16 @@ pub struct VarianceArgs {
     /// ceiling of the model as built).
     #[arg(long, value_name = "N")]
     pub converge: Option<u32>,
+    /// Image width in pixels.
     #[arg(long, default_value_t = 128)]
     pub width: u32,
+    /// Image height in pixels.
     #[arg(long, default_value_t = 96)]
     pub height: u32,
     /// Samples per pixel of each measuring render and of the learning from scratch.
     #[arg(long, default_value_t = 256, value_name = "N")]
     pub spp: u32,
+    /// Seed of the random numbers (the same seed gives the same numbers).
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
     /// Decompose every K-th pixel in x and in y.

@@ -43,7 +43,7 @@ impl Ui for Silent {
 }
 
 /// Path tracing depth: 1 (direct light) to [`MAX_DEPTH`] vertices.
-pub const MAX_DEPTH: u32 = 100;
+pub const MAX_DEPTH: u32 = crate::render::MAX_DEPTH;
 
 /// Largest image side (also the farm's Width/Height parameter bound).
 pub const MAX_SIZE: u32 = 16384;

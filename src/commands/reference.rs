@@ -41,8 +41,14 @@ pub fn run(a: &ReferenceRequest, ui: &mut dyn Ui) -> Result<serde_json::Value> {
     ui.phase_done();
     // Also into the cache, so `compare` with the same settings reuses it.
     if let Err(e) = reference::store_in_cache(&scene, &settings, &paths) {
+        let why = format!("{e:#}");
+        let fix = if why.contains("LIGHTLEARN_CACHE") {
+            ""
+        } else {
+            "; set LIGHTLEARN_CACHE to a writable folder"
+        };
         ui.message(&format!(
-            "warning: {} is written but not cached for `compare` ({e:#}); set LIGHTLEARN_CACHE to a writable folder",
+            "warning: {} is written but not cached for `compare` ({why}){fix}",
             paths.exr.display()
         ));
     }

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use serde_json::json;
 
 use super::variance::VarianceRequest;
@@ -174,7 +174,18 @@ pub(super) fn write_outputs(out: &Path, a: &VarianceRequest, rows: &[Row]) -> Re
         &out.join("variance.json"),
         (serde_json::to_string_pretty(&report)? + "\n").as_bytes(),
     )?;
-    set.commit()
+    set.commit()?;
+    // Maps of an earlier run with more samplers would stay beside a report that lists fewer
+    // (an audit, 2026-12-07): the rows after the last are this command's own files.
+    for k in rows.len().. {
+        let stale = out.join(format!("row{k}.exr"));
+        if !std::fs::symlink_metadata(&stale).is_ok_and(|m| m.is_file()) {
+            break;
+        }
+        std::fs::remove_file(&stale)
+            .with_context(|| format!("cannot remove the earlier run's '{}'", stale.display()))?;
+    }
+    Ok(())
 }
 
 /// Per-pixel maps (variance per sample by stage, and the pixel's value) as a float EXR

@@ -373,8 +373,12 @@ pub fn cached(
             log(format!("warning: {why:#}"));
             log(format!("rendering the reference ({spp} spp; not cached)"));
             let (image, report) = render_image(ctx, scene, gpu, settings, progress)?;
+            let own = match noise(&report) {
+                Ok(n) => format!("its own estimated relMSE {:.2e} (a floor under every raw relMSE below; the corrected numbers subtract it)", n.rel_mse),
+                Err(why) => format!("its own error is unknown ({why}), so no corrected numbers"),
+            };
             let note = format!(
-                "{} at {spp} spp, not cached ({why:#})",
+                "{} at {spp} spp, not cached ({why:#}); {own}",
                 settings.sampler.name()
             );
             return Ok((image, note, noise(&report).ok()));

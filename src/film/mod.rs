@@ -188,6 +188,15 @@ pub fn check_report(exr: &Path, json: &Path, report: &serde_json::Value) -> Resu
 pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[[f32; 3]]) -> Result<()> {
     use exr::prelude::*;
     let w = width as usize;
+    // An image of another size (a library caller's, after a resize) panicked mid-write (an
+    // audit, 2026-12-07).
+    if rgb.len() != w * height as usize {
+        anyhow::bail!(
+            "cannot write '{}': the image has {} pixels, not {width}×{height}",
+            path.display(),
+            rgb.len()
+        );
+    }
     let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
         let p = rgb[y * w + x];
         (p[0], p[1], p[2])

@@ -50,8 +50,10 @@ impl SavedStats {
         // audit, 2026-12-07).
         for group in shared_cut_groups(parts) {
             let r = group[0];
-            // Each part's one offset for the group (the regions that share in a part share
-            // one offset there).
+            // Each part's offsets for the group, each once: one where the part shares the
+            // group's cut, several where it holds a block split by an earlier merge (parts
+            // that reached different regions of one block, nothing joining them there: their
+            // statistics stay apart, unbiased, and join here).
             let mut held: Vec<(&SavedStats, &str, u32)> = Vec::new();
             for (p, name) in parts {
                 let mut offsets: Vec<u32> = group
@@ -61,17 +63,13 @@ impl SavedStats {
                     .collect();
                 offsets.sort_unstable();
                 offsets.dedup();
-                match offsets[..] {
-                    [] => {}
-                    [o] => held.push((p, name, o)),
-                    _ => bail!("'{name}' gives the regions that share region {r}'s cut elsewhere {} cuts of their own; it was saved with other --coarse-blocks settings, so they cannot be merged", offsets.len()),
-                }
+                held.extend(offsets.into_iter().map(|o| (p, name.as_str(), o)));
             }
             let (h, holder, ho) = held[0];
             let cut = cut_of(h, ho);
             for &(p, name, o) in &held[1..] {
                 if cut_of(p, o) != cut {
-                    bail!("'{name}' has another cut for region {r} than '{holder}': other cut settings, or cuts refined apart (--refine-cuts); they cannot be merged");
+                    bail!("'{name}' has another cut for region {r} than '{holder}': other cut settings (--coarse-blocks, --tau, --k-max), or cuts refined apart (--refine-cuts); they cannot be merged");
                 }
             }
             let o = cuts.len() as u32;
@@ -92,6 +90,21 @@ impl SavedStats {
             cuts.extend_from_slice(&cut);
         }
         let mut header = first.header.clone();
+        // Fields that files before 2026-12-07 lack: any part's record, all records alike.
+        let recorded = |f: fn(&SavedStats) -> Option<bool>, flag: &str| -> Result<Option<bool>> {
+            let mut seen: Option<(bool, &str)> = None;
+            for (p, name) in parts {
+                match (f(p), seen) {
+                    (Some(v), None) => seen = Some((v, name)),
+                    (Some(v), Some((w, other))) if v != w => bail!("'{name}' and '{other}' were saved with other {flag} settings; merge only statistics saved with the same settings"),
+                    _ => {}
+                }
+            }
+            Ok(seen.map(|(v, _)| v))
+        };
+        header.coarse_blocks = recorded(|p| p.header.coarse_blocks, "--coarse-blocks")?;
+        header.in_cluster_importance =
+            recorded(|p| p.header.in_cluster_importance, "--in-cluster")?;
         // The passes learned from together (a chunk's skipped passes are not its own), and
         // never below the last pass any part drew: a continuation must start after both.
         let learned = parts
@@ -129,6 +142,8 @@ impl SavedStats {
     /// own learning, Σ (part − start), so N chunks do not count the base N times.
     /// `samples_done` is the largest part's (the chunks' sample ranges follow each other).
     pub fn merge_onto(base: &SavedStats, parts: &[(SavedStats, String)]) -> Result<SavedStats> {
+        // Subtracted below: a NaN or huge total would be clamped to 0 in silence.
+        base.check_totals(Path::new("the --base file"))?;
         for (p, name) in parts {
             p.check_merges_with(&base.header, Path::new(name), "the --base file")
                 .with_context(|| format!("'{name}' did not start from the --base file"))?;
@@ -201,8 +216,11 @@ impl SavedStats {
 
 /// The regions with a cut in some part, in groups that share one cut: two regions that share
 /// a cut in any part are in one group (transitively). Regions of one block without lights
-/// share a cut in every part that reached them, so a group is a block's reached regions, or
-/// one region. Groups in the order of their first region, each in region order.
+/// share a cut in every part that reached two of them or more; a block whose regions no part
+/// reached together (each part one region of it) stays split in the merge, its statistics
+/// apart as they were learned (merging needs the scene's lights to tell a light-free block
+/// from cells that happen to have equal cuts). Groups in the order of their first region,
+/// each in region order.
 fn shared_cut_groups(parts: &[(SavedStats, String)]) -> Vec<Vec<u32>> {
     let n = parts[0].0.index.len();
     let mut parent: Vec<u32> = (0..n as u32).collect();

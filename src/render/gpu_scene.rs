@@ -90,7 +90,7 @@ pub fn check_fits(ctx: &Context, scene: &Scene) -> Result<()> {
     let size = |t: &crate::scene::Texture| t.width as u64 * t.height as u64;
     let texels: u64 = scene.textures.iter().map(size).sum();
     let words: u64 = scene.textures.iter().map(|t| t.words.len() as u64).sum();
-    if let Some(largest) = scene.textures.iter().max_by_key(|t| size(t)) {
+    if let Some(largest) = scene.textures.iter().max_by_key(|t| t.words.len()) {
         if words * 4 > storage {
             anyhow::bail!(
                 "'{}': its base-colour textures hold {texels} texels ({} bytes), more than this device's largest buffer ({storage} bytes); the largest is {}×{}: scale it down",

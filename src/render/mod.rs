@@ -273,6 +273,33 @@ const MAX_PASSES_PER_BATCH: u32 = 256;
 /// to this many).
 pub const MAX_INDIRECT_LIGHT_SAMPLES: u32 = 16;
 
+/// The most surface vertices of a path (`--max-depth`; Russian roulette ends most long
+/// before).
+pub const MAX_DEPTH: u32 = 100;
+
+impl RenderSettings {
+    /// Errors unless the path settings are ones the kernels take: the CLI checks its flags
+    /// with messages of its own, and a library caller's `max_depth` u32::MAX recorded 2^32
+    /// dispatches, a light-sample count of 0 weighed samples by 1/0 (an audit, 2026-12-07).
+    pub fn check_paths(&self) -> Result<()> {
+        if !(1..=MAX_DEPTH).contains(&self.max_depth) {
+            bail!(
+                "max_depth {} is out of range: use 1 (direct light) to {MAX_DEPTH}",
+                self.max_depth
+            );
+        }
+        for (what, n) in [
+            ("indirect_light_samples", self.indirect_light_samples),
+            ("first_light_samples", self.first_light_samples),
+        ] {
+            if !(1..=MAX_INDIRECT_LIGHT_SAMPLES).contains(&n) {
+                bail!("{what} {n} is out of range: use 1 to {MAX_INDIRECT_LIGHT_SAMPLES}");
+            }
+        }
+        Ok(())
+    }
+}
+
 /// The scene camera's vectors in the form `render.comp` takes.
 pub fn camera_params(scene: &Scene, width: u32, height: u32) -> RenderParams {
     camera_vectors(&scene.camera, width, height)
@@ -390,6 +417,12 @@ pub fn run_session_until(
     on_checkpoint: &mut dyn FnMut(Checkpoint) -> Result<()>,
     progress: &mut dyn FnMut(u32, f64),
 ) -> Result<RenderResult> {
+    // The CLI checks --time; a library caller's NaN never ended (an audit, 2026-12-07).
+    if let Budget::Seconds(s) = budget {
+        if !(s.is_finite() && s > 0.0) {
+            anyhow::bail!("a time budget of {s} seconds: give a finite number of seconds above 0");
+        }
+    }
     let _active = crate::interrupt::Active::begin();
     // Checkpoints still ahead, as (seconds, spp) limits; one of the two is infinite.
     let mut pending: std::collections::VecDeque<(f64, u32)> = match checkpoints {
@@ -402,7 +435,9 @@ pub fn run_session_until(
     loop {
         let (done, elapsed) = (session.spp(), session.film_seconds());
         let mut k = match budget {
-            Budget::Samples(n) => batch.min(n - done),
+            // A film that already holds the budget (a second call with a smaller one) runs
+            // no pass; `n - done` wrapped and ran one more batch.
+            Budget::Samples(n) => batch.min(n.saturating_sub(done)),
             Budget::Seconds(_) => batch,
         };
         if let Some(&(_, n)) = pending.front() {

@@ -1,5 +1,5 @@
 //! The data of a glTF file: its buffers (GLB chunk, `data:` URIs, files beside it) and its
-//! base-colour images (PNG), for the loader.
+//! base-colour images (PNG and JPEG), for the loader.
 
 use std::path::{Path, PathBuf};
 
@@ -168,7 +168,9 @@ fn decode_jpeg(
     let options = DecoderOptions::default()
         .jpeg_set_out_colorspace(ColorSpace::RGB)
         .set_max_width(1 << 16)
-        .set_max_height(1 << 16);
+        .set_max_height(1 << 16)
+        // A file cut short is an error, not filler texels (the decoder's default fills in).
+        .set_strict_mode(true);
     let mut decoder = zune_jpeg::JpegDecoder::new_with_options(ZCursor::new(bytes), options);
     decoder
         .decode_headers()
@@ -176,6 +178,12 @@ fn decode_jpeg(
     let (w, h) = decoder
         .dimensions()
         .ok_or_else(|| anyhow!("image {index}: a JPEG without a size"))?;
+    // Grey, YCbCr/RGB and CMYK/YCCK convert to RGB; the decoder copies two components as
+    // they are into an RGB-sized buffer (a review, 2026-12-07).
+    let components = decoder.info().map_or(0, |i| i.components);
+    if ![1, 3, 4].contains(&components) {
+        bail!("image {index}: a JPEG of {components} colour components; lightlearn reads grey, colour and CMYK JPEGs: save it as one of those");
+    }
     let (w, h) = (w as u64, h as u64);
     check_texels(index, w, h, w * h, words_before)?;
     let rgb = decoder
@@ -424,6 +432,23 @@ mod tests {
         // 2×2 texels at 16 bits: 8 words.
         let ok = images.decode(&tex, MAX_SCENE_TEXEL_WORDS - 8).unwrap();
         assert!(ok.wide && ok.words.len() == 8);
+        let err = images.decode(&tex, MAX_SCENE_TEXEL_WORDS - 7).unwrap_err();
+        assert!(err.to_string().contains("1024 MiB"), "{err}");
+        // The same PNG cut inside its data: decoding fails, but over the budget it is the
+        // budget that is named, so the check comes before the decoder reads the texels.
+        let cut = png[..png.len() - 16].to_vec();
+        let mut g = crate::scene::gltf_write::GltfBuilder::new();
+        let m = g.material("m", glam::Vec3::ONE, glam::Vec3::ZERO, false);
+        let t = g.texture_png(&cut, [10497, 10497]);
+        g.set_base_color_texture(m, t);
+        let gltf = gltf::Gltf::from_slice(&g.to_glb()).unwrap();
+        let images = Images {
+            buffers: &[gltf.blob.clone().unwrap()],
+            ..images
+        };
+        let tex = gltf.document.textures().next().unwrap();
+        let err = images.decode(&tex, 0).unwrap_err();
+        assert!(!err.to_string().contains("MiB"), "{err}");
         let err = images.decode(&tex, MAX_SCENE_TEXEL_WORDS - 7).unwrap_err();
         assert!(err.to_string().contains("1024 MiB"), "{err}");
     }

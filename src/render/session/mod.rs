@@ -84,6 +84,7 @@ impl<'a> Session<'a> {
     ) -> Result<Session<'a>> {
         settings.regions.check()?;
         settings.learn.check()?;
+        settings.check_paths()?;
         let film = Film::new(ctx, settings.width, settings.height)?;
         if settings.sampler.uses_cuts() {
             check_region_index_fits(ctx, scene, &settings.regions)?;
