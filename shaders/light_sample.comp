@@ -2,8 +2,8 @@
 #extension GL_GOOGLE_include_directive : require
 // Runs a light-tree sampler (SAMPLER: 2 lightbvh, 3 wang, 4 donikian, 5 bayes) for a batch of
 // (p, n, u) queries: the GPU side of the tests that GPU and CPU pick the same light with the
-// same pmf (tests/light_tree.rs, tests/regions.rs, tests/learning.rs), and that light_pmf
-// gives every light the pmf its sampler picks it with (tests/learning.rs).
+// same pmf (tests/light_tree.rs, tests/regions.rs, tests/learning/), and that light_pmf
+// gives every light the pmf its sampler picks it with (tests/learning/).
 #include "types.glsl"
 
 layout(local_size_x = 64) in;

@@ -1,4 +1,4 @@
-//! The `lightlearn` command line: parses arguments (src/cli.rs) into the library's requests
+//! The `lightlearn` command line: parses arguments (src/cli/) into the library's requests
 //! (`lightlearn::commands`), shows progress and prints results. Nothing else lives here.
 
 mod cli;

@@ -63,6 +63,51 @@ fn moving_light() -> GltfBuilder {
     g
 }
 
+/// The default frame range ends on the last key when the span is a whole number of frames,
+/// though the key is an f32 that rounds below it (an audit, 2026-12-07: 1.8 s at 25 fps gave
+/// 45 frames, the last key's frame 45 left out; one end in three at 25 fps rounds so), and a
+/// negative key time is said.
+#[test]
+fn the_frame_range_reaches_a_last_key_that_rounds_down() {
+    let dir = tempfile::tempdir().unwrap();
+    let open = |times: [f32; 2], warned: &mut Vec<String>| {
+        let mut g = floor(0.5, (-2.0, 4.0), 2.0);
+        g.point_light("bulb", Vec3::new(0.0, 1.0, 0.0), Vec3::ONE, 2.0);
+        let node = g.last_node();
+        g.animate(
+            node,
+            "translation",
+            &times,
+            &[vec![0.0, 1.0, 0.0], vec![2.0, 1.0, 0.0]],
+        );
+        g.camera(Vec3::new(1.0, 3.0, 5.0), Vec3::new(1.0, 0.0, 0.0), 0.9);
+        let path = dir.path().join("a.glb");
+        std::fs::write(&path, g.to_glb()).unwrap();
+        AnimatedScene::open(Some(&path), &mut |w| warned.push(w)).unwrap()
+    };
+    let mut warned = Vec::new();
+    assert!((1.8f32 as f64) < 1.8);
+    for (end, fps, frames) in [
+        (1.8f32, 25.0, 46),
+        (2.0, 24.0, 49),
+        (1.1, 4.0, 5),
+        (0.7, 30.0, 22),
+    ] {
+        let a = open([0.0, end], &mut warned);
+        assert_eq!(
+            a.frame_count(fps).unwrap(),
+            frames,
+            "0..{end} s at {fps} fps"
+        );
+    }
+    assert!(warned.is_empty(), "{warned:?}");
+    open([-1.0, 1.0], &mut warned);
+    assert!(
+        warned.iter().any(|w| w.contains("negative key time")),
+        "{warned:?}"
+    );
+}
+
 #[test]
 fn animated_nodes_move_as_keyed() {
     let dir = tempfile::tempdir().unwrap();

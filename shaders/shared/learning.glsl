@@ -1,6 +1,6 @@
 // The learned cluster samplers: `bayes` (Vévoda et al. 2018, docs/method.md §3–§4) and `donikian`
 // (Donikian et al. 2006, docs/method.md §8), and the recording of their observations.
-// Mirror of src/learning/mod.rs (`slot_weight`, `donikian_weights`); tests/learning.rs checks
+// Mirror of src/learning/mod.rs (`slot_weight`, `donikian_weights`); tests/learning/ checks
 // GPU against CPU. The including kernel declares the region buffers, `slot_stat_texels`
 // (SlotStats[] as texels, parallel to `cuts`), `slot_delta` (SlotDelta[], same), `learn`
 // (LearnParams[1]) and the specialization constant LEARN_FLAGS (= learn[0].flags, fixed for

@@ -2,7 +2,7 @@
 // sampling needs when a BSDF-sampled ray hits an emitter (docs/method.md §5: the pmfs are exact
 // because the statistics are frozen within a pass). Each case repeats its sampler's own
 // choice, so light_pmf(p, n, l) equals the pmf that sampler reports when it picks l
-// (tests/learning.rs). The including kernel declares `light_position` (uint[]: a light's
+// (tests/learning/). The including kernel declares `light_position` (uint[]: a light's
 // position in the tree order, the inverse of `light_order`) besides the sampler's buffers.
 #ifndef LIGHT_PMF_GLSL
 #define LIGHT_PMF_GLSL

@@ -121,8 +121,8 @@ impl AnimateArgs {
 
 #[derive(Args)]
 pub struct FarmArgs {
-    /// The glTF scene the workers render (its absolute path becomes the SceneFile job
-    /// parameter's default).
+    /// The glTF scene the workers render (copied into JOBDIR/scene/; that copy is the
+    /// SceneFile job parameter's default).
     pub scene: PathBuf,
     /// The job bundle's folder (created; holds template.yaml).
     #[arg(long, value_name = "JOBDIR")]
@@ -134,7 +134,8 @@ pub struct FarmArgs {
     /// Render a still (render) even when the scene is animated.
     #[arg(long, conflicts_with = "frames")]
     pub still: bool,
-    /// Sample chunks per image, each a task (chunk k renders the samples [k·spp, (k+1)·spp)).
+    /// Sample chunks per image, 2 to 10000, each a task (chunk k renders the samples
+    /// [k·spp, (k+1)·spp)).
     #[arg(long, default_value_t = 4)]
     pub chunks: u32,
     /// Samples per pixel of each chunk (an image gets chunks × spp).

@@ -56,7 +56,7 @@ impl RegionArgs {
 pub struct LearnArgs {
     /// Fold new observations into the posteriors every K passes (1 pass = 1 spp); auto:
     /// every pass up to pass 16, then windows of 2, 4, 8 and (from pass 128) 16 passes,
-    /// counted from the last camera move.
+    /// counted from the last camera move, resize or farm chunk start.
     #[arg(long, default_value = "auto", value_name = "K|auto")]
     pub update_every: UpdateEvery,
     /// bayes: what a cluster's contribution is regressed on across its region. importance:
@@ -122,8 +122,8 @@ pub struct LearnArgs {
     pub refine_cuts: u32,
     /// bayes: a cluster slot with no observation of its own borrows up to N observations of
     /// the same cluster from the regions around it (the same 4×4×4 block of grid cells and
-    /// normal bin), recomputed at each growth point until it has data of its own; they move
-    /// only its posterior. Measured 1.29× less variance on city at 64 spp (1.14× at 256),
+    /// normal bin), recomputed at each growth point until it has data of its own, within the
+    /// learning's first 256 passes (dropped after); they move only its posterior. Measured 1.29× less variance on city at 64 spp (1.14× at 256),
     /// 7–9 % more on strings; 0: off.
     #[arg(long, default_value_t = 4.0, value_name = "N")]
     pub pool_priors: f32,

@@ -49,7 +49,7 @@ fn family_parser() -> impl TypedValueParser<Value = Family> {
 #[command(
     name = "lightlearn",
     version,
-    about = "GPU many-light renderer (Vulkan compute). Direct illumination with learned light selection (bayes: Bayesian online regression, Vévoda et al. 2018) and its baselines (donikian, wang, lightbvh, power, uniform)",
+    about = "GPU many-light renderer (Vulkan compute). Path tracing (or direct light alone) with learned light selection (bayes: Bayesian online regression, Vévoda et al. 2018) and its baselines (donikian, wang, lightbvh, power, uniform)",
     long_about = None
 )]
 pub struct Cli {

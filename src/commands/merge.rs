@@ -175,7 +175,10 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
         );
     }
     let (w, h) = (w as u32, h as u32);
-    let mut sum = vec![[0f64; 3]; (w * h) as usize];
+    // The sum is sized by the first part's image, once its EXR agrees with its report: a
+    // report claiming 16384² beside a tiny EXR allocated 6.4 GB first (an audit,
+    // 2026-12-07; harmless only where the system overcommits).
+    let mut sum: Vec<[f64; 3]> = Vec::new();
     let mut total = 0u64;
     let mut listed = Vec::new();
     for (p, r) in parts.iter().zip(&reports) {
@@ -185,6 +188,9 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
                 "part '{}' is {pw}×{ph} but its report says {w}×{h}; render it again",
                 p.display()
             );
+        }
+        if sum.is_empty() {
+            sum = vec![[0f64; 3]; (w * h) as usize];
         }
         // After the header's size (read_exr refuses sizes no render writes), before the
         // pixels are weighed by the report's spp.

@@ -74,10 +74,19 @@ impl AnimatedScene {
         self.span.0 as f64 + k as f64 / fps
     }
 
-    /// Frames in the whole span at `fps`, both ends included (a tiny tolerance keeps an end
-    /// that is a whole number of frames away, as 2 s at 24 fps, from rounding below it).
+    /// Frames in the whole span at `fps`, both ends included. The keys are f32, so an end a
+    /// whole number of frames away can round below it (1.8 s is 1.7999999523: at 25 fps
+    /// frame 45, the last key, was left out, an audit of 2026-12-07 found one end in three
+    /// so): each end counts half its f32 step (at most a microsecond) outward, as `reached`
+    /// does for the keys.
     pub fn frame_count(&self, fps: f64) -> Result<u32> {
-        let n = ((self.span.1 - self.span.0) as f64 * fps + 1e-6).floor() + 1.0;
+        let half_step = |x: f32| {
+            let step = (f32::from_bits(x.abs().to_bits() + 1) - x.abs()) as f64;
+            (0.5 * step).min(1e-6)
+        };
+        let (a, b) = (self.span.0, self.span.1);
+        let span = (b as f64 + half_step(b)) - (a as f64 - half_step(a));
+        let n = (span * fps + 1e-6).floor() + 1.0;
         if n > MAX_FRAMES as f64 {
             bail!(
                 "'{}' spans {n} frames at {fps} fps, more than the {MAX_FRAMES} one run renders; give --frames A..B or a lower --fps",

@@ -319,6 +319,11 @@ impl Animations {
                     label: label.clone(),
                 };
                 channel.check(file)?;
+                // glTF asks for times ≥ 0; rendered as keyed (frame 0 at the first key),
+                // said (an audit, 2026-12-07: silent).
+                if channel.times[0] < 0.0 {
+                    warn(format!("'{file}': {label} starts at a negative key time ({} s), which glTF does not allow; rendered as keyed (frame 0 is the first key)", channel.times[0]));
+                }
                 if let Some(first) = seen.insert((channel.node, property), label.clone()) {
                     warn(format!("'{file}': {label} animates the same {property:?} of node {} as {first}; the later one is used", channel.node));
                     out.channels
