@@ -87,11 +87,14 @@ fn the_frame_range_reaches_a_last_key_that_rounds_down() {
     };
     let mut warned = Vec::new();
     assert!((1.8f32 as f64) < 1.8);
+    // 32.12 s rounds down by more than the microsecond the first fix allowed (a review).
+    assert!((32.12f32 as f64) < 32.12);
     for (end, fps, frames) in [
         (1.8f32, 25.0, 46),
         (2.0, 24.0, 49),
         (1.1, 4.0, 5),
         (0.7, 30.0, 22),
+        (32.12, 25.0, 804),
     ] {
         let a = open([0.0, end], &mut warned);
         assert_eq!(

@@ -230,9 +230,16 @@ fn unusable_textures_warn_and_bad_texture_coordinates_fail() {
         g.point_light("bulb", Vec3::ONE, Vec3::ONE, 1.0);
         g.to_glb()
     };
-    // A damaged JPEG (JPEG is read since 2026-12-07), and neither a PNG nor a JPEG.
+    // A damaged JPEG (JPEG is read since 2026-12-07), a JPEG cut short (decoded with filler
+    // texels by default), and neither a PNG nor a JPEG.
+    let jpg = std::fs::read(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/solid-200-100-50.jpg"
+    ))
+    .unwrap();
     for (bytes, name, wants) in [
         (&b"\xff\xd8\xff\xe0 a JPEG"[..], "jpeg.glb", "JPEG"),
+        (&jpg[..jpg.len() - 6], "cut.glb", "cut short"),
         (&b"GIF89a"[..], "gif.glb", "neither a PNG nor a JPEG"),
     ] {
         let (s, warnings) = common::load_warned(&build(bytes, 1.0), name);

@@ -123,7 +123,8 @@ pub struct LearnArgs {
     /// bayes: a cluster slot with no observation of its own borrows up to N observations of
     /// the same cluster from the regions around it (the same 4×4×4 block of grid cells and
     /// normal bin), recomputed at each growth point until it has data of its own, within the
-    /// learning's first 256 passes (dropped after); they move only its posterior. Measured 1.29× less variance on city at 64 spp (1.14× at 256),
+    /// first 256 passes counted from the last camera move, resize or farm chunk start
+    /// (dropped after); they move only its posterior. Measured 1.29× less variance on city at 64 spp (1.14× at 256),
     /// 7–9 % more on strings; 0: off.
     #[arg(long, default_value_t = 4.0, value_name = "N")]
     pub pool_priors: f32,

@@ -157,8 +157,10 @@ impl SavedStats {
         let cut_len = |s: &SavedStats, o: u32| 1 + s.cuts[o as usize] as usize;
         // Regions with a cut in the base (the fallback cut, offset 0, is the first part's in
         // `merge`, as for any merge).
-        // A cut shared by a block's regions is taken out once (the audit of 2026-12-07).
-        let mut done = std::collections::HashSet::new();
+        // A cut shared by a block's regions is taken out once (the audit of 2026-12-07), and
+        // a merged cut stands for one base cut (parts that started from the base keep its
+        // offsets apart; a merged cut over two would keep one's extra copies: a review).
+        let mut done = std::collections::HashMap::new();
         for (r, &bo) in base.index.iter().enumerate() {
             if bo == 0 {
                 continue;
@@ -167,8 +169,10 @@ impl SavedStats {
             if mo == 0 {
                 bail!("region {r} has a cut in the --base file but in none of the parts: they did not start from it");
             }
-            if !done.insert(mo) {
-                continue;
+            match done.insert(mo, bo) {
+                None => {}
+                Some(b) if b == bo => continue,
+                Some(_) => bail!("region {r}'s cut joins two cuts of the --base file in the parts: they did not start from it (give the statistics the chunks loaded)"),
             }
             fn cut(s: &SavedStats, o: u32) -> &[u32] {
                 &s.cuts[o as usize..o as usize + 1 + s.cuts[o as usize] as usize]

@@ -77,12 +77,12 @@ impl AnimatedScene {
     /// Frames in the whole span at `fps`, both ends included. The keys are f32, so an end a
     /// whole number of frames away can round below it (1.8 s is 1.7999999523: at 25 fps
     /// frame 45, the last key, was left out, an audit of 2026-12-07 found one end in three
-    /// so): each end counts half its f32 step (at most a microsecond) outward, as `reached`
-    /// does for the keys.
+    /// so): each end counts half its f32 step outward (at most a quarter frame), as
+    /// `reached` does for the keys.
     pub fn frame_count(&self, fps: f64) -> Result<u32> {
         let half_step = |x: f32| {
             let step = (f32::from_bits(x.abs().to_bits() + 1) - x.abs()) as f64;
-            (0.5 * step).min(1e-6)
+            (0.5 * step).min(0.25 / fps)
         };
         let (a, b) = (self.span.0, self.span.1);
         let span = (b as f64 + half_step(b)) - (a as f64 - half_step(a));

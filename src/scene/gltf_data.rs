@@ -168,9 +168,13 @@ fn decode_jpeg(
     let options = DecoderOptions::default()
         .jpeg_set_out_colorspace(ColorSpace::RGB)
         .set_max_width(1 << 16)
-        .set_max_height(1 << 16)
-        // A file cut short is an error, not filler texels (the decoder's default fills in).
-        .set_strict_mode(true);
+        .set_max_height(1 << 16);
+    // A file cut short decodes with filler texels by default; strict decoding would also
+    // refuse what libjpeg reads with a warning (a review, 2026-12-07), so the end-of-image
+    // marker is looked for instead.
+    if !bytes.windows(2).any(|w| w == [0xff, 0xd9]) {
+        bail!("image {index}: a JPEG cut short (no end-of-image marker); export it again");
+    }
     let mut decoder = zune_jpeg::JpegDecoder::new_with_options(ZCursor::new(bytes), options);
     decoder
         .decode_headers()
