@@ -50,13 +50,18 @@ fn floor(albedo: f32, x: (f32, f32), half_z: f32) -> GltfBuilder {
 
 /// A floor, a camera and one point light keyed from (0, 1, 0) at t = 0 to (2, 1, 0) at t = 2.
 fn moving_light() -> GltfBuilder {
+    light_keyed_at([0.0, 2.0])
+}
+
+/// [`moving_light`] with its two keys at `times`.
+fn light_keyed_at(times: [f32; 2]) -> GltfBuilder {
     let mut g = floor(0.5, (-2.0, 4.0), 2.0);
     g.point_light("bulb", Vec3::new(0.0, 1.0, 0.0), Vec3::ONE, 2.0);
     let node = g.last_node();
     g.animate(
         node,
         "translation",
-        &[0.0, 2.0],
+        &times,
         &[vec![0.0, 1.0, 0.0], vec![2.0, 1.0, 0.0]],
     );
     g.camera(Vec3::new(1.0, 3.0, 5.0), Vec3::new(1.0, 0.0, 0.0), 0.9);
@@ -71,16 +76,7 @@ fn moving_light() -> GltfBuilder {
 fn the_frame_range_reaches_a_last_key_that_rounds_down() {
     let dir = tempfile::tempdir().unwrap();
     let open = |times: [f32; 2], warned: &mut Vec<String>| {
-        let mut g = floor(0.5, (-2.0, 4.0), 2.0);
-        g.point_light("bulb", Vec3::new(0.0, 1.0, 0.0), Vec3::ONE, 2.0);
-        let node = g.last_node();
-        g.animate(
-            node,
-            "translation",
-            &times,
-            &[vec![0.0, 1.0, 0.0], vec![2.0, 1.0, 0.0]],
-        );
-        g.camera(Vec3::new(1.0, 3.0, 5.0), Vec3::new(1.0, 0.0, 0.0), 0.9);
+        let g = light_keyed_at(times);
         let path = dir.path().join("a.glb");
         std::fs::write(&path, g.to_glb()).unwrap();
         AnimatedScene::open(Some(&path), &mut |w| warned.push(w)).unwrap()

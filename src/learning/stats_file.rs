@@ -284,11 +284,7 @@ impl SavedStats {
             )));
         }
         let lights = tree.order.len() as u32;
-        let mut offsets: Vec<u32> = self.index.clone();
-        offsets.push(0);
-        offsets.sort_unstable();
-        offsets.dedup();
-        for o in offsets {
+        for o in self.used_offsets() {
             let o = o as usize;
             let slots = o + 1..o + 1 + self.cuts[o] as usize;
             let mut next = 0u32;
@@ -312,16 +308,21 @@ impl SavedStats {
         self.check_totals(path)
     }
 
+    /// The offsets of the cuts the regions use and of the fallback cut (0), each once.
+    fn used_offsets(&self) -> Vec<u32> {
+        let mut offsets: Vec<u32> = self.index.clone();
+        offsets.push(0);
+        offsets.sort_unstable();
+        offsets.dedup();
+        offsets
+    }
+
     /// Errors unless every total of every cut the regions use (and the fallback's) is a
     /// possible one (see [`SavedStats::check_cuts`]); needs no light tree, so `merge-stats`
     /// checks its parts and its sum with it (it wrote a sum that overflowed to inf, or a
     /// part's NaN, with exit 0, for `--load-stats` to call damaged: an audit, 2026-12-07).
     pub fn check_totals(&self, path: &Path) -> Result<()> {
-        let mut offsets: Vec<u32> = self.index.clone();
-        offsets.push(0);
-        offsets.sort_unstable();
-        offsets.dedup();
-        for o in offsets {
+        for o in self.used_offsets() {
             let o = o as usize;
             for i in o + 1..o + 1 + self.cuts[o] as usize {
                 if !possible_totals(&self.stats[i]) {
