@@ -356,6 +356,14 @@ pub fn noise(report: &serde_json::Value) -> std::result::Result<super::Metrics, 
     }
 }
 
+/// What a reference's report says of its own error, for the comparison's note.
+fn own_error(report: &serde_json::Value) -> String {
+    match noise(report) {
+        Ok(n) => format!("its own estimated relMSE {:.2e} (a floor under every raw relMSE below; the corrected numbers subtract it)", n.rel_mse),
+        Err(why) => format!("its own error is unknown ({why}), so no corrected numbers"),
+    }
+}
+
 /// The cached reference for these settings, rendered (and cached) now if missing. Returns
 /// the image, a note on how it was made and its own estimated error.
 pub fn cached(
@@ -373,24 +381,17 @@ pub fn cached(
             log(format!("warning: {why:#}"));
             log(format!("rendering the reference ({spp} spp; not cached)"));
             let (image, report) = render_image(ctx, scene, gpu, settings, progress)?;
-            let own = match noise(&report) {
-                Ok(n) => format!("its own estimated relMSE {:.2e} (a floor under every raw relMSE below; the corrected numbers subtract it)", n.rel_mse),
-                Err(why) => format!("its own error is unknown ({why}), so no corrected numbers"),
-            };
             let note = format!(
-                "{} at {spp} spp, not cached ({why:#}); {own}",
-                settings.sampler.name()
+                "{} at {spp} spp, not cached ({why:#}); {}",
+                settings.sampler.name(),
+                own_error(&report)
             );
             return Ok((image, note, noise(&report).ok()));
         }
     };
     let note = |report: &serde_json::Value, cached: bool| {
-        let own = match noise(report) {
-            Ok(n) => format!("its own estimated relMSE {:.2e} (a floor under every raw relMSE below; the corrected numbers subtract it)", n.rel_mse),
-            Err(why) => format!("its own error is unknown ({why}), so no corrected numbers"),
-        };
         format!(
-            "{} at {spp} spp, {} {}; {own}",
+            "{} at {spp} spp, {} {}; {}",
             settings.sampler.name(),
             if cached {
                 "cached as"
@@ -398,6 +399,7 @@ pub fn cached(
                 "not cached: could not write"
             },
             paths.exr.display(),
+            own_error(report)
         )
     };
     match read_entry(&paths, settings, &scene_hash(scene)) {

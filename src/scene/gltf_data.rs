@@ -99,8 +99,10 @@ fn decode_png(
     // The header's size decides the allocation below: a 5-KB PNG that claims
     // 100000×100000 asked for 30 GB and aborted the process.
     let (w, h) = (reader.info().width as u64, reader.info().height as u64);
+    // EXPAND widens depths below 8 to 8 and leaves 16 as it is: the header tells the words.
     let wide = reader.info().bit_depth == png::BitDepth::Sixteen;
-    check_texels(index, w, h, w * h * if wide { 2 } else { 1 }, words_before)?;
+    let per = if wide { 2 } else { 1 };
+    check_texels(index, w, h, w * h * per as u64, words_before)?;
     if reader.output_buffer_size() as u64 > 8 * MAX_TEXELS {
         bail!("image {index} is {w}×{h} texels; lightlearn reads textures of at most {MAX_TEXELS} texels (8192×8192): scale it down");
     }
@@ -117,7 +119,6 @@ fn decode_png(
         png::ColorType::Grayscale => 1,
         png::ColorType::Indexed => bail!("image {index}: palette not expanded"),
     };
-    let wide = frame.bit_depth == png::BitDepth::Sixteen;
     // One texel's channels as RGBA (grey is all three; alpha 1 when absent), at the
     // file's depth: 16-bit samples are big-endian in PNG.
     let sample = |c: &[u8], k: usize| -> u32 {
@@ -136,18 +137,15 @@ fn decode_png(
             _ => [sample(c, 0), sample(c, 0), sample(c, 0), one],
         }
     };
-    let stride = channels * if wide { 2 } else { 1 };
+    let stride = channels * per as usize;
     let texels = data.chunks_exact(stride).map(rgba);
     let words: Vec<u32> = if wide {
         texels
             .flat_map(|[r, g, b, a]| [r | g << 16, b | a << 16])
             .collect()
     } else {
-        texels
-            .map(|[r, g, b, a]| r | g << 8 | b << 16 | a << 24)
-            .collect()
+        texels.map(rgba8_word).collect()
     };
-    let per = if wide { 2 } else { 1 };
     if w == 0 || h == 0 || words.len() != (w * h * per) as usize {
         bail!("image {index} has a bad size {w}×{h}");
     }
@@ -198,9 +196,14 @@ fn decode_jpeg(
     }
     let words = rgb
         .chunks_exact(3)
-        .map(|c| c[0] as u32 | (c[1] as u32) << 8 | (c[2] as u32) << 16 | 0xff << 24)
+        .map(|c| rgba8_word([c[0] as u32, c[1] as u32, c[2] as u32, 0xff]))
         .collect();
     Ok((w as u32, h as u32, words, false))
+}
+
+/// One 8-bit RGBA texel as the kernels read it (`unpackUnorm4x8`: R in the low byte).
+fn rgba8_word([r, g, b, a]: [u32; 4]) -> u32 {
+    r | g << 8 | b << 16 | a << 24
 }
 
 /// Errors unless an image of w×h texels (`words` words) fits one texture's limit and, with
