@@ -14,6 +14,7 @@ packages=(
   vulkan-tools            # vulkaninfo, to see which devices the loader finds
   chromium                # headless browser: tests/report_browser.rs checks the HTML report
   python3-pip             # pip for Mitsuba 3, the independent renderer of tests/mitsuba.rs
+  libllvm19               # Mitsuba's llvm_ad_rgb variant in ci/bench_mitsuba.py (LLVM 15 crashes its JIT)
   ffmpeg                  # animate writes DIR/animation.mp4 (tests/animate.rs checks it)
   xvfb                    # a virtual X display: tests/preview.rs opens the real preview window
   xdotool                 # ... and types keys into it
