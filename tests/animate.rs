@@ -253,6 +253,28 @@ fn malformed_animations_are_named() {
         j["animations"][0]["channels"][0]["target"]["node"] = 99.into();
     });
     check("node.glb", missing, &["channel 0", "targets node 99"]);
+    // An animated node with a matrix, which glTF forbids: its shear was dropped without a
+    // word (a note left by the twenty-eighth session). Now rendered, with a warning.
+    let matrix = common::edit_glb(&good, |j| {
+        let n = j["animations"][0]["channels"][0]["target"]["node"]
+            .as_u64()
+            .unwrap() as usize;
+        let node = j["nodes"][n].as_object_mut().unwrap();
+        for k in ["translation", "rotation", "scale"] {
+            node.remove(k);
+        }
+        node.insert(
+            "matrix".into(),
+            serde_json::json!([
+                1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 1.0
+            ]),
+        );
+    });
+    let (o, out) = tiny("matrix.glb", matrix, &["--no-video"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("is animated but has a matrix"), "{err}");
+    assert!(out.join("frame-0000.exr").exists(), "{err}");
     // Sparse key values whose indices (the key times' floats read as integers) pass the
     // count were dropped: the animation as unedited (a review, 2026-12-06).
     let sparse = common::edit_glb(&good, |j| {

@@ -95,6 +95,12 @@ pub enum Command {
     /// Diagnostic: where each sampler's variance per sample comes from — the cluster choice,
     /// the light inside the cluster, the point on the light, the pixel footprint — from exact
     /// per-light sums at fixed first hits, checked against two renders of other seeds.
+    // It decomposes the plain estimator, so it refuses --brdf-aware and --control-variates
+    // (src/commands/variance.rs); they are hidden from its --help, which listed them.
+    #[command(
+        mut_arg("brdf_aware", |a| a.hide(true)),
+        mut_arg("control_variates", |a| a.hide(true))
+    )]
     Variance(VarianceArgs),
     /// Combine renders of one image made apart (other seeds: farm chunks) into the image
     /// their summed samples give, weighted by each part's spp from its JSON.
