@@ -272,6 +272,35 @@ fn an_animation_job_of_two_frames_in_two_chunks_runs_and_its_frames_are_unbiased
     assert_eq!(s1.header.samples_done, s0.header.samples_done + 64);
 }
 
+/// A .glb may name external images and buffers by URI as a .gltf does: its bundle held the
+/// .glb alone and the job rendered without the texture, exit 0 (an audit, 2026-12-07).
+/// Needs no openjd: the bundle is written by `farm` itself.
+#[test]
+fn a_glb_bundle_holds_the_files_it_names() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let jpeg = std::fs::read(root().join("tests/data/solid-200-100-50.jpg")).unwrap();
+    std::fs::write(d.join("solid tex.jpg"), &jpeg).unwrap();
+    let glb = std::fs::read(root().join("scenes/cornell.glb")).unwrap();
+    let edited = common::edit_glb(&glb, |j| {
+        j["images"] = serde_json::json!([{"uri": "solid%20tex.jpg"}]);
+        j["textures"] = serde_json::json!([{"source": 0}]);
+        j["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] =
+            serde_json::json!({"index": 0});
+    });
+    let scene = d.join("textured.glb");
+    std::fs::write(&scene, edited).unwrap();
+    let job = d.join("job");
+    farm(&scene, &job, &["--chunks", "2", "--spp", "1"]);
+    let bundled = job.join("scene/solid tex.jpg");
+    assert_eq!(
+        std::fs::read(&bundled).ok().as_deref(),
+        Some(jpeg.as_slice()),
+        "{} missing from the bundle",
+        bundled.display()
+    );
+}
+
 #[test]
 fn bad_farm_requests_are_refused() {
     let dir = tempfile::tempdir().unwrap();

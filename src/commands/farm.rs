@@ -75,38 +75,36 @@ fn bundle_files(scene: &Path) -> Result<(String, Bundle)> {
         .file_name()
         .ok_or_else(|| anyhow::anyhow!("'{}' names no file", scene.display()))?;
     let mut files = vec![(PathBuf::from(name), PathBuf::from(name))];
-    let is_gltf = scene
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("gltf"));
-    if is_gltf {
-        let doc: Value = serde_json::from_slice(&crate::io::read_all(scene)?)
-            .with_context(|| format!("'{}' is not a glTF JSON file", scene.display()))?;
-        for kind in ["buffers", "images"] {
-            for item in doc[kind].as_array().into_iter().flatten() {
-                let Some(uri) = item["uri"].as_str() else {
-                    continue;
-                };
-                if uri.starts_with("data:") {
-                    continue;
-                }
-                // The file the loader reads (it decodes %XX), kept under the URI's own
-                // decoded name, where the loader looks for it in the bundle.
-                // Without `.` parts, so `./t.png` and `t.png` are one file of the bundle.
-                let rel: PathBuf = PathBuf::from(crate::scene::percent_decode(uri))
-                    .components()
-                    .filter(|c| *c != std::path::Component::CurDir)
-                    .collect();
-                if rel.is_absolute()
-                    || rel
-                        .components()
-                        .any(|c| c == std::path::Component::ParentDir)
-                {
-                    bail!("'{}' refers to '{uri}' outside its folder; a job bundle holds only files beside the scene (embed the data or move the file next to it)", scene.display());
-                }
-                if !files.iter().any(|(f, _)| *f == rel) {
-                    files.push((rel.clone(), rel));
-                }
-            }
+    // A .glb names external buffers and images by URI as a .gltf does: its bundle held the
+    // .glb alone, and the job rendered without its textures, exit 0 (an audit, 2026-12-07).
+    let bytes = crate::io::read_all(scene)
+        .with_context(|| format!("cannot read '{}' for the job bundle", scene.display()))?;
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| {
+        anyhow::anyhow!(
+            "'{}' is not a valid glTF 2.0 file (.gltf or .glb): {e}",
+            scene.display()
+        )
+    })?;
+    let root = gltf.as_json();
+    let uris = (root.buffers.iter().filter_map(|b| b.uri.as_deref()))
+        .chain(root.images.iter().filter_map(|i| i.uri.as_deref()));
+    for uri in uris.filter(|u| !u.starts_with("data:")) {
+        // The file the loader reads (it decodes %XX), kept under the URI's own decoded
+        // name, where the loader looks for it in the bundle. Without `.` parts, so
+        // `./t.png` and `t.png` are one file of the bundle.
+        let rel: PathBuf = PathBuf::from(crate::scene::percent_decode(uri))
+            .components()
+            .filter(|c| *c != std::path::Component::CurDir)
+            .collect();
+        if rel.is_absolute()
+            || rel
+                .components()
+                .any(|c| c == std::path::Component::ParentDir)
+        {
+            bail!("'{}' refers to '{uri}' outside its folder; a job bundle holds only files beside the scene (embed the data or move the file next to it)", scene.display());
+        }
+        if !files.iter().any(|(f, _)| *f == rel) {
+            files.push((rel.clone(), rel));
         }
     }
     let from = scene.parent().unwrap_or(Path::new("."));
