@@ -2,7 +2,7 @@
 //! with the records of frames an earlier run of the same sequence rendered) and the video
 //! (`DIR/animation.mp4` by ffmpeg).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context as _, Result};
 use serde_json::{json, Value};
@@ -141,11 +141,16 @@ pub(super) fn encode_video(
     // ending .tmp.mp4 stayed for good).
     crate::io::remove_stale_temps(&out);
     let tmp = crate::io::temp_path(&out);
+    // Run in the frames' folder with names relative to it: ffmpeg read a `%` in the folder's
+    // name as part of the sequence pattern, a folder starting with `-` as an option and one
+    // like `cache:x` as a protocol, and failed after every frame (an audit, 2026-12-07).
+    let tmp_name = Path::new(".").join(tmp.file_name().context("a temporary file name")?);
     let status = std::process::Command::new("ffmpeg")
+        .current_dir(&req.out)
         .args(["-loglevel", "error", "-y", "-framerate"])
         .arg(format!("{}", req.fps))
         .args(["-start_number", &first.to_string(), "-i"])
-        .arg(req.out.join("frame-%04d.png"))
+        .arg("frame-%04d.png")
         // Only the summary's frames: PNGs of an earlier, longer run in the folder were
         // encoded too (a 2-frame run made a 6-frame video).
         .args(["-frames:v", &count.to_string()])
@@ -160,7 +165,7 @@ pub(super) fn encode_video(
             "-f",
             "mp4",
         ])
-        .arg(&tmp)
+        .arg(&tmp_name)
         .status()
         .context("cannot run ffmpeg")?;
     if !status.success() {
