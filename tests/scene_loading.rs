@@ -335,3 +335,62 @@ fn metallic_roughness_materials_load_with_their_factors() {
         "{warnings:?}"
     );
 }
+
+/// A quad whose vertex normals are its own (flat) loads without a word; one whose normals
+/// lean (smooth shading, which the renderer does not interpolate) is warned about, naming
+/// the primitive. Before, both rendered the same faceted image with no word (an audit,
+/// 2026-12-07).
+#[test]
+fn smooth_vertex_normals_are_warned_about() {
+    use base64::Engine;
+    let quad = |normals: [[f32; 3]; 4]| {
+        let positions = [
+            [0.0f32, 0.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 1.0],
+            [1.0, 0.0, 0.0],
+        ];
+        let mut bytes = Vec::new();
+        for v in positions.iter().chain(&normals).flatten() {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        for i in [0u16, 1, 2, 0, 2, 3] {
+            bytes.extend_from_slice(&i.to_le_bytes());
+        }
+        let data = base64::engine::general_purpose::STANDARD.encode(&bytes);
+        serde_json::json!({
+            "asset": {"version": "2.0"},
+            "scene": 0,
+            "scenes": [{"nodes": [0]}],
+            "nodes": [{"mesh": 0}],
+            "meshes": [{"name": "quad", "primitives": [{
+                "attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2, "material": 0}]}],
+            "materials": [{"emissiveFactor": [1.0, 1.0, 1.0]}],
+            "buffers": [{"byteLength": bytes.len(),
+                "uri": format!("data:application/octet-stream;base64,{data}")}],
+            "bufferViews": [
+                {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+                {"buffer": 0, "byteOffset": 48, "byteLength": 48},
+                {"buffer": 0, "byteOffset": 96, "byteLength": 12}],
+            "accessors": [
+                {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                 "min": [0.0, 0.0, 0.0], "max": [1.0, 0.0, 1.0]},
+                {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+                {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}]
+        })
+        .to_string()
+    };
+    let up = [0.0, 1.0, 0.0];
+    let (_, flat) = common::load_warned(quad([up; 4]).as_bytes(), "flat.gltf");
+    assert!(flat.is_empty(), "{flat:?}");
+    let (_, smooth) = common::load_warned(
+        quad([up, up, [0.2, 0.98, 0.0], up]).as_bytes(),
+        "smooth.gltf",
+    );
+    assert!(
+        smooth.iter().any(|w| w.contains("smooth vertex normals")
+            && w.contains("mesh 0 ('quad') primitive 0")
+            && w.contains("faceted")),
+        "{smooth:?}"
+    );
+}

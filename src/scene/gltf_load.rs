@@ -94,6 +94,9 @@ pub fn open_bytes(
             }
         }
         let buffers = load_buffers(&gltf, name, base)?;
+        if let Some(w) = super::gltf_mesh::smooth_normals_warning(&gltf.document, &buffers, name) {
+            warn(w);
+        }
         let animations = Animations::read(&gltf.document, &buffers, name, warn)?;
         // An animated node's matrix is split into TRS for the channels to replace
         // (walk below), which drops any shear: glTF forbids the pair (§3.7.3.1); said,
