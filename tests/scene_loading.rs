@@ -394,3 +394,22 @@ fn smooth_vertex_normals_are_warned_about() {
         "{smooth:?}"
     );
 }
+
+/// glTF's application-specific attributes (names starting with `_`, §3.7.2.1, e.g. 3D
+/// Tiles' `_BATCHID`) are legal and unread: a file with one was refused as "not a valid
+/// glTF 2.0 file: … <invalid semantic name>" (an audit, 2026-12-07).
+#[test]
+fn underscore_attributes_load_as_unread() {
+    let g = small();
+    let mut doc: serde_json::Value = serde_json::from_str(&g.to_gltf_embedded()).unwrap();
+    for mesh in doc["meshes"].as_array_mut().unwrap() {
+        for prim in mesh["primitives"].as_array_mut().unwrap() {
+            let pos = prim["attributes"]["POSITION"].clone();
+            prim["attributes"]["_BATCHID"] = pos;
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let plain = load_text(&g.to_gltf_embedded(), dir.path()).unwrap();
+    let tagged = load_text(&doc.to_string(), dir.path()).unwrap();
+    assert_eq!(tagged.triangles, plain.triangles);
+}
