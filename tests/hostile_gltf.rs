@@ -105,6 +105,54 @@ fn required_extensions_and_remote_buffers_are_judged_by_what_is_read() {
             "does not read",
         ],
     );
+    // Another major version, or a minVersion above 2.0, rendered as 2.0 (an audit,
+    // 2026-12-07); a 2.x file renders.
+    for (edit, want) in [
+        (json!({"version": "3.0"}), "glTF version '3.0'"),
+        (
+            json!({"version": "2.0", "minVersion": "2.1"}),
+            "at least version '2.1'",
+        ),
+    ] {
+        let mut v = doc.clone();
+        v["asset"] = edit;
+        write_json(&d.join("v.gltf"), &v);
+        refused(&render("v.gltf", &["--out", "v.exr"], d), &["v.gltf", want]);
+    }
+    let mut v21 = doc.clone();
+    v21["asset"] = json!({"version": "2.1"});
+    write_json(&d.join("v21.gltf"), &v21);
+    let o = render("v21.gltf", &["--out", "v21.exr"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // base64 without its `=` padding, read by the validator and browsers, was refused as
+    // "Invalid padding": now the same image as the padded file (the buffer one byte
+    // longer, so that its base64 needs padding).
+    let b64 = base64::engine::general_purpose::STANDARD;
+    let uri = doc["buffers"][0]["uri"].as_str().unwrap();
+    let (head, data) = uri.split_once(";base64,").unwrap();
+    let mut bytes = b64.decode(data).unwrap();
+    bytes.push(0);
+    let padded_uri = format!("{head};base64,{}", b64.encode(&bytes));
+    assert!(
+        padded_uri.ends_with('='),
+        "{}",
+        &padded_uri[padded_uri.len() - 4..]
+    );
+    for (file, uri) in [
+        ("padded.gltf", padded_uri.as_str()),
+        ("unpadded.gltf", padded_uri.trim_end_matches('=')),
+    ] {
+        let mut v = doc.clone();
+        v["buffers"][0]["uri"] = json!(uri);
+        v["buffers"][0]["byteLength"] = json!(bytes.len());
+        write_json(&d.join(file), &v);
+        let o = render(file, &["--out", &file.replace("gltf", "exr")], d);
+        assert!(o.status.success(), "{file}: {}", stderr(&o));
+    }
+    assert_eq!(
+        std::fs::read(d.join("unpadded.exr")).unwrap(),
+        std::fs::read(d.join("padded.exr")).unwrap()
+    );
     let mut remote = doc;
     remote["buffers"][0]["uri"] = json!("https://example.com/scene.bin");
     write_json(&d.join("remote.gltf"), &remote);

@@ -41,9 +41,12 @@ impl Images<'_> {
                     let (_, payload) = rest.split_once(";base64,").ok_or_else(|| {
                         anyhow!("image {} has a data: URI that is not base64", image.index())
                     })?;
-                    base64::engine::general_purpose::STANDARD
-                        .decode(payload)
-                        .map_err(|e| anyhow!("image {}: bad base64 data ({e})", image.index()))?
+                    DATA_URI_BASE64.decode(payload).map_err(|e| {
+                        anyhow!(
+                            "image {}: bad base64 data ({e}); encode it again",
+                            image.index()
+                        )
+                    })?
                 } else {
                     if let Some(scheme) = remote(uri) {
                         bail!("image {} is at '{uri}', a {scheme} address; lightlearn reads files only: download it next to '{}' and give its file name as the uri", image.index(), self.file);
@@ -234,6 +237,15 @@ pub(super) const MAX_SCENE_TEXEL_WORDS: u64 = 1 << 28;
 /// The largest image file read (a PNG of MAX_TEXELS compresses far below this).
 const MAX_IMAGE_FILE_BYTES: u64 = 1 << 30;
 
+/// data: URIs' base64 with or without its `=` padding: RFC 2397 data URIs are read so by the
+/// Khronos validator and browsers' loaders, and a file without it was refused as "Invalid
+/// padding" (an audit, 2026-12-07).
+const DATA_URI_BASE64: base64::engine::GeneralPurpose = base64::engine::GeneralPurpose::new(
+    &base64::alphabet::STANDARD,
+    base64::engine::GeneralPurposeConfig::new()
+        .with_decode_padding_mode(base64::engine::DecodePaddingMode::Indifferent),
+);
+
 /// The files a glTF/GLB scene is read from: the file itself and the buffers and images it
 /// names by URI (beside it), for the commands' check that no output lands on one (a render
 /// of a scene whose texture was `box.png`, with `--out box.exr`, replaced the texture). A
@@ -280,11 +292,12 @@ pub(super) fn load_buffers(gltf: &gltf::Gltf, name: &str, base: &Path) -> Result
                             buffer.index()
                         )
                     })?;
-                    base64::engine::general_purpose::STANDARD
-                        .decode(payload)
-                        .map_err(|e| {
-                            anyhow!("'{name}': buffer {}: bad base64 data ({e})", buffer.index())
-                        })?
+                    DATA_URI_BASE64.decode(payload).map_err(|e| {
+                        anyhow!(
+                            "'{name}': buffer {}: bad base64 data ({e}); encode it again",
+                            buffer.index()
+                        )
+                    })?
                 } else {
                     if let Some(scheme) = remote(uri) {
                         bail!("'{name}': buffer {} is at '{uri}', a {scheme} address; lightlearn reads files only: download it next to the .gltf and give its file name as the uri", buffer.index());
