@@ -565,3 +565,30 @@ fn profile_times_every_stage_of_a_learning_path_tracer() {
     );
     expect_failure(&["profile", "--spp", "0"], dir.path(), &[], &["--spp"]);
 }
+
+/// A render of 1 spp has no variance: its report's estimated error is null, not the
+/// invented mean of x²/4 it gave (an audit, 2026-12-07); from 2 spp on, a number.
+#[test]
+fn one_sample_reports_no_estimated_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (spp, known) in [("1", false), ("2", true)] {
+        let out = format!("s{spp}.exr");
+        let mut args = vec!["render", "--max-depth", "1", "--spp", spp, "--out", &out];
+        args.extend_from_slice(&["--width", "8", "--height", "6"]);
+        let o = run(&args, d);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join(format!("s{spp}.json"))).unwrap())
+                .unwrap();
+        for key in ["estimated_mse_of_mean", "estimated_rel_mse_of_mean"] {
+            assert_eq!(
+                report[key].is_f64(),
+                known,
+                "{spp} spp: {key} {}",
+                report[key]
+            );
+            assert_eq!(report[key].is_null(), !known, "{spp} spp: {key}");
+        }
+    }
+}

@@ -84,8 +84,9 @@ pub struct FrameRecord {
     pub tree_cost_ratio: f64,
     pub regions_with_cuts: usize,
     pub regions_added: usize,
-    /// The film's own estimate of the image's MSE (per-pixel variance of the mean).
-    pub estimated_mse: f64,
+    /// The film's own estimate of the image's MSE (per-pixel variance of the mean); None
+    /// (null) at 1 spp, where there is no variance.
+    pub estimated_mse: Option<f64>,
     /// Written as text even where the path is not UTF-8 (serde's PathBuf refuses it, and
     /// the summary's `json!` panicked on such an output folder).
     #[serde(serialize_with = "lossy_path")]
@@ -450,7 +451,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
             tree_cost_ratio: ratio,
             regions_with_cuts: result.regions.regions_with_cuts,
             regions_added: result.regions.regions_added_between_frames,
-            estimated_mse: result.estimated_error().0,
+            estimated_mse: (result.spp >= 2).then(|| result.estimated_error().0),
             exr: paths.exr.clone(),
         });
         span = write_summary(
