@@ -802,6 +802,28 @@ fn the_reference_report_compares_every_variant_on_every_frame() {
     }
     // 8 spp is far noisier than a 128-spp reference: the error is there to see.
     assert!(report["variants"][0]["mse"][0].as_f64().unwrap() > 0.0);
+    // Both errors lose the reference's own estimated error: rel_mse was left raw beside a
+    // corrected mse (an audit, 2026-12-07). Recomputed here from the files.
+    let read = |p: &str| lightlearn::film::read_exr(&out.join(p)).unwrap().2;
+    let raw = lightlearn::compare::metrics(
+        &read("wang/frame-0001.exr"),
+        &read("reference/frame-0001.exr"),
+    );
+    let r1: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("reference/frame-0001.json")).unwrap())
+            .unwrap();
+    for (key, raw, noise) in [
+        ("mse", raw.mse, "estimated_mse_of_mean"),
+        ("rel_mse", raw.rel_mse, "estimated_rel_mse_of_mean"),
+    ] {
+        let want = (raw - r1[noise].as_f64().unwrap()).max(0.0);
+        let got = report["variants"][0][key][1].as_f64().unwrap();
+        assert!(
+            (got - want).abs() <= 1e-9 * want.max(1e-12),
+            "{key}: {got} vs {want}"
+        );
+    }
+    assert!(report["errors"].as_str().unwrap().contains("taken out"));
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     for want in [
         "<svg",

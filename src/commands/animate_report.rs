@@ -158,20 +158,23 @@ pub fn run(
             let m = metrics(&image, &reference);
             // The reference's own noise adds its variance to the measured MSE; where it is
             // not below the measured MSE the frame's error is unresolved, said below.
-            let noise = match crate::compare::reference::noise(&read_json(
+            // Both errors lose the reference's own: `rel_mse` was left raw beside a
+            // corrected `mse` (an audit, 2026-12-07), as compare's metrics.json keeps them
+            // apart under `corrected`.
+            let (noise, rel_noise) = match crate::compare::reference::noise(&read_json(
                 &r.exr.with_extension("json"),
             )?) {
-                Ok(n) => n.mse,
+                Ok(n) => (n.mse, n.rel_mse),
                 Err(why) => {
                     unknown.get_or_insert(why);
-                    0.0
+                    (0.0, 0.0)
                 }
             };
             if m.mse <= noise {
                 unresolved.push(format!("{} frame {}", v.name(), r.frame));
             }
             mse.push((m.mse - noise).max(0.0));
-            rel.push(m.rel_mse);
+            rel.push((m.rel_mse - rel_noise).max(0.0));
             seconds.push(f.render_seconds);
         }
         let (fl, step) = flicker(&mse);
@@ -190,7 +193,7 @@ pub fn run(
             unresolved.join(", ")
         ));
     }
-    if let Some(why) = unknown {
+    if let Some(why) = &unknown {
         ui.message(&format!(
             "warning: the references' own error is unknown ({why}), so it is not taken out of the MSEs; use a larger --reference-spp"
         ));
@@ -201,6 +204,11 @@ pub fn run(
         serde_json::to_string_pretty(&json!({
             "scene": req.scene.as_ref().map(|p| p.display().to_string()),
             "reference_spp": reference_spp,
+            "errors": if unknown.is_none() {
+                "mse and rel_mse against the reference, its own estimated error taken out (as compare's `corrected`)"
+            } else {
+                "mse and rel_mse against the reference, raw: its own error is unknown"
+            },
             "frames": frames,
             "variants": results,
         }))?
@@ -313,7 +321,7 @@ fn report_html(
          td,th{{border:1px solid #ccc;padding:2px 8px;text-align:right}}</style></head><body>\
          <h1>Temporal coherence: {scene}</h1>\
          <p>{} frames at {} fps, {}×{}, depth {}, {} per frame; references: lightbvh, {reference_spp} spp per frame \
-         (their estimated noise subtracted from each MSE). Flicker: std over frames of the MSE ÷ its mean; step: \
+         (their estimated noise subtracted from each MSE and relMSE). Flicker: std over frames of the MSE ÷ its mean; step: \
          mean |MSE(k+1) − MSE(k)| ÷ mean MSE.</p>",
         frames.len(),
         req.fps,
