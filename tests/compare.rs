@@ -609,3 +609,47 @@ fn references_that_cannot_measure_are_said() {
         "{err}"
     );
 }
+
+/// At equal spp the first sampler's times held lavapipe's kernel compile on a cold shader
+/// cache: its 1-spp point at 0.45 s against 0.005 s for the next sampler, in
+/// convergence.csv and the report's time plot (an audit, 2026-12-07). One untimed pass
+/// first, as at equal time: each sampler's 1-spp point now takes milliseconds. A fresh
+/// Mesa shader cache makes the compile happen in this run.
+#[test]
+fn equal_spp_times_leave_out_the_kernel_compile() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("c");
+    let o = Command::new(common::exe())
+        .args([
+            "compare",
+            &scene(),
+            "--spp",
+            "2",
+            "--samplers",
+            "uniform,bayes",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--max-depth",
+            "1",
+            "-q",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .env("LIGHTLEARN_CACHE", d.join("cache"))
+        .env("MESA_SHADER_CACHE_DIR", d.join("mesa"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("convergence.csv")).unwrap();
+    let first: Vec<f64> = csv
+        .lines()
+        .filter(|l| l.starts_with("equal samples,") && l.split(',').nth(2) == Some("1"))
+        .map(|l| l.split(',').nth(3).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(first.len(), 2, "{csv}");
+    // A 32×24 pass takes a few milliseconds; a compile takes hundreds.
+    assert!(first.iter().all(|&s| s < 0.15), "{first:?}\n{csv}");
+}

@@ -169,16 +169,16 @@ pub fn compare(
             indirect_light_samples: 1,
             first_light_samples: 1,
         };
-        // At equal time, one untimed pass first (thrown away): lavapipe compiles a kernel at
-        // its first dispatch, which on a cold shader cache took 0.4–0.6 s of a 1-s budget,
-        // bayes 1234 spp where a warm cache gave 3013 (an audit, 2026-12-06). As `profile`.
-        if let Budget::Seconds(_) = budget {
-            let warm = RenderSettings {
-                budget: Budget::Samples(1),
-                ..settings.clone()
-            };
-            render::render(ctx, scene, gpu, &warm, &mut |_, _| {})?;
-        }
+        // One untimed pass first (thrown away): lavapipe compiles a kernel at its first
+        // dispatch, which on a cold shader cache took 0.4–0.6 s of a 1-s budget, bayes 1234
+        // spp where a warm cache gave 3013 (an audit, 2026-12-06). As `profile`. At equal
+        // spp too: the first sampler's convergence.csv seconds held the compile (its 1-spp
+        // point at 0.56 s against 0.011 s for the next: an audit, 2026-12-07).
+        let warm = RenderSettings {
+            budget: Budget::Samples(1),
+            ..settings.clone()
+        };
+        render::render(ctx, scene, gpu, &warm, &mut |_, _| {})?;
         let mut convergence = Vec::new();
         let result = render::render_with_checkpoints(
             ctx,
