@@ -237,6 +237,23 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
             );
         }
     }
+    // A layer with R, G and B: a luminance (Y) reference was refused as the exr crate's
+    // "no layer in the image matched your specified requirements" (an audit, 2026-12-07).
+    let rgb = |h: &exr::meta::header::Header| {
+        ["R", "G", "B"].iter().all(|c| {
+            (h.channels.list.iter()).any(|ch| ch.name.to_string().rsplit('.').next() == Some(*c))
+        })
+    };
+    if !meta.headers.iter().any(rgb) {
+        let names: Vec<String> = (meta.headers.iter())
+            .flat_map(|h| h.channels.list.iter().map(|c| c.name.to_string()))
+            .collect();
+        bail!(
+            "cannot read EXR '{}': it has no R, G, B channels (it has {}); lightlearn reads RGB images: convert it to RGB (e.g. oiiotool --ch R=Y,G=Y,B=Y)",
+            path.display(),
+            names.join(", ")
+        );
+    }
     reader.seek(SeekFrom::Start(0)).map_err(|e| fail(&e))?;
     // read_first_rgba_layer_from_file's reader, on the file already open.
     let image = read()
@@ -329,5 +346,28 @@ mod tests {
             exr_checksum(&file).unwrap(),
             format!("{:016x}", crate::fnv::fnv1a(b"abc"))
         );
+    }
+
+    /// A luminance-only EXR (a Y channel) is named as such, with its channels and a fix,
+    /// instead of the exr crate's "no layer in the image matched your specified
+    /// requirements" (an audit, 2026-12-07); an RGB one still reads.
+    #[test]
+    fn exrs_without_rgb_channels_are_named() {
+        use exr::prelude::*;
+        let dir = tempfile::tempdir().unwrap();
+        let y = dir.path().join("y.exr");
+        let channel = AnyChannel::new("Y", FlatSamples::F32(vec![0.5; 6]));
+        Image::from_channels((3, 2), AnyChannels::sort(vec![channel].into()))
+            .write()
+            .to_file(&y)
+            .unwrap();
+        let e = read_exr(&y).unwrap_err().to_string();
+        assert!(
+            e.contains("y.exr") && e.contains("no R, G, B channels (it has Y)"),
+            "{e}"
+        );
+        let rgb = dir.path().join("rgb.exr");
+        write_exr(&rgb, 3, 2, &[[0.5; 3]; 6]).unwrap();
+        assert_eq!(read_exr(&rgb).unwrap(), (3, 2, vec![[0.5; 3]; 6]));
     }
 }
