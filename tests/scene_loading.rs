@@ -343,13 +343,13 @@ fn metallic_roughness_materials_load_with_their_factors() {
 #[test]
 fn smooth_vertex_normals_are_warned_about() {
     use base64::Engine;
-    let quad = |normals: [[f32; 3]; 4]| {
-        let positions = [
-            [0.0f32, 0.0, 0.0],
-            [0.0, 0.0, 1.0],
-            [1.0, 0.0, 1.0],
-            [1.0, 0.0, 0.0],
-        ];
+    // A quad of `size` at (x, y, z) = `at`, rising by `slope` along x and z, with these
+    // vertex normals, emitting.
+    let quad_at = |normals: [[f32; 3]; 4], at: [f32; 3], size: f32, slope: [f32; 2]| {
+        let positions = [[0.0f32, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]].map(|[x, z]| {
+            let y = at[1] + size * (slope[0] * x + slope[1] * z);
+            [at[0] + size * x, y, at[2] + size * z]
+        });
         let mut bytes = Vec::new();
         for v in positions.iter().chain(&normals).flatten() {
             bytes.extend_from_slice(&v.to_le_bytes());
@@ -374,12 +374,13 @@ fn smooth_vertex_normals_are_warned_about() {
                 {"buffer": 0, "byteOffset": 96, "byteLength": 12}],
             "accessors": [
                 {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
-                 "min": [0.0, 0.0, 0.0], "max": [1.0, 0.0, 1.0]},
+                 "min": positions[0], "max": positions[2]},
                 {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
                 {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}]
         })
-        .to_string()
     };
+    let flat_at_0 = |normals| quad_at(normals, [0.0; 3], 1.0, [0.0; 2]);
+    let quad = |normals| flat_at_0(normals).to_string();
     let up = [0.0, 1.0, 0.0];
     let (_, flat) = common::load_warned(quad([up; 4]).as_bytes(), "flat.gltf");
     assert!(flat.is_empty(), "{flat:?}");
@@ -393,6 +394,25 @@ fn smooth_vertex_normals_are_warned_about() {
             && w.contains("faceted")),
         "{smooth:?}"
     );
+    // A flat, sloping 1-cm quad 5 km out: f32 corners tilt the triangle's own normal by
+    // more than 1°, which warned of smooth normals (a review, 2026-12-07); the normals agree.
+    let n = glam::Vec3::new(0.7, -1.0, 0.3).normalize().to_array();
+    let far = quad_at([n; 4], [5000.0, 3000.0, 3000.0], 0.01, [0.7, 0.3]).to_string();
+    let (_, far) = common::load_warned(far.as_bytes(), "far.gltf");
+    assert!(far.is_empty(), "{far:?}");
+    // A NORMAL the loader never reads, malformed: a stride of 4 (the parser's slicing
+    // panicked, refusing the file) and a sparse count of 2^40 (an allocation aborted the
+    // process). Skipped here, as the loader skips it: both load, silent.
+    let mut strided = flat_at_0([up; 4]);
+    strided["bufferViews"][1]["byteStride"] = 4.into();
+    let mut huge = flat_at_0([up; 4]);
+    huge["accessors"][1] = serde_json::json!({"componentType": 5126, "count": 1u64 << 40,
+        "type": "VEC3", "sparse": {"count": 1, "indices": {"bufferView": 2,
+        "componentType": 5123}, "values": {"bufferView": 1}}});
+    for (file, doc) in [("strided.gltf", strided), ("huge.gltf", huge)] {
+        let (_, w) = common::load_warned(doc.to_string().as_bytes(), file);
+        assert!(w.is_empty(), "{file}: {w:?}");
+    }
 }
 
 /// glTF's application-specific attributes (names starting with `_`, §3.7.2.1, e.g. 3D

@@ -64,7 +64,7 @@ const MAX_RENDER_TASKS: u64 = 100_000;
 /// A job bundle's files: (path relative to the job folder, bytes).
 type Bundle = Vec<(PathBuf, Vec<u8>)>;
 
-/// The files of the scene's bundle (a .glb, or a .gltf with the buffers and images it names
+/// The files of the scene's bundle (the .gltf or .glb with the buffers and images it names
 /// by relative URI), read before anything is written, and the scene's path relative to the
 /// job folder: JOBDIR/scene/NAME. OpenJD takes a PATH parameter's default relative to the
 /// template and never outside it, and a farm sends the bundle's files to its workers. A file
@@ -79,16 +79,20 @@ fn bundle_files(scene: &Path) -> Result<(String, Bundle)> {
     // .glb alone, and the job rendered without its textures, exit 0 (an audit, 2026-12-07).
     let bytes = crate::io::read_all(scene)
         .with_context(|| format!("cannot read '{}' for the job bundle", scene.display()))?;
-    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| {
-        anyhow::anyhow!(
-            "'{}' is not a valid glTF 2.0 file (.gltf or .glb): {e}",
-            scene.display()
-        )
-    })?;
-    let root = gltf.as_json();
-    let uris = (root.buffers.iter().filter_map(|b| b.uri.as_deref()))
-        .chain(root.images.iter().filter_map(|i| i.uri.as_deref()));
-    for uri in uris.filter(|u| !u.starts_with("data:")) {
+    // The URIs alone kept: the parsed file holds a copy of a .glb's binary chunk (a review).
+    let uris: Vec<String> = {
+        let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| {
+            anyhow::anyhow!(
+                "'{}' is not a valid glTF 2.0 file (.gltf or .glb): {e}",
+                scene.display()
+            )
+        })?;
+        let root = gltf.as_json();
+        (root.buffers.iter().filter_map(|b| b.uri.clone()))
+            .chain(root.images.iter().filter_map(|i| i.uri.clone()))
+            .collect()
+    };
+    for uri in uris.iter().filter(|u| !u.starts_with("data:")) {
         // The file the loader reads (it decodes %XX), kept under the URI's own decoded
         // name, where the loader looks for it in the bundle. Without `.` parts, so
         // `./t.png` and `t.png` are one file of the bundle.
@@ -110,13 +114,18 @@ fn bundle_files(scene: &Path) -> Result<(String, Bundle)> {
     let from = scene.parent().unwrap_or(Path::new("."));
     let scene_dir = Path::new("scene");
     let mut read = Vec::new();
+    // The scene (the first file) as read above, once.
+    let mut scene_bytes = Some(bytes);
     for (source, target) in files {
-        let bytes = crate::io::read_all(&from.join(&source)).with_context(|| {
-            format!(
-                "cannot read '{}' for the job bundle",
-                from.join(&source).display()
-            )
-        })?;
+        let bytes = match scene_bytes.take() {
+            Some(b) => b,
+            None => crate::io::read_all(&from.join(&source)).with_context(|| {
+                format!(
+                    "cannot read '{}' for the job bundle",
+                    from.join(&source).display()
+                )
+            })?,
+        };
         read.push((scene_dir.join(target), bytes));
     }
     // The bundled scene under a name a template can hold: its SceneFile default may not

@@ -237,19 +237,26 @@ pub fn read_exr(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
             );
         }
     }
-    // A layer with R, G and B: a luminance (Y) reference was refused as the exr crate's
-    // "no layer in the image matched your specified requirements" (an audit, 2026-12-07).
+    // A layer with channels named R, G and B, as the reader below takes them: a luminance
+    // (Y) reference was refused as the exr crate's "no layer in the image matched your
+    // specified requirements" (an audit, 2026-12-07).
     let rgb = |h: &exr::meta::header::Header| {
-        ["R", "G", "B"].iter().all(|c| {
-            (h.channels.list.iter()).any(|ch| ch.name.to_string().rsplit('.').next() == Some(*c))
-        })
+        ["R", "G", "B"]
+            .iter()
+            .all(|c| h.channels.list.iter().any(|ch| ch.name.to_string() == *c))
     };
     if !meta.headers.iter().any(rgb) {
         let names: Vec<String> = (meta.headers.iter())
             .flat_map(|h| h.channels.list.iter().map(|c| c.name.to_string()))
             .collect();
+        // Layered files (Blender's `ViewLayer.Combined.R`): the layer to take is the fix.
+        let prefixed = names.iter().find(|n| n.ends_with(".R"));
+        let fix = match prefixed.map(|r| &r[..r.len() - 1]) {
+            Some(layer) => format!("take one layer's channels as R, G, B (e.g. oiiotool IN --ch R={layer}R,G={layer}G,B={layer}B -o OUT)"),
+            None => "convert it to RGB (e.g. oiiotool IN --ch R=Y,G=Y,B=Y -o OUT)".to_string(),
+        };
         bail!(
-            "cannot read EXR '{}': it has no R, G, B channels (it has {}); lightlearn reads RGB images: convert it to RGB (e.g. oiiotool --ch R=Y,G=Y,B=Y)",
+            "cannot read EXR '{}': it has no channels named R, G, B (it has {}); lightlearn reads RGB images: {fix}",
             path.display(),
             names.join(", ")
         );
@@ -363,9 +370,21 @@ mod tests {
             .unwrap();
         let e = read_exr(&y).unwrap_err().to_string();
         assert!(
-            e.contains("y.exr") && e.contains("no R, G, B channels (it has Y)"),
+            e.contains("y.exr") && e.contains("no channels named R, G, B (it has Y)"),
             "{e}"
         );
+        // A layered file's channels (`L.R`, …) are not read as R, G, B: named, with the fix.
+        let layered = dir.path().join("l.exr");
+        let chans: Vec<AnyChannel<FlatSamples>> = ["L.B", "L.G", "L.R"]
+            .iter()
+            .map(|n| AnyChannel::new(*n, FlatSamples::F32(vec![0.5; 6])))
+            .collect();
+        Image::from_channels((3, 2), AnyChannels::sort(chans.into()))
+            .write()
+            .to_file(&layered)
+            .unwrap();
+        let e = read_exr(&layered).unwrap_err().to_string();
+        assert!(e.contains("R=L.R,G=L.G,B=L.B"), "{e}");
         let rgb = dir.path().join("rgb.exr");
         write_exr(&rgb, 3, 2, &[[0.5; 3]; 6]).unwrap();
         assert_eq!(read_exr(&rgb).unwrap(), (3, 2, vec![[0.5; 3]; 6]));

@@ -15,17 +15,24 @@ use gltf::json::Root;
 pub fn check(root: &Root, name: &str) -> Result<()> {
     // glTF 2.0 readers must refuse another major version or a minVersion above theirs
     // (§3.2, "asset"): "3.0" and minVersion "2.1" rendered as 2.0 (an audit, 2026-12-07).
-    let major_minor = |v: &str| -> Option<(u32, u32)> {
-        let (a, b) = v.split_once('.')?;
-        Some((a.parse().ok()?, b.parse().ok()?))
+    // Read leniently, as three.js does ("2", "2.0.1" and " 2.0" rendered before: a review):
+    // only a number that parses and is not 2 is refused.
+    let parts = |v: &str| -> (Option<u32>, u32) {
+        let mut it = v.trim().split('.');
+        let major = it.next().and_then(|a| a.parse().ok());
+        (major, it.next().and_then(|b| b.parse().ok()).unwrap_or(0))
     };
     let version = &root.asset.version;
-    if major_minor(version).is_none_or(|(major, _)| major != 2) {
-        bail!("'{name}' says it is glTF version '{version}'; lightlearn reads glTF 2.x: export it as glTF 2.0");
+    if let (Some(major), _) = parts(version) {
+        if major != 2 {
+            bail!("'{name}' says it is glTF version '{version}' (asset.version); lightlearn reads glTF 2: export it as glTF 2.0");
+        }
     }
     if let Some(min) = &root.asset.min_version {
-        if major_minor(min).is_none_or(|v| v > (2, 0)) {
-            bail!("'{name}' needs a glTF reader of at least version '{min}' (asset.minVersion); lightlearn reads glTF 2.0: export it for glTF 2.0");
+        if let (Some(major), minor) = parts(min) {
+            if (major, minor) > (2, 0) {
+                bail!("'{name}' needs a glTF reader of at least version '{min}' (asset.minVersion); lightlearn reads glTF 2.0: export it for glTF 2.0");
+            }
         }
     }
     let accessors = root.accessors.len();

@@ -104,7 +104,7 @@ pub fn open_bytes(
         for n in animations.animated_nodes() {
             if let Some(node) = gltf.document.nodes().nth(n) {
                 if let gltf::scene::Transform::Matrix { .. } = node.transform() {
-                    warn(format!("'{name}': {} is animated but has a matrix, which glTF forbids (animated nodes use translation, rotation, scale); the matrix is split into those for the channels to replace (export it with TRS to silence this)", node_label(&node)));
+                    warn(format!("'{name}': {} is animated but has a matrix, which glTF forbids (animated nodes use translation, rotation, scale); in an animation the matrix is split into those for the channels to replace, dropping any shear (export it with TRS to silence this)", node_label(&node)));
                 }
             }
         }

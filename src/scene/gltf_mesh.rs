@@ -213,51 +213,69 @@ fn triangulate(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
     }
 }
 
-/// Vertex normals (NORMAL) that differ from their triangles' own normals by more than 1°:
-/// smooth shading, which lightlearn does not interpolate (it shades with flat triangle
-/// normals), so the surface renders faceted. A sphere of smooth normals rendered
-/// bit-identical to one without them, 20 % off Mitsuba 3's smooth image, with no word (an
-/// audit, 2026-12-07). Flat-shaded files (a normal a face, as many exporters write) are not
-/// warned about. Returns the warning, naming the first such primitive.
+/// Vertex normals (NORMAL) that differ across a triangle by more than 1°: smooth shading,
+/// which lightlearn does not interpolate (it shades with flat triangle normals), so the
+/// surface renders faceted. A sphere of smooth normals rendered bit-identical to one
+/// without them, 20 % off Mitsuba 3's smooth image, with no word (an audit, 2026-12-07).
+/// Flat-shaded files (one normal a face, as many exporters write) are not warned about; the
+/// normals are compared with each other, not with the triangle's normal from its corners,
+/// which f32 rounding tilts by more than 1° on a 1-cm quad 5 km out (a review). Only a
+/// NORMAL the loader's own checks would pass is read: the loader never reads it, so a
+/// malformed one (a huge sparse count aborted the process, a stride of 4 refused the file:
+/// a review) is skipped here. Returns the warning, naming the first such primitive.
 pub(super) fn smooth_normals_warning(
     doc: &gltf::Document,
     buffers: &[Vec<u8>],
     name: &str,
 ) -> Option<String> {
+    use gltf::accessor::{DataType, Dimensions};
     // cos 1°: exporters round normals to a few digits.
     const COS_LIMIT: f32 = 0.99985;
     let mut first: Option<String> = None;
     let mut count = 0usize;
     for mesh in doc.meshes() {
         for prim in mesh.primitives() {
-            if prim.get(&gltf::Semantic::Normals).is_none()
+            let (Some(normals), Some(positions)) = (
+                prim.get(&gltf::Semantic::Normals),
+                prim.get(&gltf::Semantic::Positions),
+            ) else {
+                continue;
+            };
+            let readable = |a: &gltf::Accessor| {
+                super::gltf_data::check_sparse(a, buffers, "").is_ok()
+                    && a.view()
+                        .is_none_or(|v| v.stride().is_none_or(|s| s >= a.size()))
+            };
+            let plain_vec3 = normals.dimensions() == Dimensions::Vec3
+                && normals.data_type() == DataType::F32
+                && !normals.normalized();
+            if !plain_vec3
+                || normals.count() != positions.count()
                 || !matches!(
                     prim.mode(),
                     Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
                 )
+                || ![&normals, &positions].into_iter().all(readable)
+                || prim.indices().is_some_and(|i| !readable(&i))
             {
                 continue;
             }
             let reader = prim.reader(|b| buffers.get(b.index()).map(|v| v.as_slice()));
-            let (Some(p), Some(n)) = (reader.read_positions(), reader.read_normals()) else {
+            let Some(n) = reader.read_normals() else {
                 continue;
             };
-            let (p, n): (Vec<[f32; 3]>, Vec<[f32; 3]>) = (p.collect(), n.collect());
+            let n: Vec<Vec3> = n.map(|v| Vec3::from(v).normalize_or_zero()).collect();
             let indices: Vec<u32> = match reader.read_indices() {
                 Some(i) => i.into_u32().collect(),
-                None => (0..p.len() as u32).collect(),
+                None => (0..n.len() as u32).collect(),
             };
             let smooth = triangulate(prim.mode(), &indices).into_iter().any(|t| {
-                let [Some(a), Some(b), Some(c)] = t.map(|i| p.get(i as usize)) else {
+                let [Some(a), Some(b), Some(c)] = t.map(|i| n.get(i as usize)) else {
                     return false;
                 };
-                let (a, b, c) = (Vec3::from(*a), Vec3::from(*b), Vec3::from(*c));
-                let face = (b - a).cross(c - a).normalize_or_zero();
-                face != Vec3::ZERO
-                    && t.iter().any(|&i| {
-                        let v = n.get(i as usize).map_or(Vec3::ZERO, |v| Vec3::from(*v));
-                        v != Vec3::ZERO && v.normalize().dot(face).abs() < COS_LIMIT
-                    })
+                [(a, b), (b, c), (c, a)]
+                    .into_iter()
+                    .any(|(u, v)| *u != Vec3::ZERO && *v != Vec3::ZERO && u.dot(*v) < COS_LIMIT)
             });
             if smooth {
                 count += 1;
