@@ -86,7 +86,10 @@ fn main() -> ExitCode {
             )
         }),
         Command::MergeStats(a) => {
-            commands::merge::stats(&a.parts, a.base.as_deref(), &a.out, a.force).map(|m| {
+            commands::merge::stats(&a.parts, a.base.as_deref(), &a.out, a.force, &mut |w| {
+                say!("warning: {}", one_line(&w))
+            })
+            .map(|m| {
                 say!(
                     "wrote {}: {} files, {} passes learned, {} regions with cuts",
                     a.out.display(),
@@ -285,14 +288,16 @@ fn cmd_animate(a: AnimateArgs) -> Result<()> {
 fn cmd_reference(a: ReferenceArgs) -> Result<()> {
     let mut ui = Terminal::new(a.image.quiet);
     let report = commands::reference::run(&a.request(), &mut ui)?;
+    // Null at 1 spp (no variance): "NaN" was printed (a review, 2026-12-07).
+    let error = match report["estimated_rel_mse_of_mean"].as_f64() {
+        Some(e) => format!("{e:.2e}"),
+        None => "unknown (1 spp)".to_string(),
+    };
     ui.message(&format!(
-        "wrote {} ({} spp in {:.1} s; estimated relMSE {:.2e})",
+        "wrote {} ({} spp in {:.1} s; estimated relMSE {error})",
         a.out.display(),
         a.spp,
         report["render_seconds"].as_f64().unwrap_or(0.0),
-        report["estimated_rel_mse_of_mean"]
-            .as_f64()
-            .unwrap_or(f64::NAN)
     ));
     Ok(())
 }

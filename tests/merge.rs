@@ -247,8 +247,17 @@ fn chunks_from_one_start_count_it_once() {
         }
     }
     assert!(checked > 100, "{checked} slots checked");
-    // Without --base the start would be counted twice.
-    ok(&run(
+    // Each chunk's file says it holds the base; the merge holds all three.
+    let base_sum = base.checksum();
+    for c in [&c0, &c1] {
+        assert_eq!(c.header.holds, Some(vec![base_sum.clone()]));
+    }
+    let mut all = vec![base_sum, c0.checksum(), c1.checksum()];
+    all.sort();
+    assert_eq!(m.header.holds, Some(all));
+    // Without --base the start is counted twice: now said (it was silent, as was a file
+    // merged with its own continuation, which is now refused: a note of 2026-12-07).
+    let o = run(
         &[
             "merge-stats",
             "c0.stats",
@@ -257,7 +266,30 @@ fn chunks_from_one_start_count_it_once() {
             "plain.stats",
         ],
         d,
-    ));
+    );
+    ok(&o);
+    let said = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        said.contains("warning: 'c0.stats' and 'c1.stats' both hold the statistics of one start")
+            && said.contains("--base"),
+        "{said}"
+    );
+    for (parts, held) in [
+        (
+            ["base.stats", "c0.stats"],
+            "'c0.stats' already holds the statistics of 'base.stats'",
+        ),
+        (
+            ["m.stats", "c1.stats"],
+            "'m.stats' already holds the statistics of 'c1.stats'",
+        ),
+    ] {
+        let mut a = vec!["merge-stats"];
+        a.extend_from_slice(&parts);
+        a.extend_from_slice(&["--out", "x.stats"]);
+        refused(&run(&a, d), held);
+    }
+    assert!(!d.join("x.stats").exists());
     let plain = load("plain.stats");
     let total = |s: &SavedStats| {
         s.stats
@@ -370,4 +402,48 @@ fn reports_edited_past_what_a_render_writes_are_refused() {
         "part 'nope.exr' does not exist",
     );
     assert!(!d.join("m.exr").exists());
+}
+
+/// An animation's frame carries the one before it, so its statistics file holds that
+/// frame's: merging the two counted the first frame's observations twice with exit 0 (a
+/// note of 2026-12-07); refused now, naming both.
+#[test]
+fn a_frame_and_the_frame_it_carried_are_not_merged() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/rooms-walk.glb");
+    ok(&run(
+        &[
+            "animate",
+            scene.to_str().unwrap(),
+            "--frames",
+            "0..1",
+            "--spp",
+            "2",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--max-depth",
+            "1",
+            "--no-video",
+            "-q",
+            "--out",
+            "walk",
+        ],
+        d,
+    ));
+    refused(
+        &run(
+            &[
+                "merge-stats",
+                "walk/frame-0000.stats",
+                "walk/frame-0001.stats",
+                "--out",
+                "m.stats",
+            ],
+            d,
+        ),
+        "'walk/frame-0001.stats' already holds the statistics of 'walk/frame-0000.stats'",
+    );
 }

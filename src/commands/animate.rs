@@ -288,6 +288,9 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
     } else {
         Some(anim.scene_at(anim.time(first - 1, req.fps), &mut quiet)?)
     };
+    // The file each frame's statistics continue (merge-stats reads it): the loaded one,
+    // then the frame before.
+    let mut holds: Vec<String> = loaded.iter().map(SavedStats::checksum).collect();
     let mut carried: Option<SavedStats> = loaded;
     let mut prev_gpu: Option<GpuScene> = None;
     let mut records = Vec::new();
@@ -424,10 +427,17 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
             "frame": k, "time": t, "fps": req.fps, "carry": req.carry, "forget": req.forget,
             "learning": learning, "moved": moved, "tree_cost_ratio": ratio,
         });
+        if settings.resume.is_none() {
+            holds.clear(); // learned afresh
+        }
         let stats_bytes = match (&result.learned, req.carry) {
-            (Some(l), true) => Some(l.saved.to_bytes()),
+            (Some(l), true) => Some(l.saved.to_bytes_holding(&holds)),
             _ => None,
         };
+        // The next frame carries this one's statistics (SavedStats::checksum of this file).
+        holds = (stats_bytes.iter())
+            .map(|b| format!("{:016x}", crate::fnv::fnv1a(b)))
+            .collect();
         let stats_path = stem.with_extension("stats");
         let extra: Vec<(&Path, &[u8])> = stats_bytes
             .iter()

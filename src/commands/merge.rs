@@ -276,11 +276,13 @@ fn sample_range(r: &Value, p: &Path) -> Result<(u64, u64)> {
 /// that all started from it, [`SavedStats::merge_onto`]) into `out`, written atomically;
 /// `out` may not be one of the parts, and an existing `out` that is not a statistics file is
 /// replaced only with `force` (a scene or a report was overwritten before).
+/// Warnings (a start two parts share without `--base`) go to `warn`.
 pub fn stats(
     parts: &[PathBuf],
     base: Option<&Path>,
     out: &Path,
     force: bool,
+    warn: &mut dyn FnMut(String),
 ) -> Result<SavedStats> {
     if parts.is_empty() {
         bail!("merge-stats needs at least one statistics file");
@@ -334,10 +336,57 @@ pub fn stats(
             b.display()
         );
     }
-    let merged = match base {
-        Some(b) => SavedStats::merge_onto(&SavedStats::load(b)?, &loaded)?,
+    let base = base.map(SavedStats::load).transpose()?;
+    check_lineage(&loaded, base.as_ref(), warn)?;
+    let merged = match &base {
+        Some(b) => SavedStats::merge_onto(b, &loaded)?,
         None => SavedStats::merge(&loaded)?,
     };
     merged.save(out)?;
     Ok(merged)
+}
+
+/// What the parts hold of each other (their headers' `holds`, files saved since
+/// 2026-12-07): a part that another part was made from (its continuation, a later frame,
+/// or a merge of it) would count its observations twice, so it is refused; a start that two
+/// parts were made from and that is not the `--base` file (chunks that loaded one file,
+/// merged without it as `--base`) counts twice in the sum, said in a warning (the merge
+/// still only guides sampling: the images stay unbiased). Linear in the parts (a farm merge
+/// takes up to 10000 chunks).
+fn check_lineage(
+    loaded: &[(SavedStats, String)],
+    base: Option<&SavedStats>,
+    warn: &mut dyn FnMut(String),
+) -> Result<()> {
+    use std::collections::HashMap;
+    let by_sum: HashMap<String, &str> = (loaded.iter())
+        .map(|(s, name)| (s.checksum(), name.as_str()))
+        .collect();
+    let base_sum = base.map(SavedStats::checksum);
+    let mut started: HashMap<&str, &str> = HashMap::new();
+    let mut shared: Option<(&str, &str, &str)> = None;
+    for (s, bn) in loaded {
+        for x in s.header.holds.iter().flatten() {
+            if let Some(an) = by_sum.get(x.as_str()) {
+                bail!("'{bn}' already holds the statistics of '{an}' (it continued from them with --load-stats, or merged them): drop '{an}' from the parts, or, where several parts started from it, give it as --base");
+            }
+            if base_sum.as_deref() == Some(x.as_str()) {
+                continue;
+            }
+            match started.insert(x, bn) {
+                Some(an) if an != bn.as_str() && shared.is_none() => {
+                    shared = Some((an, bn, x));
+                }
+                _ => {}
+            }
+        }
+    }
+    if let Some((an, bn, x)) = shared {
+        let fix = match base {
+            Some(_) => "it is not the --base file: give the file both loaded as --base",
+            None => "give the file both loaded as --base to count it once",
+        };
+        warn(format!("'{an}' and '{bn}' both hold the statistics of one start (checksum {x}), which this merge counts twice; {fix}"));
+    }
+    Ok(())
 }

@@ -141,6 +141,8 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         Some(p) => Some(SavedStats::load(p)?),
         None => None,
     };
+    // The file the saved statistics continue (merge-stats reads it).
+    let holds: Vec<String> = loaded.iter().map(SavedStats::checksum).collect();
     let (scene, ctx, gpu, build_seconds) = prepare(req.scene.as_deref(), &req.device, ui)?;
     ui.message(&format!(
         "{}: {} triangles, {} lights; device {}",
@@ -186,7 +188,7 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
             report["checkpoint"] = json!(true);
         }
         let stats = match (stats, &result.learned) {
-            (Some(p), Some(l)) => vec![(p, l.saved.to_bytes())],
+            (Some(p), Some(l)) => vec![(p, l.saved.to_bytes_holding(&holds))],
             _ => Vec::new(),
         };
         let extra: Vec<(&std::path::Path, &[u8])> =

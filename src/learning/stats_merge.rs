@@ -129,6 +129,11 @@ impl SavedStats {
         }
         header.regions = index.len() as u32;
         header.cuts_len = cuts.len() as u32;
+        // The merge is made from its parts.
+        let mut holds: Vec<String> = parts.iter().map(|(p, _)| p.checksum()).collect();
+        holds.sort_unstable();
+        holds.dedup();
+        header.holds = Some(holds);
         Ok(SavedStats {
             header,
             index,
@@ -214,6 +219,11 @@ impl SavedStats {
             .max()
             .unwrap_or(0);
         merged.header.start_forget = None;
+        let mut holds = merged.header.holds.take().unwrap_or_default();
+        holds.push(base.checksum());
+        holds.sort_unstable();
+        holds.dedup();
+        merged.header.holds = Some(holds);
         Ok(merged)
     }
 }
