@@ -110,6 +110,10 @@ fn required_extensions_and_remote_buffers_are_judged_by_what_is_read() {
     for (edit, want) in [
         (json!({"version": "3.0"}), "glTF version '3.0'"),
         (
+            json!({"version": "4294967298.0"}),
+            "glTF version '4294967298.0'",
+        ),
+        (
             json!({"version": "2.0", "minVersion": "2.1"}),
             "at least version '2.1'",
         ),

@@ -345,40 +345,43 @@ fn smooth_vertex_normals_are_warned_about() {
     use base64::Engine;
     // A quad of `size` at (x, y, z) = `at`, rising by `slope` along x and z, with these
     // vertex normals, emitting.
-    let quad_at = |normals: [[f32; 3]; 4], at: [f32; 3], size: f32, slope: [f32; 2]| {
-        let positions = [[0.0f32, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]].map(|[x, z]| {
-            let y = at[1] + size * (slope[0] * x + slope[1] * z);
-            [at[0] + size * x, y, at[2] + size * z]
-        });
-        let mut bytes = Vec::new();
-        for v in positions.iter().chain(&normals).flatten() {
-            bytes.extend_from_slice(&v.to_le_bytes());
-        }
-        for i in [0u16, 1, 2, 0, 2, 3] {
-            bytes.extend_from_slice(&i.to_le_bytes());
-        }
-        let data = base64::engine::general_purpose::STANDARD.encode(&bytes);
-        serde_json::json!({
-            "asset": {"version": "2.0"},
-            "scene": 0,
-            "scenes": [{"nodes": [0]}],
-            "nodes": [{"mesh": 0}],
-            "meshes": [{"name": "quad", "primitives": [{
-                "attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2, "material": 0}]}],
-            "materials": [{"emissiveFactor": [1.0, 1.0, 1.0]}],
-            "buffers": [{"byteLength": bytes.len(),
-                "uri": format!("data:application/octet-stream;base64,{data}")}],
-            "bufferViews": [
-                {"buffer": 0, "byteOffset": 0, "byteLength": 48},
-                {"buffer": 0, "byteOffset": 48, "byteLength": 48},
-                {"buffer": 0, "byteOffset": 96, "byteLength": 12}],
-            "accessors": [
-                {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
-                 "min": positions[0], "max": positions[2]},
-                {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
-                {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}]
-        })
-    };
+    let quad_indexed =
+        |normals: [[f32; 3]; 4], at: [f32; 3], size: f32, slope: [f32; 2], indices: [u16; 6]| {
+            let positions = [[0.0f32, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]].map(|[x, z]| {
+                let y = at[1] + size * (slope[0] * x + slope[1] * z);
+                [at[0] + size * x, y, at[2] + size * z]
+            });
+            let mut bytes = Vec::new();
+            for v in positions.iter().chain(&normals).flatten() {
+                bytes.extend_from_slice(&v.to_le_bytes());
+            }
+            for i in indices {
+                bytes.extend_from_slice(&i.to_le_bytes());
+            }
+            let data = base64::engine::general_purpose::STANDARD.encode(&bytes);
+            serde_json::json!({
+                "asset": {"version": "2.0"},
+                "scene": 0,
+                "scenes": [{"nodes": [0]}],
+                "nodes": [{"mesh": 0}],
+                "meshes": [{"name": "quad", "primitives": [{
+                    "attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2, "material": 0}]}],
+                "materials": [{"emissiveFactor": [1.0, 1.0, 1.0]}],
+                "buffers": [{"byteLength": bytes.len(),
+                    "uri": format!("data:application/octet-stream;base64,{data}")}],
+                "bufferViews": [
+                    {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+                    {"buffer": 0, "byteOffset": 48, "byteLength": 48},
+                    {"buffer": 0, "byteOffset": 96, "byteLength": 12}],
+                "accessors": [
+                    {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                     "min": positions[0], "max": positions[2]},
+                    {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+                    {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}]
+            })
+        };
+    let quad_at =
+        |normals, at, size, slope| quad_indexed(normals, at, size, slope, [0, 1, 2, 0, 2, 3]);
     let flat_at_0 = |normals| quad_at(normals, [0.0; 3], 1.0, [0.0; 2]);
     let quad = |normals| flat_at_0(normals).to_string();
     let up = [0.0, 1.0, 0.0];
@@ -400,6 +403,13 @@ fn smooth_vertex_normals_are_warned_about() {
     let far = quad_at([n; 4], [5000.0, 3000.0, 3000.0], 0.01, [0.7, 0.3]).to_string();
     let (_, far) = common::load_warned(far.as_bytes(), "far.gltf");
     assert!(far.is_empty(), "{far:?}");
+    // Normals that agree but lean 20° off their flat quad (custom normals on a bevel).
+    let t = 20f32.to_radians();
+    let (_, lean) = common::load_warned(quad([[t.sin(), t.cos(), 0.0]; 4]).as_bytes(), "lean.gltf");
+    assert!(
+        lean.iter().any(|w| w.contains("smooth vertex normals")),
+        "{lean:?}"
+    );
     // A NORMAL the loader never reads, malformed: a stride of 4 (the parser's slicing
     // panicked, refusing the file) and a sparse count of 2^40 (an allocation aborted the
     // process). Skipped here, as the loader skips it: both load, silent.
@@ -409,7 +419,22 @@ fn smooth_vertex_normals_are_warned_about() {
     huge["accessors"][1] = serde_json::json!({"componentType": 5126, "count": 1u64 << 40,
         "type": "VEC3", "sparse": {"count": 1, "indices": {"bufferView": 2,
         "componentType": 5123}, "values": {"bufferView": 1}}});
-    for (file, doc) in [("strided.gltf", strided), ("huge.gltf", huge)] {
+    // A strip whose degenerate join meets a corner of another face: no triangle, dropped
+    // by the loader, and it was warned of as smooth (a flat cube as one strip: a review).
+    let side = [1.0, 0.0, 0.0];
+    let mut strip = quad_indexed(
+        [up, up, up, side],
+        [0.0; 3],
+        1.0,
+        [0.0; 2],
+        [0, 1, 2, 2, 3, 3],
+    );
+    strip["meshes"][0]["primitives"][0]["mode"] = 5.into();
+    for (file, doc) in [
+        ("strided.gltf", strided),
+        ("huge.gltf", huge),
+        ("strip.gltf", strip),
+    ] {
         let (_, w) = common::load_warned(doc.to_string().as_bytes(), file);
         assert!(w.is_empty(), "{file}: {w:?}");
     }

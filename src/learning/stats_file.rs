@@ -167,7 +167,6 @@ pub fn check_save_target(p: &Path, inputs: &[&Path], outputs: &[&Path], force: b
 }
 
 impl SavedStats {
-    /// The file's bytes.
     /// The file's identity: FNV-1a 64 of its bytes as [`Self::to_bytes`] writes them (the
     /// same for a file and for what loading it gives), in hex.
     pub fn checksum(&self) -> String {
@@ -186,6 +185,7 @@ impl SavedStats {
         s.to_bytes()
     }
 
+    /// The file's bytes.
     pub fn to_bytes(&self) -> Vec<u8> {
         let header = serde_json::to_vec(&self.header).expect("a header always serialises");
         let mut out = Vec::with_capacity(

@@ -15,24 +15,30 @@ use gltf::json::Root;
 pub fn check(root: &Root, name: &str) -> Result<()> {
     // glTF 2.0 readers must refuse another major version or a minVersion above theirs
     // (§3.2, "asset"): "3.0" and minVersion "2.1" rendered as 2.0 (an audit, 2026-12-07).
-    // Read leniently, as three.js does ("2", "2.0.1" and " 2.0" rendered before: a review):
-    // only a number that parses and is not 2 is refused.
+    // Read leniently ("2", "2.0.1" and " 2.0" rendered before: a review): a leading number
+    // that is not 2 is refused, however many digits it has ("4294967298.0" wrapped a u32
+    // parse: a review); one that is no number at all is left to the schema's other checks.
+    let major_is = |v: &str| -> Option<bool> {
+        let major = v.trim().split('.').next()?;
+        (!major.is_empty() && major.bytes().all(|b| b.is_ascii_digit()))
+            .then(|| major.trim_start_matches('0') == "2")
+    };
     let parts = |v: &str| -> (Option<u32>, u32) {
         let mut it = v.trim().split('.');
         let major = it.next().and_then(|a| a.parse().ok());
         (major, it.next().and_then(|b| b.parse().ok()).unwrap_or(0))
     };
     let version = &root.asset.version;
-    if let (Some(major), _) = parts(version) {
-        if major != 2 {
-            bail!("'{name}' says it is glTF version '{version}' (asset.version); lightlearn reads glTF 2: export it as glTF 2.0");
-        }
+    if major_is(version) == Some(false) {
+        bail!("'{name}' says it is glTF version '{version}' (asset.version); lightlearn reads glTF 2: export it as glTF 2.0");
     }
     if let Some(min) = &root.asset.min_version {
-        if let (Some(major), minor) = parts(min) {
-            if (major, minor) > (2, 0) {
-                bail!("'{name}' needs a glTF reader of at least version '{min}' (asset.minVersion); lightlearn reads glTF 2.0: export it for glTF 2.0");
-            }
+        let above = match parts(min) {
+            (Some(major), minor) => (major, minor) > (2, 0),
+            (None, _) => major_is(min) == Some(false),
+        };
+        if above {
+            bail!("'{name}' needs a glTF reader of at least version '{min}' (asset.minVersion); lightlearn reads glTF 2.0: export it for glTF 2.0");
         }
     }
     let accessors = root.accessors.len();

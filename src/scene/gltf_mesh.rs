@@ -213,7 +213,8 @@ fn triangulate(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
     }
 }
 
-/// Vertex normals (NORMAL) that differ across a triangle by more than 1°: smooth shading,
+/// Vertex normals (NORMAL) that differ across a triangle by more than 1°, or lean more than
+/// 10° off it: smooth or custom shading,
 /// which lightlearn does not interpolate (it shades with flat triangle normals), so the
 /// surface renders faceted. A sphere of smooth normals rendered bit-identical to one
 /// without them, 20 % off Mitsuba 3's smooth image, with no word (an audit, 2026-12-07).
@@ -231,6 +232,8 @@ pub(super) fn smooth_normals_warning(
     use gltf::accessor::{DataType, Dimensions};
     // cos 1°: exporters round normals to a few digits.
     const COS_LIMIT: f32 = 0.99985;
+    // cos 10°.
+    const COS_LEAN: f32 = 0.9848;
     let mut first: Option<String> = None;
     let mut count = 0usize;
     for mesh in doc.meshes() {
@@ -265,17 +268,38 @@ pub(super) fn smooth_normals_warning(
                 continue;
             };
             let n: Vec<Vec3> = n.map(|v| Vec3::from(v).normalize_or_zero()).collect();
+            let Some(p) = reader.read_positions() else {
+                continue;
+            };
+            let p: Vec<DVec3> = p.map(|v| Vec3::from(v).as_dvec3()).collect();
             let indices: Vec<u32> = match reader.read_indices() {
                 Some(i) => i.into_u32().collect(),
                 None => (0..n.len() as u32).collect(),
             };
             let smooth = triangulate(prim.mode(), &indices).into_iter().any(|t| {
-                let [Some(a), Some(b), Some(c)] = t.map(|i| n.get(i as usize)) else {
+                // A strip's joins (a repeated index) are no triangle: the loader drops them,
+                // and their corners' normals belong to two faces (a flat cube as one strip
+                // was warned of: a review).
+                if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                    return false;
+                }
+                let corner = |i: u32| Some((*n.get(i as usize)?, *p.get(i as usize)?));
+                let (Some(a), Some(b), Some(c)) = (corner(t[0]), corner(t[1]), corner(t[2])) else {
                     return false;
                 };
-                [(a, b), (b, c), (c, a)]
+                let given: Vec<Vec3> = [a.0, b.0, c.0]
                     .into_iter()
-                    .any(|(u, v)| *u != Vec3::ZERO && *v != Vec3::ZERO && u.dot(*v) < COS_LIMIT)
+                    .filter(|v| *v != Vec3::ZERO)
+                    .collect();
+                // Normals that differ across the triangle (smooth shading) ...
+                let differ = (0..given.len())
+                    .any(|i| given[i].dot(given[(i + 1) % given.len()]) < COS_LIMIT);
+                // ... or agree but lean off the triangle (weighted or custom normals on a
+                // bevel) by more than 10°: f32 corners far out tilt the triangle's own
+                // normal by a few degrees (a review).
+                let face = (b.1 - a.1).cross(c.1 - a.1).normalize_or_zero().as_vec3();
+                let lean = face != Vec3::ZERO && given.iter().any(|v| v.dot(face).abs() < COS_LEAN);
+                differ || lean
             });
             if smooth {
                 count += 1;
