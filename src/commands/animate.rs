@@ -434,9 +434,9 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
             (Some(l), true) => Some(l.saved.to_bytes_holding(&holds)),
             _ => None,
         };
-        // The next frame carries this one's statistics (SavedStats::checksum of this file).
+        // The next frame carries this one's statistics.
         holds = (stats_bytes.iter())
-            .map(|b| format!("{:016x}", crate::fnv::fnv1a(b)))
+            .map(|b| SavedStats::checksum_of_bytes(b))
             .collect();
         let stats_path = stem.with_extension("stats");
         let extra: Vec<(&Path, &[u8])> = stats_bytes
@@ -461,7 +461,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
             tree_cost_ratio: ratio,
             regions_with_cuts: result.regions.regions_with_cuts,
             regions_added: result.regions.regions_added_between_frames,
-            estimated_mse: (result.spp >= 2).then(|| result.estimated_error().0),
+            estimated_mse: result.known_error().map(|e| e.0),
             exr: paths.exr.clone(),
         });
         span = write_summary(

@@ -167,10 +167,23 @@ pub fn check_save_target(p: &Path, inputs: &[&Path], outputs: &[&Path], force: b
 }
 
 impl SavedStats {
-    /// The file's identity: FNV-1a 64 of its bytes as [`Self::to_bytes`] writes them (the
-    /// same for a file and for what loading it gives), in hex.
+    /// The file's identity: the checksum it ends with (FNV-1a 64 of the bytes before it, as
+    /// [`Self::to_bytes`] writes them: the same for a file and for what loading it gives),
+    /// in hex. Hashed piece by piece, without building the file.
     pub fn checksum(&self) -> String {
-        format!("{:016x}", fnv1a(&self.to_bytes()))
+        let header = self.header_json();
+        let len = (header.len() as u32).to_le_bytes();
+        let mut h = crate::fnv::Fnv1a::default();
+        for piece in self.pieces(&header, &len) {
+            h.add(piece);
+        }
+        format!("{:016x}", h.0)
+    }
+
+    /// [`Self::checksum`] of a file's bytes as [`Self::to_bytes`] wrote them: its last 8.
+    pub fn checksum_of_bytes(bytes: &[u8]) -> String {
+        let tail: [u8; 8] = bytes[bytes.len() - 8..].try_into().expect("8 bytes");
+        format!("{:016x}", u64::from_le_bytes(tail))
     }
 
     /// The file's bytes with a header that says it holds `holds` (empty: nothing); no copy
@@ -185,19 +198,35 @@ impl SavedStats {
         s.to_bytes()
     }
 
+    fn header_json(&self) -> Vec<u8> {
+        serde_json::to_vec(&self.header).expect("a header always serialises")
+    }
+
+    /// The file's bytes before its checksum, in order (`header` is [`Self::header_json`],
+    /// `len` its length as a little-endian u32).
+    fn pieces<'a>(&'a self, header: &'a [u8], len: &'a [u8; 4]) -> [&'a [u8]; 7] {
+        const VERSION_BYTES: [u8; 4] = VERSION.to_le_bytes();
+        [
+            MAGIC,
+            &VERSION_BYTES,
+            len,
+            header,
+            bytemuck::cast_slice(&self.index),
+            bytemuck::cast_slice(&self.cuts),
+            bytemuck::cast_slice(&self.stats),
+        ]
+    }
+
     /// The file's bytes.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let header = serde_json::to_vec(&self.header).expect("a header always serialises");
+        let header = self.header_json();
+        let len = (header.len() as u32).to_le_bytes();
         let mut out = Vec::with_capacity(
             24 + header.len() + 4 * (self.index.len() + self.cuts.len()) + 32 * self.stats.len(),
         );
-        out.extend_from_slice(MAGIC);
-        out.extend_from_slice(&VERSION.to_le_bytes());
-        out.extend_from_slice(&(header.len() as u32).to_le_bytes());
-        out.extend_from_slice(&header);
-        out.extend_from_slice(bytemuck::cast_slice(&self.index));
-        out.extend_from_slice(bytemuck::cast_slice(&self.cuts));
-        out.extend_from_slice(bytemuck::cast_slice(&self.stats));
+        for piece in self.pieces(&header, &len) {
+            out.extend_from_slice(piece);
+        }
         let sum = fnv1a(&out);
         out.extend_from_slice(&sum.to_le_bytes());
         out

@@ -514,15 +514,8 @@ pub fn report_json(
     result: &RenderResult,
     device: &str,
 ) -> serde_json::Value {
-    // A variance needs two samples: at 1 spp each pixel's "variance" was x²/4 from the
-    // film's spp.max(2), an invented number (an audit, 2026-12-07); null instead.
-    let (mse, rel) = match result.spp >= 2 {
-        true => {
-            let (m, r) = result.estimated_error();
-            (Some(m), Some(r))
-        }
-        false => (None, None),
-    };
+    // Null at 1 spp, where there is no variance.
+    let (mse, rel) = result.known_error().unzip();
     serde_json::json!({
         "lightlearn_version": env!("CARGO_PKG_VERSION"),
         "scene": scene.source,

@@ -79,6 +79,13 @@ impl RenderResult {
             .collect()
     }
 
+    /// [`Self::estimated_error`] where the film has one: a variance needs two samples (at 1
+    /// spp each pixel's "variance" is x²/4 from `spp.max(2)`, an invented number: an audit,
+    /// 2026-12-07), so None below 2 spp. What reports write.
+    pub fn known_error(&self) -> Option<(f64, f64)> {
+        (self.spp >= 2).then(|| self.estimated_error())
+    }
+
     /// The image's own estimated error: mean over pixels and channels of the variance of the
     /// mean, absolute (an MSE) and relative as relMSE (÷ (mean² + 0.01)).
     pub fn estimated_error(&self) -> (f64, f64) {
