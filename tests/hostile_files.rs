@@ -594,8 +594,8 @@ fn buffer_layouts_matrices_and_camera_planes_are_named() {
 
 /// What lightlearn renders without is said (an audit, 2026-12-06; each rendered with exit 0
 /// and silence with the build before: tried): an extension it does not read, a material that
-/// is not opaque, vertex colours (2026-12-07), a skinned node, morph targets with weights.
-/// Required extensions it does not read are refused.
+/// is not opaque, vertex colours (2026-12-07), a skinned node, morph targets with weights, a
+/// glossy layer smoother than the BRDF renders (2026-12-07). Required extensions it does not read are refused.
 #[test]
 fn features_rendered_without_are_warned_about() {
     let dir = tempfile::tempdir().unwrap();
@@ -648,6 +648,28 @@ fn features_rendered_without_are_warned_about() {
             g["meshes"][0]["weights"] = serde_json::json!([0.5]);
         },
         &["node 0", "morph-target weights"],
+    );
+    warned(
+        "mirror.gltf",
+        &|g| {
+            g["materials"][0]["pbrMetallicRoughness"]["metallicFactor"] = 1.0.into();
+            g["materials"][0]["pbrMetallicRoughness"]["roughnessFactor"] = 0.0.into();
+        },
+        &[
+            "material 0",
+            "roughnessFactor below 0.0316",
+            "no perfect mirrors",
+        ],
+    );
+    // Roughness means nothing to an exactly Lambertian material (the box's: metallic 0,
+    // specularFactor 0): no word.
+    let o = render_edited(&doc, d, "matte.gltf", &|g| {
+        g["materials"][0]["pbrMetallicRoughness"]["roughnessFactor"] = 0.0.into()
+    });
+    assert!(
+        o.status.success() && !stderr(&o).contains("roughnessFactor"),
+        "{}",
+        stderr(&o)
     );
     let mut draco = doc.clone();
     draco["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);

@@ -458,27 +458,6 @@ fn check_matrices(root: &Root, name: &str) -> Result<()> {
     Ok(())
 }
 
-/// Nodes with both a matrix and a translation, rotation or scale (glTF 2.0 §5.25: "when
-/// matrix is defined, translation, rotation, and scale MUST NOT be defined"): the matrix is
-/// used and the rest ignored, which was silent (an audit, 2026-12-06). A warning, not a
-/// refusal: exporters that write both usually write the same transform twice.
-pub fn matrix_with_trs(root: &Root, name: &str) -> Vec<String> {
-    root.nodes
-        .iter()
-        .enumerate()
-        .filter(|(_, n)| {
-            n.matrix.is_some()
-                && (n.translation.is_some() || n.rotation.is_some() || n.scale.is_some())
-        })
-        .map(|(i, n)| {
-            format!(
-                "'{name}': node {i} ('{}') has both a matrix and a translation, rotation or scale, which glTF forbids; the matrix is used (export it again to silence this)",
-                n.name.as_deref().unwrap_or("")
-            )
-        })
-        .collect()
-}
-
 /// Whether a node rotation's length is 1 within float noise (the Khronos validator's 5e-4 is
 /// looser; 1e-3 here keeps every file it accepts exactly as before).
 pub fn rotation_is_unit(r: [f32; 4]) -> bool {
@@ -496,93 +475,6 @@ pub const SUPPORTED_EXTENSIONS: [&str; 3] = [
     "KHR_materials_emissive_strength",
     "KHR_materials_specular",
 ];
-
-/// Warnings for what a file uses that lightlearn renders without: extensions it does not
-/// read, materials that are not opaque, vertex colours, skins and morph targets (an audit, 2026-12-06:
-/// each rendered a different picture with exit 0 and silence: cutout leaves as solid quads,
-/// glass as an opaque surface, a posed character in its bind pose). Required extensions are
-/// refused by the crate's validation.
-pub fn unsupported_features(doc: &gltf::Document, name: &str) -> Vec<String> {
-    let mut out = Vec::new();
-    let ignored: Vec<&str> = doc
-        .extensions_used()
-        .filter(|e| !SUPPORTED_EXTENSIONS.contains(e))
-        .collect();
-    if !ignored.is_empty() {
-        out.push(format!(
-            "'{name}' uses {}, which lightlearn does not read; it renders without {} (read: {})",
-            ignored.join(", "),
-            if ignored.len() > 1 { "them" } else { "it" },
-            SUPPORTED_EXTENSIONS.join(", ")
-        ));
-    }
-    // One line a kind, however many elements (a file of 500 cutout leaves gave 500 lines).
-    let mut see_through = Vec::new();
-    for m in doc.materials() {
-        let mode = match m.alpha_mode() {
-            gltf::material::AlphaMode::Opaque => continue,
-            gltf::material::AlphaMode::Mask => "MASK",
-            gltf::material::AlphaMode::Blend => "BLEND",
-        };
-        let i = m.index().unwrap_or(0);
-        see_through.push(format!("{i} ('{}', {mode})", m.name().unwrap_or("")));
-    }
-    if !see_through.is_empty() {
-        out.push(format!(
-            "'{name}': {} alphaMode MASK or BLEND; lightlearn renders every surface opaque (no cutouts or transparency)",
-            listed("material", "has", "have", &see_through)
-        ));
-    }
-    let (mut skinned, mut morphed) = (Vec::new(), Vec::new());
-    for node in doc.nodes() {
-        let Some(mesh) = node.mesh() else { continue };
-        let label = format!("{} ('{}')", node.index(), node.name().unwrap_or(""));
-        if node.skin().is_some() {
-            skinned.push(label.clone());
-        }
-        let morphs = mesh.primitives().any(|p| p.morph_targets().len() > 0);
-        let weights = node.weights().or(mesh.weights()).unwrap_or(&[]);
-        if morphs && weights.iter().any(|w| *w != 0.0) {
-            morphed.push(label);
-        }
-    }
-    // glTF multiplies COLOR_0 into the base colour (§3.9.2); an exporter writes it where a
-    // material paints with vertex colours, which rendered as the plain factor in silence (an
-    // audit, 2026-12-07). Sets beyond COLOR_0 mean nothing to a glTF material.
-    let painted: Vec<String> = doc
-        .meshes()
-        .filter(|m| {
-            m.primitives()
-                .any(|p| p.get(&gltf::Semantic::Colors(0)).is_some())
-        })
-        .map(|m| format!("{} ('{}')", m.index(), m.name().unwrap_or("")))
-        .collect();
-    if !painted.is_empty() {
-        out.push(format!("'{name}': {} vertex colours (COLOR_0), which glTF multiplies into the base colour; lightlearn renders without them", listed("mesh", "has", "have", &painted)));
-    }
-    if !skinned.is_empty() {
-        out.push(format!("'{name}': {} skinned; lightlearn renders the meshes as stored (the bind pose), without the skin", listed("node", "is", "are", &skinned)));
-    }
-    if !morphed.is_empty() {
-        out.push(format!("'{name}': {} morph-target weights; lightlearn renders the meshes without morph targets", listed("node", "has", "have", &morphed)));
-    }
-    out
-}
-
-/// "node 3 ('a') is" or "nodes 3 ('a'), 4 ('b') and 2 more are": up to three named.
-fn listed(kind: &str, one: &str, many: &str, items: &[String]) -> String {
-    match items {
-        [only] => format!("{kind} {only} {one}"),
-        _ => {
-            let shown = items[..items.len().min(3)].join(", ");
-            let more = match items.len().saturating_sub(3) {
-                0 => String::new(),
-                n => format!(" and {n} more"),
-            };
-            format!("{kind}s {shown}{more} {many}")
-        }
-    }
-}
 
 /// The gltf crate indexes with unwrap in a few places; gltf_check catches the cases we know,
 /// and a malformed file that slips past it must still give one clear line, never a panic's

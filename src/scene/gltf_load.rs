@@ -79,9 +79,9 @@ pub fn open_bytes(
             )
         })?;
         super::gltf_check::check(gltf.as_json(), name)?;
-        for w in super::gltf_check::unsupported_features(&gltf.document, name)
+        for w in super::gltf_warn::unsupported_features(&gltf.document, name)
             .into_iter()
-            .chain(super::gltf_check::matrix_with_trs(gltf.as_json(), name))
+            .chain(super::gltf_warn::matrix_with_trs(gltf.as_json(), name))
         {
             warn(w);
         }
