@@ -182,6 +182,37 @@ fn frames_past_the_end_are_named() {
     assert!(!String::from_utf8_lossy(&o.stderr).contains("last pose"));
 }
 
+/// A still of an animated file says it leaves the animation out (an audit, 2026-12-07: a
+/// walk-through rendered its rest pose in silence); a still file gets no note.
+#[test]
+fn a_still_of_an_animated_file_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let moving = dir.path().join("moving.glb");
+    std::fs::write(&moving, moving_light().to_glb()).unwrap();
+    let still = dir.path().join("still.glb");
+    let mut g = floor(0.5, (-2.0, 4.0), 2.0);
+    g.point_light("bulb", Vec3::new(0.0, 1.0, 0.0), Vec3::ONE, 2.0);
+    g.camera(Vec3::new(1.0, 3.0, 5.0), Vec3::new(1.0, 0.0, 0.0), 0.9);
+    std::fs::write(&still, g.to_glb()).unwrap();
+    let render = |scene: &Path| {
+        let (scene, out) = (scene.display().to_string(), dir.path().join("o.exr"));
+        let out = out.display().to_string();
+        let o = run(&[
+            "render", &scene, "--out", &out, "--width", "8", "--height", "8", "--spp", "1",
+        ]);
+        ok(&o);
+        String::from_utf8_lossy(&o.stderr).into_owned()
+    };
+    let err = render(&moving);
+    assert!(
+        err.contains("moving.glb' is animated (")
+            && err.contains("without the animation (`lightlearn animate` renders it)"),
+        "{err}"
+    );
+    let err = render(&still);
+    assert!(!err.contains("animated"), "{err}");
+}
+
 #[test]
 fn malformed_animations_are_named() {
     let dir = tempfile::tempdir().unwrap();

@@ -108,7 +108,22 @@ fn check_light_samples(flag: &str, n: u32) -> Result<()> {
 pub fn load_scene(path: Option<&Path>, ui: &mut dyn Ui) -> Result<Scene> {
     let mut warn = |w: String| ui.message(&format!("warning: {w}"));
     match path {
-        Some(p) => gltf_load::load(p, &mut warn),
+        Some(p) => {
+            let doc = gltf_load::open(p, &mut warn)?;
+            let scene = doc.scene(&Default::default(), None, &mut warn)?;
+            // Every command but `animate` renders the nodes' own transforms; a walk-through
+            // rendered as its rest pose in silence (an audit, 2026-12-07). A note, not a
+            // warning: the still is what was asked for.
+            if !doc.animations.is_empty() {
+                let channels = doc.animations.channels.len();
+                ui.message(&format!(
+                    "note: '{}' is animated ({channels} channel{}); this renders the nodes' own transforms, without the animation (`lightlearn animate` renders it)",
+                    doc.name(),
+                    if channels == 1 { "" } else { "s" }
+                ));
+            }
+            Ok(scene)
+        }
         None => gltf_load::load_bytes(
             crate::DEFAULT_SCENE,
             crate::DEFAULT_SCENE_NAME,
