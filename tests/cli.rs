@@ -488,6 +488,71 @@ fn profile_does_not_time_the_kernel_compile() {
     assert!(seconds < 0.25, "the compile was timed: {line}");
 }
 
+/// `bench-rays --repeats 1` on a cold shader cache timed lavapipe's kernel compile as the
+/// rays (0.05 Mrays/s against ~5 at 64×64: an audit, 2026-12-07); an untimed dispatch comes
+/// first now. A busy machine runs the rays slower, never 100× slower.
+#[test]
+fn bench_rays_does_not_time_the_kernel_compile() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(common::exe())
+        .args([
+            "bench-rays",
+            "--width",
+            "64",
+            "--height",
+            "64",
+            "--triangles",
+            "2000",
+            "--repeats",
+            "1",
+        ])
+        .current_dir(dir.path())
+        .env("MESA_SHADER_CACHE_DISABLE", "true")
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}{text}", stderr(&out));
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("coherent"))
+        .unwrap_or_else(|| panic!("no coherent row in:\n{text}"));
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let gpu = words.iter().position(|w| *w == "GPU").unwrap();
+    let rate: f64 = words[gpu + 1].parse().unwrap();
+    assert!(rate > 0.5, "the compile was timed: {line}");
+}
+
+/// `profile --sampler uniform` has no light-selection row (knocking `uniform`'s selection out
+/// leaves `uniform`: the row printed noise as a stage, an audit, 2026-12-07).
+#[test]
+fn profile_of_uniform_has_no_selection_row() {
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.glb");
+    let dir = tempfile::tempdir().unwrap();
+    let out = run(
+        &[
+            "profile",
+            scene.to_str().unwrap(),
+            "--sampler",
+            "uniform",
+            "--spp",
+            "2",
+            "--repeats",
+            "1",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--max-depth",
+            "1",
+        ],
+        dir.path(),
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}{text}", stderr(&out));
+    assert!(text.contains("| shadow rays"), "{text}");
+    assert!(!text.contains("| light selection"), "{text}");
+}
+
 /// `profile` times a pass with each stage knocked out (src/bench/stages.rs): every variant's
 /// pipeline must be valid (the validation layer is on) and every row of the table there; with
 /// `--timeline` also the table of what happens between passes (src/render/timeline.rs). The

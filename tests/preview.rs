@@ -278,6 +278,11 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
         ])
         .current_dir(dir.path())
         .env("DISPLAY", &x.display)
+        // A WAYLAND_DISPLAY where no compositor answers (tmux reattached over X): X11 is
+        // used, with a warning (it ended the preview: an audit, 2026-12-07).
+        .env("WAYLAND_DISPLAY", "lightlearn-test-no-compositor")
+        .env("XDG_RUNTIME_DIR", dir.path())
+        .env_remove("WAYLAND_SOCKET")
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -354,6 +359,42 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
             == lightlearn::film::read_exr(&rendered).unwrap().2,
         "P at {spp} spp differs from `render --spp {spp}`"
     );
+    // Exposure: 400 presses of - and 40 of + come back to where they started, in the title
+    // and on screen (a float factor reached 0 after ~320 presses, and no key brought the
+    // image back: an audit, 2026-12-07); P then saves the PNG as shown at +1 EV.
+    x.run(
+        "xdotool",
+        &["key", "--delay", "0", "--repeat", "400", "minus"],
+    );
+    wait_for("-20 EV", 20, || {
+        title(&x, &window).contains("exposure -20 EV")
+    });
+    x.run(
+        "xdotool",
+        &["key", "--delay", "0", "--repeat", "42", "equal"],
+    );
+    wait_for("+1 EV", 20, || {
+        title(&x, &window).contains("exposure +1 EV")
+    });
+    let (bright, report) = shots.take(&x);
+    assert_eq!(report["png_exposure"], 2.0, "{report}");
+    let png = std::fs::File::open(bright.with_extension("png")).unwrap();
+    let mut reader = png::Decoder::new(std::io::BufReader::new(png))
+        .read_info()
+        .unwrap();
+    let mut bytes = vec![0; reader.output_buffer_size()];
+    let size = reader.next_frame(&mut bytes).unwrap().buffer_size();
+    let radiance = lightlearn::film::read_exr(&bright).unwrap().2;
+    let exposed: Vec<[f32; 3]> = radiance.iter().map(|p| p.map(|c| c * 2.0)).collect();
+    assert!(
+        bytes[..size] == lightlearn::film::tonemap_srgb8(&exposed),
+        "the PNG is not the image at +1 EV"
+    );
+    x.run(
+        "xdotool",
+        &["key", "--delay", "0", "--repeat", "2", "minus"],
+    );
+    wait_for("0 EV", 20, || !title(&x, &window).contains("exposure"));
     x.run("xdotool", &["keydown", "w"]);
     std::thread::sleep(Duration::from_millis(600));
     x.run("xdotool", &["keyup", "w"]);
@@ -482,6 +523,10 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(status.success(), "exit {status}: {err}");
     assert!(!err.to_lowercase().contains("validation"), "{err}");
+    assert!(
+        err.contains("WAYLAND_DISPLAY names") && err.contains("using the X11 display"),
+        "{err}"
+    );
     assert_eq!(std::fs::read_to_string(&notes).unwrap(), "my notes");
 }
 

@@ -40,6 +40,10 @@ pub fn trace(
         ..Default::default()
     };
     let groups = [(rays.len() as u32).div_ceil(64), 1, 1];
+    // One untimed dispatch first: lavapipe compiles a kernel at its first dispatch, and with
+    // a cold shader cache `--repeats 1` timed that compile, 20–35× below the rate (an audit,
+    // 2026-12-07; `profile` does the same).
+    ctx.submit(|cmd| pipeline.dispatch(cmd, bytemuck::bytes_of(&params), groups))?;
     let mut best = f64::INFINITY;
     for _ in 0..repeats.max(1) {
         let t0 = Instant::now();

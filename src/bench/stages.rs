@@ -12,7 +12,7 @@ use anyhow::Result;
 use crate::gpu::Context;
 use crate::learning::{LearnDiagnostics, UpdateEvery};
 use crate::render::timeline::Event;
-use crate::render::{GpuScene, RenderSettings, Session};
+use crate::render::{GpuScene, LightSampler, RenderSettings, Session};
 use crate::scene::Scene;
 
 /// `render.comp` KNOCK_OUT bits.
@@ -22,6 +22,9 @@ pub const KNOCK_MIS_PMF: u32 = 4;
 pub const KNOCK_OBSERVE: u32 = 8;
 pub const KNOCK_SHADING: u32 = 16;
 pub const KNOCK_IMPORTANCE: u32 = 32;
+
+const ALL: &str = "all of the above";
+const BUT_CAMERA: &str = "everything but the camera rays";
 
 /// One timed variant.
 pub struct StageTime {
@@ -34,11 +37,13 @@ pub struct StageTime {
 /// The variants that mean something for these settings: (name, KNOCK_OUT bits, folds).
 fn variants(settings: &RenderSettings) -> Vec<(&'static str, u32, bool)> {
     let learning = settings.sampler.learned();
-    let mut v = vec![
-        ("nothing (the real kernel)", 0, true),
-        ("light selection (uniform picks)", KNOCK_SELECT, true),
-        ("shadow rays (all visible)", KNOCK_SHADOW, true),
-    ];
+    let mut v = vec![("nothing (the real kernel)", 0, true)];
+    // `uniform` knocked out is `uniform`: the row timed the same kernel twice and printed
+    // the noise as a stage (32 % at 4×4: an audit, 2026-12-07).
+    if settings.sampler != LightSampler::Uniform {
+        v.push(("light selection (uniform picks)", KNOCK_SELECT, true));
+    }
+    v.push(("shadow rays (all visible)", KNOCK_SHADOW, true));
     if settings.sampler.uses_importance() {
         // Part of light selection: on the default render 4-13 % of a `bayes` pass in single
         // profiles, ~10 % over six interleaved rounds, against 5-7 % for the texel fetches of
@@ -58,10 +63,10 @@ fn variants(settings: &RenderSettings) -> Vec<(&'static str, u32, bool)> {
     }
     // (KNOCK_IMPORTANCE need not be in it: with uniform picks no importance is evaluated.)
     let all = KNOCK_SELECT | KNOCK_SHADOW | KNOCK_MIS_PMF | KNOCK_OBSERVE;
-    v.push(("all of the above", all, false));
+    v.push((ALL, all, false));
     // What is left is the camera rays (their hits) and the film: on lavapipe with `uniform`
     // direct light 48 % of a pass on rooms and 57 % on city (docs/results.md, ninth session).
-    v.push(("everything but the camera rays", all | KNOCK_SHADING, false));
+    v.push((BUT_CAMERA, all | KNOCK_SHADING, false));
     v
 }
 
@@ -161,9 +166,51 @@ pub fn table(times: &[StageTime]) -> String {
     // A variant that took longer than the full pass (a row printed below 0 %) is noise, not
     // a stage: `--repeats 1`
     // at 16×12 printed "statistics atomics −69 %" with no word (an audit, 2026-12-06).
-    if times.iter().any(|t| (full - t.seconds) / full < -0.005) {
+    // So is a stage that saved more than every stage together ("all of the above"): at 1×1
+    // the folds alone saved 81 % and all of them 71 %, the rows summing to 309 % (an audit,
+    // 2026-12-07).
+    let all = times
+        .iter()
+        .find(|t| t.name == ALL)
+        .map_or(f64::INFINITY, |t| full - t.seconds);
+    let part_over_all = times
+        .iter()
+        .filter(|t| t.name != ALL && t.name != BUT_CAMERA)
+        .any(|t| (full - t.seconds) - all > 0.05 * full);
+    if part_over_all || times.iter().any(|t| (full - t.seconds) / full < -0.005) {
         s.push_str("
-warning: a row below 0 % is this machine's noise, not the stage: the times are too short or too few to resolve it; use more --repeats, --spp or pixels\n");
+warning: a row below 0 %, or one that saved more than all of the above, is this machine's noise, not the stage: the times are too short or too few to resolve it; use more --repeats, --spp or pixels\n");
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rows(saved: &[(&'static str, f64)]) -> Vec<StageTime> {
+        let mut v = vec![StageTime {
+            name: "nothing (the real kernel)",
+            seconds: 1.0,
+        }];
+        v.extend(saved.iter().map(|&(name, s)| StageTime {
+            name,
+            seconds: 1.0 - s,
+        }));
+        v
+    }
+
+    /// A stage that saved more than all of them together is noise and says so (at 1×1 the
+    /// folds alone saved 81 %, all of them 71 %: an audit, 2026-12-07); shares that add up
+    /// are printed without a word.
+    #[test]
+    fn a_part_over_the_whole_is_called_noise() {
+        let noise = "is this machine's noise";
+        let fine = table(&rows(&[("shadow rays", 0.3), ("folds", 0.2), (ALL, 0.6)]));
+        assert!(!fine.contains(noise), "{fine}");
+        let over = table(&rows(&[("shadow rays", 0.3), ("folds", 0.81), (ALL, 0.71)]));
+        assert!(over.contains(noise), "{over}");
+        let below = table(&rows(&[("shadow rays", -0.1), (ALL, 0.5)]));
+        assert!(below.contains(noise), "{below}");
+    }
 }

@@ -117,6 +117,34 @@ pub fn write_outputs_with(
     report: &serde_json::Value,
     extra: &[(&Path, &[u8])],
 ) -> Result<()> {
+    write_all(paths, width, height, rgb, report, extra, 1.0)
+}
+
+/// [`write_outputs`] with the PNG scaled by `exposure` (the preview's, so that P saves the
+/// picture on screen: it saved the unexposed one, an audit, 2026-12-07); the EXR holds the
+/// radiance as always, and the report says the PNG's exposure.
+pub fn write_outputs_exposed(
+    paths: &OutputPaths,
+    width: u32,
+    height: u32,
+    rgb: &[[f32; 3]],
+    report: &serde_json::Value,
+    exposure: f32,
+) -> Result<()> {
+    let mut report = report.clone();
+    report["png_exposure"] = serde_json::json!(exposure);
+    write_all(paths, width, height, rgb, &report, &[], exposure)
+}
+
+fn write_all(
+    paths: &OutputPaths,
+    width: u32,
+    height: u32,
+    rgb: &[[f32; 3]],
+    report: &serde_json::Value,
+    extra: &[(&Path, &[u8])],
+    png_exposure: f32,
+) -> Result<()> {
     let result = (|| -> Result<()> {
         let mut set = crate::io::FileSet::default();
         let mut sum = String::new();
@@ -125,7 +153,15 @@ pub fn write_outputs_with(
             sum = exr_checksum(tmp)?;
             Ok(())
         })?;
-        set.add_with(&paths.png, |tmp| write_png(tmp, width, height, rgb))?;
+        set.add_with(&paths.png, |tmp| {
+            if png_exposure == 1.0 {
+                write_png(tmp, width, height, rgb)
+            } else {
+                let exposed: Vec<[f32; 3]> =
+                    rgb.iter().map(|p| p.map(|c| c * png_exposure)).collect();
+                write_png(tmp, width, height, &exposed)
+            }
+        })?;
         let mut report = report.clone();
         report[EXR_CHECKSUM] = serde_json::json!(sum);
         set.add(

@@ -13,6 +13,7 @@
 pub mod camera;
 mod display;
 mod heat;
+mod window_system;
 
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -25,7 +26,7 @@ use raw_window_handle::{HasDisplayHandle, HasWindowHandle};
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
 use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
-use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::event_loop::{ActiveEventLoop, ControlFlow};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
@@ -64,6 +65,8 @@ const RESTING_FRAME_SECONDS: f64 = 1.0 / 10.0;
 /// The camera counts as moving for this long after the last change: the film stays at
 /// reduced size meanwhile.
 const REST_SECONDS: f64 = 0.3;
+/// ±20 stops: past any image's range, and 2^±20 stays a normal float.
+const MAX_HALF_STOPS: i32 = 40;
 
 /// Opens the window and runs until Esc or the window is closed.
 pub fn run(req: &PreviewRequest, ui: &mut dyn Ui) -> Result<()> {
@@ -76,7 +79,10 @@ pub fn run(req: &PreviewRequest, ui: &mut dyn Ui) -> Result<()> {
     let scene = crate::commands::load_scene(req.scene.as_deref(), ui)?;
     let bvh = Bvh::build(&scene.triangles);
     let started = Instant::now();
-    let event_loop = EventLoop::new().map_err(|e| anyhow!("{NO_DISPLAY} ({e})"))?;
+    let (event_loop, note) = window_system::event_loop(NO_DISPLAY)?;
+    if let Some(note) = note {
+        ui.message(&format!("warning: {note}"));
+    }
     let name = req
         .scene
         .as_ref()
@@ -128,7 +134,7 @@ pub fn run(req: &PreviewRequest, ui: &mut dyn Ui) -> Result<()> {
         view: scene.camera,
         centre: 0.5 * (lo + hi),
         bounds: (lo, hi),
-        exposure: 1.0,
+        half_stops: 0,
         display_mode: 0,
         heat: None,
         pivot: 0.5 * (lo + hi),
@@ -176,7 +182,10 @@ struct App<'a, 'u> {
     view: Camera,
     centre: Vec3,
     bounds: (Vec3, Vec3),
-    exposure: f32,
+    /// The exposure in half stops (+/-), within ±MAX_HALF_STOPS: a factor kept as a float
+    /// reached 0 after ~320 presses of - (and ∞ after ~270 of +), from which no key brought
+    /// the image back (an audit, 2026-12-07).
+    half_stops: i32,
     /// 0: the image; 1: relative error; 2: zero-light-sample share; 3: what each region
     /// has learned (computed on the host, refreshed twice a second, and within 0.1 s of a
     /// camera change).
@@ -253,6 +262,11 @@ impl<'a> App<'a, '_> {
             f += 1;
         }
         ((w / f).max(1), (h / f).max(1))
+    }
+
+    /// The exposure as a linear factor.
+    fn exposure(&self) -> f32 {
+        2f32.powf(self.half_stops as f32 / 2.0)
     }
 
     /// The current session, made on first use, at the current camera and film size.
@@ -357,7 +371,7 @@ impl<'a> App<'a, '_> {
         if moving && seconds / k as f64 > 1.0 / 20.0 && self.move_factor < 8 {
             self.move_factor *= 2;
         }
-        let (exposure, view) = (self.exposure, self.display_mode);
+        let (exposure, view) = (self.exposure(), self.display_mode);
         let session = &self.sessions[&(self.sampler, self.depth)];
         let spp = session.spp();
         let (_, fw, fh) = session.film();
@@ -402,11 +416,15 @@ impl<'a> App<'a, '_> {
             self.title_at = Instant::now();
             let msps = fw as f64 * fh as f64 / self.per_pass.unwrap_or(1.0).max(1e-9) / 1e6;
             self.window.set_title(&format!(
-                "lightlearn — {} — {} {} — {spp} spp at {fw}×{fh}, {msps:.2} Msamples/s, {:.0} ms/frame, {regions} regions learned{}",
+                "lightlearn — {} — {} {} — {spp} spp at {fw}×{fh}, {msps:.2} Msamples/s, {:.0} ms/frame, {regions} regions learned{}{}",
                 self.name,
                 self.sampler.name(),
                 if self.depth > 1 { format!("paths (depth {})", self.depth) } else { "direct light".into() },
                 self.frame_seconds * 1e3,
+                match self.half_stops {
+                    0 => String::new(),
+                    h => format!(" — exposure {:+} EV", h as f32 / 2.0),
+                },
                 [" — image", " — relative error", " — zero light samples", " — regions learned"][view as usize]
             ));
         }
@@ -426,7 +444,11 @@ impl<'a> App<'a, '_> {
             .ok_or_else(|| anyhow!("preview-0000 … preview-9999 all exist; move them away"))?;
         let out = PathBuf::from(format!("preview-{n:04}.exr"));
         let device = self.ctx.describe();
-        let scene = self.scene;
+        let (scene, exposure) = (self.scene, self.exposure());
+        // The window's size, not the reduced film of a camera in motion (P while a key was
+        // held saved a 50×40 image of a 100×80 window: an audit, 2026-12-07): the camera
+        // counts as resting from here, and a film resized here restarts below.
+        self.last_change = None;
         let session = self.session()?;
         if session.spp() == 0 {
             // P right after a camera move, before the next frame: the film was just reset, and
@@ -441,7 +463,14 @@ impl<'a> App<'a, '_> {
         // session's open-ended budget (4294967295 spp: an audit, 2026-12-06).
         report["camera"] = render::camera_json(&session.camera());
         report["budget"] = serde_json::json!({"spp": result.spp, "preview": true});
-        crate::film::write_outputs(&paths, result.width, result.height, &result.mean(), &report)?;
+        crate::film::write_outputs_exposed(
+            &paths,
+            result.width,
+            result.height,
+            &result.mean(),
+            &report,
+            exposure,
+        )?;
         self.ui.message(&format!(
             "wrote {} (+ .png, .json): {} spp at {}×{}",
             out.display(),
@@ -476,8 +505,12 @@ impl<'a> App<'a, '_> {
                 self.display_mode = (self.display_mode + 1) % 4;
                 self.heat = None;
             }
-            KeyCode::Equal | KeyCode::NumpadAdd => self.exposure *= std::f32::consts::SQRT_2,
-            KeyCode::Minus | KeyCode::NumpadSubtract => self.exposure /= std::f32::consts::SQRT_2,
+            KeyCode::Equal | KeyCode::NumpadAdd => {
+                self.half_stops = (self.half_stops + 1).min(MAX_HALF_STOPS)
+            }
+            KeyCode::Minus | KeyCode::NumpadSubtract => {
+                self.half_stops = (self.half_stops - 1).max(-MAX_HALF_STOPS)
+            }
             KeyCode::KeyG => {
                 self.move_factor = 2;
                 self.depth = if self.depth > 1 {
