@@ -318,7 +318,7 @@ fn bad_farm_requests_are_refused() {
         // It blamed "--chunk 3", a flag of the tasks, not of farm.
         (
             vec!["--spp", "4294967295"],
-            "--chunks 4 × --spp 4294967295: the last chunk would start",
+            "--chunks 4 × --spp 4294967295: the last chunk would end",
         ),
     ] {
         let mut a = vec![

@@ -368,6 +368,49 @@ fn loaded_statistics_refuse_other_cut_settings() {
     }
     let o = run_render(&["--load-stats", "a.stats", "--out", "b.exr"], d);
     assert!(o.status.success(), "{}", stderr(&o));
+    // --brdf-aware is a switch: its fix says to add or remove it ("render with --brdf-aware
+    // on" was told, which the command line refuses: an audit, 2026-12-07).
+    let o = run_render(
+        &[
+            "--brdf-aware",
+            "--save-stats",
+            "brdf.stats",
+            "--out",
+            "c.exr",
+        ],
+        d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run_render(&["--load-stats", "brdf.stats", "--out", "e.exr"], d);
+    refused(&o, &["brdf.stats", "add --brdf-aware or drop --load-stats"]);
+    let o = run_render(
+        &["--brdf-aware", "--load-stats", "a.stats", "--out", "f.exr"],
+        d,
+    );
+    refused(&o, &["a.stats", "remove --brdf-aware or drop --load-stats"]);
+}
+
+/// A farm chunk ends within the first 2^30 passes, so the statistics it saves load: one that
+/// only started there saved a file every render refused ("learned from 1073741825 passes":
+/// an audit, 2026-12-07).
+#[test]
+fn a_chunks_statistics_load() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let chunk = |k: &str, out: &str| {
+        let stats = format!("{out}.stats");
+        let exr = format!("{out}.exr");
+        run_render(&["--chunk", k, "--save-stats", &stats, "--out", &exr], d)
+    };
+    // 2 spp a chunk (TINY): chunk 536870912 starts at pass 2^30, 536870911 ends there.
+    refused(
+        &chunk("536870912", "past"),
+        &["--chunk 536870912", "where a chunk must end"],
+    );
+    let o = chunk("536870911", "last");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run_render(&["--load-stats", "last.stats", "--out", "b.exr"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
 }
 
 #[test]

@@ -290,6 +290,37 @@ fn chunks_from_one_start_count_it_once() {
         refused(&run(&a, d), held);
     }
     assert!(!d.join("x.stats").exists());
+    // The parts' order does not change the merge's bytes, so the same merge made twice in
+    // two orders is one file twice, refused (it counted every observation twice with exit
+    // 0: an audit, 2026-12-07).
+    ok(&run(
+        &[
+            "merge-stats",
+            "c1.stats",
+            "c0.stats",
+            "--out",
+            "reversed.stats",
+        ],
+        d,
+    ));
+    assert!(
+        std::fs::read(d.join("plain.stats")).unwrap()
+            == std::fs::read(d.join("reversed.stats")).unwrap(),
+        "merges of the same parts in two orders differ"
+    );
+    refused(
+        &run(
+            &[
+                "merge-stats",
+                "plain.stats",
+                "reversed.stats",
+                "--out",
+                "x.stats",
+            ],
+            d,
+        ),
+        "hold the same statistics bit for bit",
+    );
     let plain = load("plain.stats");
     let total = |s: &SavedStats| {
         s.stats

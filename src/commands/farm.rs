@@ -232,10 +232,10 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
     // In farm's own flags: the task's "--chunk K" is not one of them (an audit, 2026-12-06).
     if super::render::chunk_offset(Some(req.chunks - 1), Some(req.spp)).is_err() {
         bail!(
-            "--chunks {} × --spp {}: the last chunk would start at pass {}, past the first 2^30 passes of the random streams, where a chunk must start; use fewer chunks or fewer samples a chunk",
+            "--chunks {} × --spp {}: the last chunk would end at pass {}, past the first 2^30 passes of the random streams, where a chunk must end; use fewer chunks or fewer samples a chunk",
             req.chunks,
             req.spp,
-            (req.chunks as u64 - 1) * req.spp as u64
+            req.chunks as u64 * req.spp as u64
         );
     }
     super::check_depth(req.max_depth)?;

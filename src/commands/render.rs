@@ -384,13 +384,19 @@ fn rescue_folder() -> Result<PathBuf> {
     )
 }
 
-/// The passes a farm chunk skips: chunk K of N samples starts K·N passes on.
+/// The passes a farm chunk skips: chunk K of N samples starts K·N passes on. The chunk must
+/// end within the first 2^30 passes, the most a statistics file can be continued from
+/// (check_resume): a chunk that only started there saved a file no render could load (an
+/// audit, 2026-12-07).
 pub fn chunk_offset(chunk: Option<u32>, spp: Option<u32>) -> Result<u32> {
     match (chunk, spp) {
         (None, _) => Ok(0),
         (Some(_), None) => bail!("--chunk needs --spp (each chunk renders a fixed sample range)"),
-        (Some(k), Some(n)) => k.checked_mul(n).filter(|&o| o <= render::MAX_PASSES / 2).ok_or_else(|| {
-            anyhow::anyhow!("--chunk {k} × --spp {n} starts at pass {}, past the first 2^30 passes of the random streams, where a chunk must start; use fewer or smaller chunks", k as u64 * n as u64)
-        }),
+        (Some(k), Some(n)) => k
+            .checked_mul(n)
+            .filter(|&o| o.checked_add(n).is_some_and(|end| end <= render::MAX_PASSES / 2))
+            .ok_or_else(|| {
+                anyhow::anyhow!("--chunk {k} × --spp {n} ends at pass {}, past the first 2^30 passes of the random streams, where a chunk must end; use fewer or smaller chunks", (k as u64 + 1) * n as u64)
+            }),
     }
 }

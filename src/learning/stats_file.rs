@@ -180,9 +180,13 @@ impl SavedStats {
         format!("{:016x}", h.0)
     }
 
-    /// [`Self::checksum`] of a file's bytes as [`Self::to_bytes`] wrote them: its last 8.
-    pub fn checksum_of_bytes(bytes: &[u8]) -> String {
-        let tail: [u8; 8] = bytes[bytes.len() - 8..].try_into().expect("8 bytes");
+    /// [`Self::checksum`] of a file's bytes as [`Self::to_bytes`] wrote them: its last 8
+    /// (crate-only: given fewer bytes it panicked, an audit of the library, 2026-12-07; what
+    /// to_bytes writes always ends with them).
+    pub(crate) fn checksum_of_bytes(bytes: &[u8]) -> String {
+        let tail: [u8; 8] = bytes[bytes.len().saturating_sub(8)..]
+            .try_into()
+            .expect("to_bytes ends with its 8-byte checksum");
         format!("{:016x}", u64::from_le_bytes(tail))
     }
 
@@ -471,6 +475,12 @@ impl SavedStats {
         for (flag, saved, now) in fields {
             if saved != now {
                 let fix = match part {
+                    // --brdf-aware is a plain switch: "render with --brdf-aware on" was told,
+                    // which the command line refuses (an audit, 2026-12-07).
+                    None if flag == "--brdf-aware" => format!(
+                        "{} --brdf-aware or drop --load-stats",
+                        if saved == "on" { "add" } else { "remove" }
+                    ),
                     None => format!("render with {flag} {saved} or drop --load-stats"),
                     Some(_) => "merge only statistics saved with the same settings".to_string(),
                 };

@@ -18,6 +18,14 @@ impl SavedStats {
     /// recomputed when the file is loaded. `samples_done` is the parts' total. Parts of
     /// another scene or other settings are refused naming the field.
     pub fn merge(parts: &[(SavedStats, String)]) -> Result<SavedStats> {
+        // In one order whatever the order given: the first part's slot fields that a sum does
+        // not make (the coefficients, recomputed on load) and the f64 sums' rounding made
+        // `merge a b` and `merge b a` other bytes, so a merge of those two was not refused as
+        // the same statistics twice and counted every observation twice (an audit,
+        // 2026-12-07).
+        let mut parts: Vec<&(SavedStats, String)> = parts.iter().collect();
+        parts.sort_by_cached_key(|(p, _)| p.checksum());
+        let parts = parts.as_slice();
         let Some(((first, first_name), rest)) = parts.split_first() else {
             bail!("nothing to merge: give at least one statistics file");
         };
@@ -235,7 +243,7 @@ impl SavedStats {
 /// apart as they were learned (merging needs the scene's lights to tell a light-free block
 /// from cells that happen to have equal cuts). Groups in the order of their first region,
 /// each in region order.
-fn shared_cut_groups(parts: &[(SavedStats, String)]) -> Vec<Vec<u32>> {
+fn shared_cut_groups(parts: &[&(SavedStats, String)]) -> Vec<Vec<u32>> {
     let n = parts[0].0.index.len();
     let mut parent: Vec<u32> = (0..n as u32).collect();
     fn root(parent: &mut [u32], mut r: u32) -> u32 {
