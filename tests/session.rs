@@ -411,6 +411,37 @@ fn the_library_refuses_what_the_cli_never_passes() {
     let err = lightlearn::film::write_exr(&p, 4, 4, &[[0.0; 3]; 15]).unwrap_err();
     assert!(err.to_string().contains("15 pixels, not 4×4"), "{err}");
     assert!(!p.exists());
+    // A second audit of the library (2026-12-07): another scene's GpuScene panicked in
+    // build_cuts (bayes) or rendered black with Ok (uniform); a camera looking along its up
+    // (look_at straight down) rendered black with Ok; a triangle light past the triangles
+    // panicked in the upload.
+    let rooms = scene("rooms.glb");
+    for sampler in [LightSampler::Bayes, LightSampler::Uniform] {
+        let err = Session::new(&ctx, &rooms, &gpu, &settings(sampler, 1))
+            .err()
+            .expect("another scene's GpuScene");
+        assert!(
+            err.to_string().contains("uploaded from another scene"),
+            "{err}"
+        );
+    }
+    let mut down = s.clone();
+    down.camera = Camera::looking(s.camera.position, -Vec3::Y, Vec3::Y, s.camera.yfov);
+    let err = Session::new(&ctx, &down, &gpu, &settings(LightSampler::Wang, 1))
+        .err()
+        .expect("a camera along its up");
+    assert!(err.to_string().contains("not parallel"), "{err}");
+    let mut broken = s.clone();
+    broken
+        .lights
+        .push(lightlearn::scene::Light::Triangle { triangle: 9999 });
+    let err = GpuScene::upload(&ctx, &broken, &Bvh::build(&broken.triangles))
+        .err()
+        .expect("a light past the triangles");
+    assert!(
+        err.to_string().contains("light 6 is triangle 9999"),
+        "{err}"
+    );
 }
 
 /// The path tracer (one dispatch per bounce, paths queued between them) gives the same

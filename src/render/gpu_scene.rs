@@ -48,6 +48,9 @@ pub struct GpuScene {
     /// The kernel code the materials need (`render.comp` SCENE_FLAGS: [`SCENE_GLOSSY`],
     /// [`SCENE_TEXTURED`]).
     pub kernel_flags: u32,
+    /// The triangles and lights of the scene uploaded: a session checks its scene against
+    /// them.
+    pub uploaded_from: (usize, usize),
 }
 
 /// How far a ray starts off a surface at a point whose largest coordinate magnitude is
@@ -137,6 +140,7 @@ impl GpuScene {
         bvh: &Bvh,
         topology: Option<&lights::tree::LightTree>,
     ) -> Result<GpuScene> {
+        scene.check_indices()?;
         check_fits(ctx, scene)?;
         let weights = lights::power_weights(scene);
         let emission_scale = lights::emission_scale(&weights);
@@ -231,6 +235,7 @@ impl GpuScene {
             light_tree_seconds,
             fingerprint,
             kernel_flags,
+            uploaded_from: (scene.triangles.len(), scene.lights.len()),
         })
     }
 }

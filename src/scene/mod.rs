@@ -112,6 +112,20 @@ pub struct Camera {
 }
 
 impl Camera {
+    /// Whether the kernels can render from this camera: a library user's `look_at` straight
+    /// down along `up` gave a NaN camera that `Session::new` rendered black with `Ok` (an
+    /// audit, 2026-12-07); `Session::set_camera` refused it.
+    pub fn check(&self) -> anyhow::Result<()> {
+        let v = [self.position, self.forward, self.up];
+        if !v.iter().all(|x| x.is_finite())
+            || self.forward.cross(self.up).length_squared() < 1e-12
+            || !(self.yfov > 0.0 && self.yfov < std::f32::consts::PI)
+        {
+            anyhow::bail!("a camera needs a finite position, forward and up directions that are not parallel, and 0 < yfov < π");
+        }
+        Ok(())
+    }
+
     /// A camera that looks at the centre of `[lo, hi]` from the front-above, far enough back
     /// that the bounding sphere fits in a 45° vertical field of view.
     pub fn framing(lo: Vec3, hi: Vec3) -> Camera {
@@ -164,6 +178,50 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// Every index the scene holds points at something it holds: a hand-built or edited
+    /// scene with a triangle light past the triangles panicked in `GpuScene::upload` (an
+    /// audit of the library, 2026-12-07). The glTF loader makes only such scenes.
+    pub fn check_indices(&self) -> anyhow::Result<()> {
+        let n = self.triangles.len();
+        if self.triangle_material.len() != n
+            || !(self.triangle_uv.is_empty() || self.triangle_uv.len() == n)
+        {
+            anyhow::bail!("the scene has {n} triangles but {} triangle materials and {} triangle texture coordinates; give one a triangle (no coordinates: none)", self.triangle_material.len(), self.triangle_uv.len());
+        }
+        if let Some((t, m)) = (self.triangle_material.iter().enumerate())
+            .find(|(_, &m)| m as usize >= self.materials.len())
+        {
+            anyhow::bail!(
+                "triangle {t} has material {m}, but the scene has {} materials",
+                self.materials.len()
+            );
+        }
+        for (i, l) in self.lights.iter().enumerate() {
+            if let Light::Triangle { triangle } = l {
+                if *triangle as usize >= n {
+                    anyhow::bail!(
+                        "light {i} is triangle {triangle}, but the scene has {n} triangles"
+                    );
+                }
+            }
+        }
+        for (i, m) in self.materials.iter().enumerate() {
+            if let Some(t) = m
+                .base_color_texture
+                .filter(|&t| t as usize >= self.textures.len())
+            {
+                anyhow::bail!(
+                    "material {i} has texture {t}, but the scene has {} textures",
+                    self.textures.len()
+                );
+            }
+            if m.base_color_texture.is_some() && self.triangle_uv.is_empty() {
+                anyhow::bail!("material {i} has a texture, but the scene's triangles have no texture coordinates");
+            }
+        }
+        Ok(())
+    }
+
     /// Axis-aligned bounds of all triangles and punctual lights.
     pub fn bounds(&self) -> (Vec3, Vec3) {
         let mut lo = Vec3::splat(f32::INFINITY);

@@ -85,6 +85,18 @@ impl<'a> Session<'a> {
         settings.regions.check()?;
         settings.learn.check()?;
         settings.check_paths()?;
+        scene.camera.check()?;
+        // A GpuScene uploaded from another scene indexed past this one's lights (a panic in
+        // build_cuts) or rendered black with `Ok` (an audit of the library, 2026-12-07).
+        if gpu.uploaded_from != (scene.triangles.len(), scene.lights.len()) {
+            bail!(
+                "the GpuScene was uploaded from another scene ({} triangles, {} lights) than this session's ({} triangles, {} lights); upload the scene the session renders",
+                gpu.uploaded_from.0,
+                gpu.uploaded_from.1,
+                scene.triangles.len(),
+                scene.lights.len()
+            );
+        }
         let film = Film::new(ctx, settings.width, settings.height)?;
         if settings.sampler.uses_cuts() {
             check_region_index_fits(ctx, scene, &settings.regions)?;
@@ -352,13 +364,7 @@ impl<'a> Session<'a> {
 
     /// A new camera: the film is reset, the learning stays.
     pub fn set_camera(&mut self, camera: Camera) -> Result<()> {
-        let v = [camera.position, camera.forward, camera.up];
-        if !v.iter().all(|x| x.is_finite())
-            || camera.forward.cross(camera.up).length_squared() < 1e-12
-            || !(camera.yfov > 0.0 && camera.yfov < std::f32::consts::PI)
-        {
-            bail!("a camera needs a finite position, forward and up directions that are not parallel, and 0 < yfov < π");
-        }
+        camera.check()?;
         // The rows first: if they cannot be bound, nothing has changed.
         self.rebind_live_rows(&camera)?;
         self.camera = camera;
