@@ -454,13 +454,15 @@ fn outputs_are_checked_before_rendering() {
 }
 
 /// A sample count past the 2^31 passes of the random streams was accepted and would only have
-/// failed after 2^31 passes (days): each command refuses it before any work.
+/// failed after 2^31 passes (days): each command refuses it before any work. Since
+/// 2026-12-07 the limit is the 2^20 samples a film's float32 sums add without loss (a
+/// darker image past them, silently).
 #[test]
-fn sample_counts_past_the_random_streams_are_refused_at_once() {
+fn sample_counts_past_the_film_are_refused_at_once() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let t = Instant::now();
-    let too_many = "4294967295";
+    let too_many = "1048577";
     let tiny = ["--width", "8", "--height", "8", "-q"];
     for cmd in [
         vec!["render", "--spp", too_many],
@@ -498,10 +500,51 @@ fn sample_counts_past_the_random_streams_are_refused_at_once() {
         };
         refused(
             &child.wait_with_output().unwrap(),
-            &[&format!("{flag} {too_many}"), "2147483648"],
+            &[&format!("{flag} {too_many}"), "1048576", "lightlearn merge"],
         );
     }
     assert!(files(d).is_empty(), "wrote {:?}", files(d));
+}
+
+/// A time budget ends where the film is full (2^20 samples a pixel), with a note: a 1×1
+/// film of direct light takes them in ~6 s on lavapipe, and went on adding past them for
+/// the whole --time before (an audit, 2026-12-07).
+#[test]
+fn a_time_budget_stops_at_a_full_film() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let t = Instant::now();
+    let cornell = scene("cornell.glb");
+    let o = run(
+        &[
+            "render",
+            cornell.to_str().unwrap(),
+            "--sampler",
+            "uniform",
+            "--max-depth",
+            "1",
+            "--width",
+            "1",
+            "--height",
+            "1",
+            "--time",
+            "90",
+            "--out",
+            "full.exr",
+        ],
+        d,
+        &[],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        t.elapsed() < Duration::from_secs(80),
+        "--time ran out: {:?}",
+        t.elapsed()
+    );
+    assert!(stderr(&o).contains("note: --time ended early, at the 1048576 samples"));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("full.json")).unwrap()).unwrap();
+    assert_eq!(report["spp"], 1048576);
 }
 
 #[test]

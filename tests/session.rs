@@ -390,6 +390,15 @@ fn the_library_refuses_what_the_cli_never_passes() {
     for t in [f64::NAN, -1.0, 0.0, f64::INFINITY] {
         assert!(run(&mut x, Budget::Seconds(t)).is_err(), "{t} s");
     }
+    // A film takes 2^20 samples a pixel at most (its float32 sums lose samples past them).
+    let max = lightlearn::render::MAX_FILM_SPP;
+    let err = run(&mut x, Budget::Samples(max + 1))
+        .err()
+        .expect("past the film");
+    assert!(err.to_string().contains("float sums"), "{err}");
+    let err = x.run_passes(max - 7).unwrap_err();
+    assert!(err.to_string().contains("float sums"), "{err}");
+    assert_eq!(x.spp(), 8);
     for (depth, indirect, first) in [
         (0, 1, 1),
         (u32::MAX, 1, 1),

@@ -157,10 +157,13 @@ pub struct RenderArgs {
     /// of the 7 committed scenes (hall: wang; see docs/results.md)
     #[arg(long, default_value = "bayes", value_parser = sampler_parser())]
     pub sampler: LightSampler,
-    /// Samples per pixel [default: 64 unless --time is given].
+    /// Samples per pixel [default: 64 unless --time is given]; at most 1048576 (2^20, what
+    /// the film's float sums add without loss: more come from renders of other --seed
+    /// combined by `lightlearn merge`).
     #[arg(long, value_name = "N", conflicts_with = "time")]
     pub spp: Option<u32>,
-    /// Render for this many seconds instead of a fixed sample count.
+    /// Render for this many seconds instead of a fixed sample count (ending early if the film
+    /// fills: 2^20 samples a pixel).
     #[arg(long, value_name = "SECONDS")]
     pub time: Option<f64>,
     /// Image width in pixels.

@@ -62,9 +62,9 @@ pub fn check_spp(flag: &str, n: u32) -> Result<()> {
     if n == 0 {
         bail!("{flag} must be at least 1");
     }
-    let max = crate::render::MAX_PASSES;
+    let max = crate::render::MAX_FILM_SPP;
     if n > max {
-        bail!("{flag} {n} is more than the {max} samples per pixel the random streams hold: use at most {max}");
+        bail!("{flag} {n} is more than the {max} samples per pixel a film's float sums add without loss (a darker image past them): use at most {max}, and for more, renders of other --seed combined by `lightlearn merge`");
     }
     Ok(())
 }

@@ -213,7 +213,10 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         )?;
         let finished = match settings.budget {
             Budget::Samples(n) => session.spp() >= n,
-            Budget::Seconds(t) => session.film_seconds() >= t,
+            // Or the film is full (run_session_until runs no more passes then).
+            Budget::Seconds(t) => {
+                session.film_seconds() >= t || session.spp() >= render::MAX_FILM_SPP
+            }
         };
         if result.interrupted || finished {
             break result;
@@ -277,6 +280,15 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
             });
         }
     };
+    if matches!(settings.budget, Budget::Seconds(t) if result.render_seconds < t)
+        && result.spp >= render::MAX_FILM_SPP
+        && !result.interrupted
+    {
+        ui.message(&format!(
+            "note: --time ended early, at the {} samples a pixel a film's float sums add without loss; for more, renders of other --seed combined by `lightlearn merge`",
+            render::MAX_FILM_SPP
+        ));
+    }
     if result.invalid_samples > 0 {
         ui.message(&format!(
             "warning: {} samples were NaN/Inf and were dropped; please report this scene",

@@ -366,10 +366,18 @@ impl<'a> App<'a, '_> {
         // Cuts for newly reached regions are built once the camera rests (building them
         // every frame while moving took half of each frame on lavapipe).
         session.pause_growth(moving);
-        let seconds = session.run_passes(k)?;
-        self.per_pass = Some(seconds / k as f64);
-        if moving && seconds / k as f64 > 1.0 / 20.0 && self.move_factor < 8 {
-            self.move_factor *= 2;
+        // A full film ([`render::MAX_FILM_SPP`]: a small window after ~20 minutes) stays as it
+        // is; more passes would have darkened it.
+        let k = k.min(render::MAX_FILM_SPP - session.spp().min(render::MAX_FILM_SPP));
+        if k == 0 {
+            // Nothing to add: a frame's rest instead of presenting the same image flat out.
+            std::thread::sleep(std::time::Duration::from_secs_f64(RESTING_FRAME_SECONDS));
+        } else {
+            let seconds = session.run_passes(k)?;
+            self.per_pass = Some(seconds / k as f64);
+            if moving && seconds / k as f64 > 1.0 / 20.0 && self.move_factor < 8 {
+                self.move_factor *= 2;
+            }
         }
         let (exposure, view) = (self.exposure(), self.display_mode);
         let session = &self.sessions[&(self.sampler, self.depth)];
@@ -416,11 +424,12 @@ impl<'a> App<'a, '_> {
             self.title_at = Instant::now();
             let msps = fw as f64 * fh as f64 / self.per_pass.unwrap_or(1.0).max(1e-9) / 1e6;
             self.window.set_title(&format!(
-                "lightlearn — {} — {} {} — {spp} spp at {fw}×{fh}, {msps:.2} Msamples/s, {:.0} ms/frame, {regions} regions learned{}{}",
+                "lightlearn — {} — {} {} — {spp} spp at {fw}×{fh}, {msps:.2} Msamples/s, {:.0} ms/frame, {regions} regions learned{}{}{}",
                 self.name,
                 self.sampler.name(),
                 if self.depth > 1 { format!("paths (depth {})", self.depth) } else { "direct light".into() },
                 self.frame_seconds * 1e3,
+                if spp >= render::MAX_FILM_SPP { " — the film is full" } else { "" },
                 match self.half_stops {
                     0 => String::new(),
                     h => format!(" — exposure {:+} EV", h as f32 / 2.0),

@@ -33,7 +33,7 @@ pub use gpu_scene::{
 pub use learned_state::{touched_list, HostReduction};
 pub use passes::{FOLD_BINDINGS, RENDER_BINDINGS};
 pub use result::{Learned, RegionStats, RenderResult};
-pub use session::{max_film_pixels, Session, MAX_PASSES, POOL_AGE_MAX};
+pub use session::{max_film_pixels, Session, MAX_FILM_SPP, MAX_PASSES, POOL_AGE_MAX};
 
 /// The light samplers, a closed set: one value per `SAMPLER` case in `shaders/render.comp`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
@@ -423,6 +423,11 @@ pub fn run_session_until(
             anyhow::bail!("a time budget of {s} seconds: give a finite number of seconds above 0");
         }
     }
+    if let Budget::Samples(n) = budget {
+        if n > MAX_FILM_SPP {
+            anyhow::bail!("a budget of {n} samples a pixel is more than the {MAX_FILM_SPP} a film's float sums add without loss; render parts of other seeds and merge them (`lightlearn merge`)");
+        }
+    }
     let _active = crate::interrupt::Active::begin();
     // Checkpoints still ahead, as (seconds, spp) limits; one of the two is infinite.
     let mut pending: std::collections::VecDeque<(f64, u32)> = match checkpoints {
@@ -438,7 +443,8 @@ pub fn run_session_until(
             // A film that already holds the budget (a second call with a smaller one) runs
             // no pass; `n - done` wrapped and ran one more batch.
             Budget::Samples(n) => batch.min(n.saturating_sub(done)),
-            Budget::Seconds(_) => batch,
+            // A time budget ends where the film is full ([`MAX_FILM_SPP`]).
+            Budget::Seconds(_) => batch.min(MAX_FILM_SPP.saturating_sub(done)),
         };
         if let Some(&(_, n)) = pending.front() {
             if n > done {

@@ -20,6 +20,15 @@ pub(super) struct Film {
     pub(super) seconds: f64,
 }
 
+/// The most samples a pixel of a film takes. Its sums are float32, added to sample by
+/// sample (direct light: a dispatch's passes at a time), and a sample below half an ulp of
+/// the sum is lost: sums of 2^k samples, float32 against float64 (numpy, sequential adds),
+/// lost 9e-5 (exponential samples) to 1e-3 (lognormal σ 2) of the total at 2^20, 1.5e-3 to
+/// 8e-3 at 2^22 and 2 to 4 % at 2^24 (docs/results.md, thirtieth session), a darker image
+/// with exit 0. So 2^20 at most (Blender Cycles stops at 2^24); more samples come from
+/// renders of other seeds added by `lightlearn merge`, which sums in float64.
+pub const MAX_FILM_SPP: u32 = 1 << 20;
+
 /// The most pixels a film may have on this device: its accumulators are one storage buffer
 /// of 32 bytes a pixel, read as two texels a pixel.
 pub fn max_film_pixels(ctx: &Context) -> u64 {

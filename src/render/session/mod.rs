@@ -38,8 +38,8 @@ use crate::learning::stats_file::{SavedStats, StatsHeader};
 use crate::learning::LearningClock;
 use crate::scene::{Camera, Scene};
 
-pub use film::max_film_pixels;
 use film::Film;
+pub use film::{max_film_pixels, MAX_FILM_SPP};
 use growth::next_growth_point;
 pub use growth::{growth_point, POOL_AGE_MAX};
 
@@ -243,6 +243,12 @@ impl<'a> Session<'a> {
     /// batched, and a `--load-stats` continuation of a render saved at a growth point grows
     /// where the uninterrupted render grew.
     pub fn run_passes(&mut self, k: u32) -> Result<f64> {
+        if self.film.spp.saturating_add(k) > MAX_FILM_SPP {
+            bail!(
+                "the film holds {} samples a pixel and {k} more would pass the {MAX_FILM_SPP} its float sums add without loss; reset it, or render more in another session of another seed and merge the images (`lightlearn merge`)",
+                self.film.spp
+            );
+        }
         if self
             .learned
             .passes
