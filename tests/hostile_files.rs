@@ -595,7 +595,8 @@ fn buffer_layouts_matrices_and_camera_planes_are_named() {
 /// What lightlearn renders without is said (an audit, 2026-12-06; each rendered with exit 0
 /// and silence with the build before: tried): an extension it does not read, a material that
 /// is not opaque, vertex colours (2026-12-07), a skinned node, morph targets with weights, a
-/// glossy layer smoother than the BRDF renders (2026-12-07). Required extensions it does not read are refused.
+/// glossy layer smoother than the BRDF renders, a camera's aspectRatio other than the film's
+/// (2026-12-07). Required extensions it does not read are refused.
 #[test]
 fn features_rendered_without_are_warned_about() {
     let dir = tempfile::tempdir().unwrap();
@@ -661,6 +662,17 @@ fn features_rendered_without_are_warned_about() {
             "no perfect mirrors",
         ],
     );
+    // A camera of another shape than the film: the vertical field of view is kept, so the
+    // picture loses or gains width (a 16:9 camera on the default 4:3 film lost a quarter
+    // of it without a word: an audit, 2026-12-07).
+    warned(
+        "wide.gltf",
+        &|g| g["cameras"][0]["perspective"]["aspectRatio"] = 1.5.into(),
+        &[
+            "aspectRatio is 1.5000 but the film is 8×8",
+            "--width 12 --height 8",
+        ],
+    );
     // Roughness means nothing to an exactly Lambertian material (the box's: metallic 0,
     // specularFactor 0): no word.
     let o = render_edited(&doc, d, "matte.gltf", &|g| {
@@ -668,6 +680,15 @@ fn features_rendered_without_are_warned_about() {
     });
     assert!(
         o.status.success() && !stderr(&o).contains("roughnessFactor"),
+        "{}",
+        stderr(&o)
+    );
+    // The film's own shape: no word.
+    let o = render_edited(&doc, d, "square.gltf", &|g| {
+        g["cameras"][0]["perspective"]["aspectRatio"] = 1.0.into()
+    });
+    assert!(
+        o.status.success() && !stderr(&o).contains("aspectRatio"),
         "{}",
         stderr(&o)
     );

@@ -55,8 +55,12 @@ impl ProfileArgs {
         if !(1..=4096).contains(&self.spp) || !(1..=100).contains(&self.repeats) {
             anyhow::bail!("--spp takes 1..=4096 and --repeats 1..=100");
         }
-        let (scene, ctx, gpu, _) =
-            commands::prepare(self.scene.as_deref(), &self.device.options(), ui)?;
+        let (scene, ctx, gpu, _) = commands::prepare(
+            self.scene.as_deref(),
+            (self.width, self.height),
+            &self.device.options(),
+            ui,
+        )?;
         let settings = RenderSettings {
             width: self.width,
             height: self.height,

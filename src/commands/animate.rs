@@ -265,6 +265,9 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
     let scene0 = anim
         .scene_at(t0, &mut warn_once(ui))
         .with_context(|| format!("frame 0 (t = {t0} s)"))?;
+    if let Some(w) = scene0.aspect_warning(req.width, req.height) {
+        ui.message(&format!("warning: {w}"));
+    }
     // Before the tree is built (twice: this and the frame's own), as an upload would.
     crate::render::check_fits(&ctx, &scene0)?;
     let topology = LightTree::build(&scene0);

@@ -150,7 +150,7 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
         None => None,
     };
 
-    let (scene, ctx, gpu, _) = prepare(a.scene.as_deref(), &a.device, ui)?;
+    let (scene, ctx, gpu, _) = prepare(a.scene.as_deref(), (a.width, a.height), &a.device, ui)?;
     // From here on a stop is honoured at a render's next batch (the comparison then writes
     // nothing and its folder goes) or after the writes, never in the middle of them: one
     // during the writes ended the program there, every render lost and temporaries left,

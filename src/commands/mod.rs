@@ -137,10 +137,14 @@ pub fn load_scene(path: Option<&Path>, ui: &mut dyn Ui) -> Result<Scene> {
 /// does. Also returns the BVH build's seconds.
 pub fn prepare(
     scene: Option<&Path>,
+    film: (u32, u32),
     device: &ContextOptions,
     ui: &mut dyn Ui,
 ) -> Result<(Scene, Arc<Context>, GpuScene, f64)> {
     let scene = load_scene(scene, ui)?;
+    if let Some(w) = scene.aspect_warning(film.0, film.1) {
+        ui.message(&format!("warning: {w}"));
+    }
     let ctx = Context::new(device)?;
     let t0 = std::time::Instant::now();
     let bvh = Bvh::build(&scene.triangles);

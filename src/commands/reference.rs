@@ -30,7 +30,7 @@ pub fn run(a: &ReferenceRequest, ui: &mut dyn Ui) -> Result<serde_json::Value> {
     let paths = OutputPaths::new(&a.out)?;
     crate::io::check_outputs_spare_scene(&paths.all(), a.scene.as_deref(), &[])?;
     paths.check_not_foreign()?;
-    let (scene, ctx, gpu, _) = prepare(a.scene.as_deref(), &a.device, ui)?;
+    let (scene, ctx, gpu, _) = prepare(a.scene.as_deref(), (a.width, a.height), &a.device, ui)?;
     // From the render to the cache's copy: a stop asked for while the finished reference
     // was being written ended the program there, the reference lost and its temporaries
     // left (an audit, 2026-12-06); now the writes finish first.

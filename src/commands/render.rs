@@ -143,7 +143,12 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
     };
     // The file the saved statistics continue (merge-stats reads it).
     let holds: Vec<String> = loaded.iter().map(SavedStats::checksum).collect();
-    let (scene, ctx, gpu, build_seconds) = prepare(req.scene.as_deref(), &req.device, ui)?;
+    let (scene, ctx, gpu, build_seconds) = prepare(
+        req.scene.as_deref(),
+        (req.width, req.height),
+        &req.device,
+        ui,
+    )?;
     ui.message(&format!(
         "{}: {} triangles, {} lights; device {}",
         scene.source,

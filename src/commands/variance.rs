@@ -146,7 +146,7 @@ fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> 
             }
         }
     }
-    let (scene, ctx, gpu, _) = prepare(a.scene.as_deref(), &a.device, ui)?;
+    let (scene, ctx, gpu, _) = prepare(a.scene.as_deref(), (a.width, a.height), &a.device, ui)?;
     check_scene(&scene)?;
     ui.message(&format!(
         "{}: {} lights; decomposing {}×{} pixels of {}×{} with {} hits each, {} shadow rays per triangle light",

@@ -56,6 +56,7 @@ pub fn read_camera(
         camera: cam.index(),
         near: f64::from(p.znear()) * scale,
         far: p.zfar().map(|f| f64::from(f) * scale),
+        aspect: p.aspect_ratio(),
     };
     Ok(Some((
         (position, forward.normalize(), up.normalize(), yfov),
@@ -70,6 +71,8 @@ pub struct Clip {
     pub camera: usize,
     pub near: f64,
     pub far: Option<f64>,
+    /// `aspectRatio`, where given.
+    pub aspect: Option<f32>,
 }
 
 /// The widest film the view cone below allows for: 2:1. A vertex outside the cone of a

@@ -280,6 +280,7 @@ impl Document {
             triangle_uv: Vec::new(),
             source: name.to_string(),
             grid_box: None,
+            camera_aspect: None,
         };
         let mut table = MaterialTable::new(Images {
             buffers,
@@ -341,6 +342,7 @@ impl Document {
             "'{name}': {lights_with_range} lights set `range`; lightlearn ignores it (inverse-square falloff only)"
         ));
         }
+        scene.camera_aspect = clip.and_then(|c| c.aspect);
         if let (Some(c), Some((position, forward, _, yfov))) = (&clip, &camera) {
             if let Some(w) = c.unapplied(name, *position, *forward, *yfov, &triangles) {
                 warn(w);

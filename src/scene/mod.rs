@@ -175,9 +175,31 @@ pub struct Scene {
     /// frames share one grid (the union over the animation), so that what a frame learned
     /// about a place is where the next frame looks for it.
     pub grid_box: Option<(Vec3, Vec3)>,
+    /// The glTF camera's `aspectRatio`, where the file gives one: a film of another shape
+    /// keeps the vertical field of view and shows another picture ([`Scene::aspect_warning`]).
+    pub camera_aspect: Option<f32>,
 }
 
 impl Scene {
+    /// A warning where the film's width ÷ height is not the camera's `aspectRatio` (by more
+    /// than 1 %): the vertical field of view is kept, so a 16:9 camera on the default 4:3
+    /// film lost a quarter of its width without a word (an audit, 2026-12-07). glTF asks a
+    /// renderer to use the viewport's ratio where the file gives none, and says nothing of
+    /// a viewport of another one; Blender sizes its render by the resolution too.
+    pub fn aspect_warning(&self, width: u32, height: u32) -> Option<String> {
+        let a = self.camera_aspect.filter(|a| a.is_finite() && *a > 0.0)?;
+        let film = width as f32 / height as f32;
+        if (film / a - 1.0).abs() <= 0.01 {
+            return None;
+        }
+        let (wide, fix_w) = (film > a, (height as f32 * a).round().max(1.0));
+        Some(format!(
+            "'{}': its camera's aspectRatio is {a:.4} but the film is {width}×{height} ({film:.4}); the vertical field of view is kept, so the image shows {} than the file's camera; for its view give --width {fix_w} --height {height}",
+            self.source,
+            if wide { "more at the sides" } else { "less at the sides" }
+        ))
+    }
+
     /// Every index the scene holds points at something it holds: a hand-built or edited
     /// scene with a triangle light past the triangles panicked in `GpuScene::upload` (an
     /// audit of the library, 2026-12-07). The glTF loader makes only such scenes.
