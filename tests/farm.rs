@@ -317,8 +317,13 @@ fn bad_farm_requests_are_refused() {
         ),
         // It blamed "--chunk 3", a flag of the tasks, not of farm.
         (
-            vec!["--spp", "4294967295"],
-            "--chunks 4 × --spp 4294967295: the last chunk would end",
+            vec!["--chunks", "2000", "--spp", "1048576"],
+            "--chunks 2000 × --spp 1048576: the last chunk would end",
+        ),
+        // Past a film's 2^20 samples every task failed (a review, 2026-12-07).
+        (
+            vec!["--spp", "1048577"],
+            "--spp 1048577 is more than the 1048576",
         ),
     ] {
         let mut a = vec![

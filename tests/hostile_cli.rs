@@ -411,6 +411,27 @@ fn a_chunks_statistics_load() {
     assert!(o.status.success(), "{}", stderr(&o));
     let o = run_render(&["--load-stats", "last.stats", "--out", "b.exr"], d);
     assert!(o.status.success(), "{}", stderr(&o));
+    // The same chunk after loaded statistics (2 passes) ends past 2^30 (a review,
+    // 2026-12-07: it saved a file no render could load).
+    let o = run_render(&["--save-stats", "start.stats", "--out", "s.exr"], d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run_render(
+        &[
+            "--load-stats",
+            "start.stats",
+            "--chunk",
+            "536870911",
+            "--save-stats",
+            "after.stats",
+            "--out",
+            "after.exr",
+        ],
+        d,
+    );
+    refused(
+        &o,
+        &["after the 2 passes of --load-stats", "could not be loaded"],
+    );
 }
 
 #[test]

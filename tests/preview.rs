@@ -359,8 +359,8 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
             == lightlearn::film::read_exr(&rendered).unwrap().2,
         "P at {spp} spp differs from `render --spp {spp}`"
     );
-    // Exposure: 400 presses of - and 40 of + come back to where they started, in the title
-    // and on screen (a float factor reached 0 after ~320 presses, and no key brought the
+    // Exposure: 400 presses of - stop at -20 EV, and 42 of + from there reach +1 EV, in the
+    // title and on screen (a float factor reached 0 after ~320 presses, and no key brought the
     // image back: an audit, 2026-12-07); P then saves the PNG as shown at +1 EV.
     x.run(
         "xdotool",

@@ -229,6 +229,8 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
     if req.spp == 0 {
         bail!("--spp (samples per chunk) must be at least 1");
     }
+    // Each task renders --spp: past a film's 2^20 every task failed (a review, 2026-12-07).
+    super::check_spp("--spp", req.spp)?;
     // In farm's own flags: the task's "--chunk K" is not one of them (an audit, 2026-12-06).
     if super::render::chunk_offset(Some(req.chunks - 1), Some(req.spp)).is_err() {
         bail!(
@@ -304,7 +306,8 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
         {"name": "Lightlearn", "type": "STRING", "minLength": 1,
          "default": path(&req.lightlearn)?,
          "description": "The lightlearn executable on the workers (a path, or `lightlearn` when it is on their PATH)."},
-        {"name": "ChunkSpp", "type": "INT", "minValue": 1, "default": req.spp,
+        {"name": "ChunkSpp", "type": "INT", "minValue": 1,
+         "maxValue": crate::render::MAX_FILM_SPP, "default": req.spp,
          "description": "Samples per pixel of each chunk; an image gets chunks × this."},
         {"name": "Width", "type": "INT", "minValue": 1, "maxValue": super::MAX_SIZE, "default": req.width},
         {"name": "Height", "type": "INT", "minValue": 1, "maxValue": super::MAX_SIZE, "default": req.height},

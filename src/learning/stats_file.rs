@@ -181,10 +181,10 @@ impl SavedStats {
     }
 
     /// [`Self::checksum`] of a file's bytes as [`Self::to_bytes`] wrote them: its last 8
-    /// (crate-only: given fewer bytes it panicked, an audit of the library, 2026-12-07; what
+    /// (crate-only: a library caller's shorter slice panicked, an audit, 2026-12-07; what
     /// to_bytes writes always ends with them).
     pub(crate) fn checksum_of_bytes(bytes: &[u8]) -> String {
-        let tail: [u8; 8] = bytes[bytes.len().saturating_sub(8)..]
+        let tail: [u8; 8] = bytes[bytes.len() - 8..]
             .try_into()
             .expect("to_bytes ends with its 8-byte checksum");
         format!("{:016x}", u64::from_le_bytes(tail))

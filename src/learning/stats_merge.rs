@@ -167,6 +167,9 @@ impl SavedStats {
             }
         }
         let mut merged = SavedStats::merge(parts)?;
+        // In merge's order (by checksum), so that the order given changes no byte.
+        let mut sorted: Vec<&(SavedStats, String)> = parts.iter().collect();
+        sorted.sort_by_cached_key(|(p, _)| p.checksum());
         let cut_len = |s: &SavedStats, o: u32| 1 + s.cuts[o as usize] as usize;
         // Regions with a cut in the base (the fallback cut, offset 0, is the first part's in
         // `merge`, as for any merge).
@@ -197,7 +200,7 @@ impl SavedStats {
             for k in 1..cut_len(base, bo as u32) {
                 // Every part started from the tempered base: take out all but one copy.
                 let mut start_total = SlotStats::default();
-                for (p, _) in parts {
+                for (p, _) in &sorted {
                     let g = p.header.start_forget.unwrap_or(1.0);
                     let b = &base.stats[bo + k];
                     start_total.n_zero += g * b.n_zero;
@@ -205,7 +208,7 @@ impl SavedStats {
                     start_total.sum += g * b.sum;
                     start_total.sum_sq += g * b.sum_sq;
                 }
-                let g0 = parts[0].0.header.start_forget.unwrap_or(1.0);
+                let g0 = sorted[0].0.header.start_forget.unwrap_or(1.0);
                 let b = base.stats[bo + k];
                 let m = &mut merged.stats[mo + k];
                 let sub = |total: f32, all: f32, once: f32| (total - all + once).max(0.0);
