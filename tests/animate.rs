@@ -213,6 +213,95 @@ fn a_still_of_an_animated_file_says_so() {
     assert!(!err.contains("animated"), "{err}");
 }
 
+/// One run of a range of frames writes into a folder at a time: two at once interleaved
+/// their frames, the summary describing files that were not on disk, exit 0 both (an audit,
+/// 2026-12-07). The second is refused while the first runs, and so is a single frame.
+#[test]
+fn a_second_run_into_a_busy_folder_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("moving.glb");
+    std::fs::write(&scene, moving_light().to_glb()).unwrap();
+    let out = dir.path().join("frames");
+    let args = |frames: &str| {
+        let mut a: Vec<String> = ["animate", scene.to_str().unwrap(), "--out"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        a.push(out.display().to_string());
+        for x in [
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--spp",
+            "16",
+            "--no-video",
+            "-q",
+            "--frames",
+        ] {
+            a.push(x.to_string());
+        }
+        a.push(frames.to_string());
+        a
+    };
+    let mut first = Command::new(common::exe())
+        .args(args("0..47"))
+        .spawn()
+        .unwrap();
+    let t = std::time::Instant::now();
+    while !out.join("frame-0000.json").exists() {
+        assert!(t.elapsed().as_secs() < 60, "no first frame within 60 s");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let busy = |frames: &str| {
+        let a = args(frames);
+        let o = run(&a.iter().map(String::as_str).collect::<Vec<_>>());
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    for frames in ["0..47", "5..5"] {
+        let (code, err) = busy(frames);
+        if first.try_wait().unwrap().is_some() {
+            eprintln!("skipped: the first run ended before the second started");
+            return;
+        }
+        assert_eq!(code, Some(1), "{frames}: {err}");
+        assert!(
+            err.contains("another `lightlearn animate` is writing frames to"),
+            "{err}"
+        );
+    }
+    first.kill().unwrap();
+    first.wait().unwrap();
+    // Free again: single frames run, four at once, and the summary lists every one (its
+    // read and write were not locked: 3 runs in 6 lost a record, an audit, 2026-12-07).
+    for round in 0..4 {
+        let _ = std::fs::remove_file(out.join("animation.json"));
+        ok(&run(&args("0..1").iter().map(String::as_str).collect::<Vec<_>>()));
+        let mut runs: Vec<_> = (2..8)
+            .map(|k| {
+                Command::new(common::exe())
+                    .args(args(&format!("{k}..{k}")))
+                    .stderr(std::process::Stdio::piped())
+                    .spawn()
+                    .unwrap()
+            })
+            .collect();
+        for r in runs.drain(..) {
+            let o = r.wait_with_output().unwrap();
+            ok(&o);
+        }
+        let summary: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("animation.json")).unwrap()).unwrap();
+        let listed: Vec<u64> = (summary["frames"].as_array().unwrap().iter())
+            .map(|f| f["frame"].as_u64().unwrap())
+            .collect();
+        assert_eq!(listed, [0, 1, 2, 3, 4, 5, 6, 7], "round {round}");
+    }
+}
+
 #[test]
 fn malformed_animations_are_named() {
     let dir = tempfile::tempdir().unwrap();

@@ -106,6 +106,9 @@ pub struct AnimateOutcome {
 }
 
 /// Frame `k`'s file stem in the output folder.
+/// The lock file of a run in its output folder (see run()).
+pub const RUN_LOCK: &str = ".lightlearn-animate.lock";
+
 pub fn frame_stem(out: &Path, k: u32) -> PathBuf {
     out.join(format!("frame-{k:04}"))
 }
@@ -233,6 +236,17 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         );
     }
     crate::io::create_output_folder(&req.out, "output folder")?;
+    // One run of a range of frames a folder at a time: two into one folder interleaved
+    // their frames (each frame whole, the sequence and its summary mixed, the statistics'
+    // chain broken, exit 0: an audit, 2026-12-07). Runs of one frame each (`--frame K`, as
+    // a farm renders them) may share the folder with each other.
+    let single = first == last;
+    let _run = crate::io::lock_file(&req.out.join(RUN_LOCK), single, false)?.ok_or_else(|| {
+        anyhow::anyhow!(
+            "another `lightlearn animate` is writing frames to '{}'; wait for it to end or give another --out",
+            req.out.display()
+        )
+    })?;
     // Every file of the run, checked before the first frame's time is spent.
     for k in first..=last {
         let stem = frame_stem(&req.out, k);

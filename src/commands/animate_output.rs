@@ -29,6 +29,9 @@ pub(super) fn write_summary(
         .map(serde_json::to_value)
         .collect::<std::result::Result<_, _>>()?;
     let path = req.out.join("animation.json");
+    // Read, merged and written by one run at a time: runs of single frames into one folder
+    // lost each other's records (an audit, 2026-12-07).
+    let _summary = crate::io::lock_file(&req.out.join(SUMMARY_LOCK), false, true)?;
     let same = |old: &Value| old["sequence"] == json!(key);
     let old: Option<Value> = crate::io::read_all(&path)
         .ok()
@@ -92,6 +95,9 @@ pub(super) fn sequence_key(req: &AnimateRequest) -> String {
 }
 
 /// The run of consecutive frames in the sorted `listed` that holds `k`: (first, count).
+/// The lock file around the summary's read and write.
+const SUMMARY_LOCK: &str = ".lightlearn-summary.lock";
+
 fn contiguous_span(listed: &[u32], k: u32) -> (u32, u32) {
     let (mut a, mut b) = (k, k);
     while a > 0 && listed.contains(&(a - 1)) {

@@ -292,6 +292,34 @@ pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
     }
 }
 
+/// A lock (flock) on the file `path` (created, never removed: removing a lock file while
+/// another run waits on it would let a third take a new one), held until dropped. `shared`
+/// runs may hold it together, an exclusive one alone; `wait`: block until it is free, else
+/// None where another run holds it. A file system without locks gives a lock that holds
+/// nothing (as [`FolderLocks`] commits without).
+pub fn lock_file(path: &Path, shared: bool, wait: bool) -> Result<Option<std::fs::File>> {
+    use std::os::fd::AsRawFd;
+    let f = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(path)
+        .with_context(|| format!("cannot open the lock file '{}'", path.display()))?;
+    let mode = if shared { libc::LOCK_SH } else { libc::LOCK_EX };
+    let mode = if wait { mode } else { mode | libc::LOCK_NB };
+    // SAFETY: flock on a descriptor `f` owns; closing it unlocks.
+    loop {
+        if unsafe { libc::flock(f.as_raw_fd(), mode) } == 0 {
+            return Ok(Some(f));
+        }
+        match std::io::Error::last_os_error().raw_os_error() {
+            Some(libc::EINTR) => continue,
+            Some(libc::EWOULDBLOCK) => return Ok(None),
+            _ => return Ok(Some(f)),
+        }
+    }
+}
+
 /// An exclusive lock (flock) on each target's folder while a set is committed, released
 /// when dropped: two runs writing the same outputs at once committed file by file, both
 /// with exit 0, and the set could end mixed (one run's EXR beside the other's PNG and JSON,
