@@ -279,7 +279,10 @@ fn a_second_run_into_a_busy_folder_is_refused() {
     // read and write were not locked: 3 runs in 6 lost a record, an audit, 2026-12-07).
     for round in 0..4 {
         let _ = std::fs::remove_file(out.join("animation.json"));
-        ok(&run(&args("0..1").iter().map(String::as_str).collect::<Vec<_>>()));
+        ok(&run(&args("0..1")
+            .iter()
+            .map(String::as_str)
+            .collect::<Vec<_>>()));
         let mut runs: Vec<_> = (2..8)
             .map(|k| {
                 Command::new(common::exe())

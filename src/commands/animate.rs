@@ -171,7 +171,18 @@ pub fn check(req: &AnimateRequest) -> Result<()> {
 pub fn run(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
     // A refused or failed run leaves no empty output folder behind (the frames written
     // before a failure stay, with the folder).
-    crate::io::removing_created_folders_on_error(Some(&req.out), || run_checked(req, ui))
+    let existed = req.out.exists();
+    crate::io::removing_created_folders_on_error(Some(&req.out), || {
+        let result = run_checked(req, ui);
+        // A folder this run made and failed in goes, lock files and all (they are released
+        // when run_checked returns).
+        if result.is_err() && !existed {
+            for lock in [RUN_LOCK, super::animate_output::SUMMARY_LOCK] {
+                let _ = std::fs::remove_file(req.out.join(lock));
+            }
+        }
+        result
+    })
 }
 
 fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {

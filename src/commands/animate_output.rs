@@ -96,7 +96,7 @@ pub(super) fn sequence_key(req: &AnimateRequest) -> String {
 
 /// The run of consecutive frames in the sorted `listed` that holds `k`: (first, count).
 /// The lock file around the summary's read and write.
-const SUMMARY_LOCK: &str = ".lightlearn-summary.lock";
+pub const SUMMARY_LOCK: &str = ".lightlearn-summary.lock";
 
 fn contiguous_span(listed: &[u32], k: u32) -> (u32, u32) {
     let (mut a, mut b) = (k, k);

@@ -82,6 +82,8 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
             );
         }
     }
+    // Each part's report and image read as one set, never across a render's commit.
+    let reading = crate::io::read_locks(parts.iter().map(PathBuf::as_path));
     let mut reports = Vec::new();
     for p in parts {
         // A missing image was reported as a missing report.
@@ -233,6 +235,11 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
     }
     report["learning_settings"] = first["learning"]["settings"].clone();
     report["regions"] = region_settings(first);
+    // Before the write's own (exclusive) lock of what may be the same folder.
+    drop(reading);
+    // A stop asked for during the writes waits for them (main.rs): a Ctrl-C there left a
+    // temporary behind with exit 130 and no word (an audit, 2026-12-07).
+    let _writing = crate::interrupt::Active::begin();
     film::write_outputs(&paths, w, h, &image, &report)?;
     Ok(MergeOutcome {
         exr: paths.exr,
@@ -346,6 +353,8 @@ pub fn stats(
         Some(b) => SavedStats::merge_onto(b, &loaded)?,
         None => SavedStats::merge(&loaded)?,
     };
+    // As images() above: a stop waits for the write (a 14.7 MB temporary was left).
+    let _writing = crate::interrupt::Active::begin();
     merged.save(out)?;
     Ok(merged)
 }

@@ -238,7 +238,7 @@ fn sync_folder(p: &Path) {
 /// and the new ones that had no predecessor are removed. So a failure leaves the old set,
 /// never a mix. The temporaries are removed on failure.
 pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
-    let _locks = FolderLocks::take(files.iter().map(|(t, _)| t.as_path()));
+    let _locks = FolderLocks::take(files.iter().map(|(t, _)| t.as_path()), false);
     let backup = |p: &Path| temp_path(p).with_extension("old");
     let mut kept: Vec<&Path> = Vec::new(); // targets with a second name of their old file
     let mut moved: Vec<&Path> = Vec::new(); // targets that hold the new file
@@ -257,6 +257,13 @@ pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
             std::fs::rename(tmp, target)
                 .with_context(|| format!("cannot move the result into '{}'", target.display()))?;
             moved.push(target);
+        }
+        // The second names go before the folders' flush, not after: a process killed during
+        // the flush (milliseconds) left them behind, a full copy of the old outputs each,
+        // which nothing removed (2 of 25 kills of a checkpointing render: an audit,
+        // 2026-12-07). They are needed only to undo a failed move.
+        for t in &kept {
+            let _ = std::fs::remove_file(backup(t));
         }
         _locks.sync();
         Ok(())
@@ -329,12 +336,20 @@ pub fn lock_file(path: &Path, shared: bool, wait: bool) -> Result<Option<std::fs
 /// for the first forever), and taken in that order by every run. A folder still locked
 /// after a minute (a writer stopped mid-commit), or that cannot be locked (a file system
 /// without locks), is committed without.
-struct FolderLocks {
+pub struct FolderLocks {
     held: Vec<std::fs::File>,
 }
 
+/// Shared locks on the folders of `files` while they are read as sets (an image and its
+/// report): a commit waits for the readers and they for it, so a reader never takes one
+/// run's report and the next run's image. `merge` read a part a render was checkpointing
+/// and refused it as split by a kill in 3 of 60 tries (an audit, 2026-12-07).
+pub fn read_locks<'a>(files: impl Iterator<Item = &'a Path>) -> FolderLocks {
+    FolderLocks::take(files, true)
+}
+
 impl FolderLocks {
-    fn take<'a>(targets: impl Iterator<Item = &'a Path>) -> FolderLocks {
+    fn take<'a>(targets: impl Iterator<Item = &'a Path>, shared: bool) -> FolderLocks {
         use std::os::fd::AsRawFd;
         use std::os::unix::fs::MetadataExt;
         let mut dirs: Vec<((u64, u64), std::fs::File)> = targets
@@ -351,7 +366,8 @@ impl FolderLocks {
             let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
             loop {
                 // SAFETY: flock on a descriptor `f` owns; closing it unlocks.
-                if unsafe { libc::flock(f.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) } == 0 {
+                let mode = if shared { libc::LOCK_SH } else { libc::LOCK_EX };
+                if unsafe { libc::flock(f.as_raw_fd(), mode | libc::LOCK_NB) } == 0 {
                     held.push(f);
                     break;
                 }
