@@ -169,6 +169,47 @@ fn equal_time_below_one_pass_is_flagged() {
     assert!(html.contains(r#"<p class="warning">Warning: equal time"#));
 }
 
+/// A run that fills its film (2^20 samples a pixel) before `--time` stops there: the
+/// comparison says the times are not equal, and convergence.csv ends at the run's last
+/// samples (a 1×1 `--time 15` reported "speed-up 1.00" with no word and its curve lost the
+/// last two points: a review, 2026-12-07).
+#[test]
+fn equal_time_past_a_full_film_is_flagged() {
+    let dir = tempfile::tempdir().unwrap();
+    let (cache, out) = (dir.path().join("cache"), dir.path().join("report"));
+    let (s, out_s) = (scene(), out.display().to_string());
+    let o = run(
+        &[
+            "compare",
+            s.as_str(),
+            "--samplers",
+            "uniform",
+            "--time",
+            "60",
+            "--reference-spp",
+            "16",
+            "--width",
+            "1",
+            "--height",
+            "1",
+            "--max-depth",
+            "1",
+            "--out",
+            out_s.as_str(),
+        ],
+        &cache,
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("uniform") && err.contains("stopped at a full film (1048576 samples"),
+        "{err}"
+    );
+    let csv = std::fs::read_to_string(out.join("convergence.csv")).unwrap();
+    let last = csv.lines().last().unwrap();
+    assert!(last.starts_with("equal time,uniform,1048576,"), "{csv}");
+}
+
 #[test]
 fn reference_command_writes_and_caches() {
     let dir = tempfile::tempdir().unwrap();

@@ -446,6 +446,15 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
             l.saved.header.animation_frame = Some(k);
         }
         ui.phase_done();
+        if matches!(budget, Budget::Seconds(t) if result.render_seconds < t)
+            && result.spp >= render::MAX_FILM_SPP
+            && !result.interrupted
+        {
+            ui.message(&format!(
+                "note: frame {k}'s --time ended early, at the {} samples a pixel a film's float sums add without loss",
+                render::MAX_FILM_SPP
+            ));
+        }
         drop(session);
 
         let stem = frame_stem(&req.out, k);

@@ -254,6 +254,7 @@ pub fn compare(
     };
     let warnings: Vec<String> = [
         over_budget(&c),
+        film_full(&c),
         invalid_samples(&c),
         unresolved(&c, reference_noise),
     ]
@@ -290,6 +291,25 @@ fn over_budget(c: &Comparison) -> Option<String> {
             format!("{t:e}")
         }
     ))
+}
+
+/// A warning where a run stopped short of `--time` because its film was full (2^20 samples
+/// a pixel, [`crate::render::MAX_FILM_SPP`]): the speed-ups then compare unequal times
+/// (a 1×1 `--time 15` stopped at 6.2 and 4.9 s and reported "speed-up 1.00" without a
+/// word: a review, 2026-12-07).
+fn film_full(c: &Comparison) -> Option<String> {
+    let t = c.budget_seconds?;
+    let full: Vec<String> = (c.runs.iter())
+        .filter(|r| r.spp >= crate::render::MAX_FILM_SPP && r.seconds < t)
+        .map(|r| format!("{} {:.3} s", r.sampler.name(), r.seconds))
+        .collect();
+    (!full.is_empty()).then(|| {
+        format!(
+            "equal time is not equal here: {} stopped at a full film ({} samples a pixel) before --time {t} s; give a shorter --time or a larger image",
+            full.join(", "),
+            crate::render::MAX_FILM_SPP
+        )
+    })
 }
 
 /// A warning where the reference is too noisy to measure a run by: its own estimated MSE

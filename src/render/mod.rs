@@ -452,6 +452,17 @@ pub fn run_session_until(
             }
         }
         if k == 0 {
+            // A time budget's film filled: the checkpoints still ahead get the image as it
+            // ends, once (compare's convergence.csv lost its last points: a review,
+            // 2026-12-07).
+            if matches!(budget, Budget::Seconds(_)) && !pending.is_empty() && done > 0 {
+                pending.clear();
+                on_checkpoint(Checkpoint {
+                    spp: done,
+                    seconds: elapsed,
+                    mean: session.image()?,
+                })?;
+            }
             break;
         }
         let dt = session.run_passes(k)?;
