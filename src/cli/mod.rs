@@ -350,7 +350,8 @@ pub struct SceneArgs {
     #[arg(long, value_name = "N")]
     pub resolution: Option<u32>,
     /// Glossy variant: floors (cornell: the tall box, white) become a glTF metal
-    /// (metallic 1, GGX) with this roughness in [0, 1]; all else stays Lambertian.
+    /// (metallic 1, GGX) with this roughness in [0, 1]; all else stays Lambertian. Below
+    /// 0.0316 it renders as 0.0316 (no perfect mirrors; the load warns).
     #[arg(long, value_name = "ROUGHNESS")]
     pub glossy: Option<f32>,
     /// Animated variant, 4 s (rooms: a camera walk from a room through its door along the
