@@ -161,6 +161,7 @@ mod tests {
             camera: 0,
             near,
             far,
+            aspect: None,
         };
         assert_eq!(warns(clip(0.1, Some(100.0)), &wall), None);
         assert_eq!(warns(clip(0.1, None), &wall), None);
@@ -180,6 +181,7 @@ mod tests {
             camera: 2,
             near,
             far: None,
+            aspect: None,
         };
         let w = warns(near(5.0), &wall).unwrap();
         assert!(w.contains("camera 2") && w.contains("znear 5"), "{w}");
@@ -187,6 +189,7 @@ mod tests {
             camera: 0,
             near: 0.1,
             far: Some(2.0),
+            aspect: None,
         };
         let w = warns(far, &wall).unwrap();
         assert!(w.contains("zfar 2") && w.contains("up to 3"), "{w}");
@@ -194,6 +197,7 @@ mod tests {
             camera: 0,
             near: 1.0,
             far: Some(0.5),
+            aspect: None,
         };
         assert!(warns(inverted, &wall)
             .unwrap()
