@@ -338,7 +338,7 @@ fn chunks_from_one_start_count_it_once() {
 
 /// `merge` of a part that a render is still checkpointing reads its report and image as one
 /// set: it took one checkpoint's report and the next one's image and refused the pair as
-/// split by a kill in 3 of 60 tries (an audit, 2026-12-07; here the build before failed in 1 run of 3 at 40 merges). Each merge now either merges a
+/// split by a kill in 3 of 60 tries (an audit, 2026-12-07; here the build before failed in 1 run of 3 at 40 merges, in 2 of 2 at 150). Each merge now either merges a
 /// consistent pair or sees none yet.
 #[test]
 fn a_part_being_checkpointed_merges_or_waits() {

@@ -105,10 +105,10 @@ pub struct AnimateOutcome {
     pub video: Option<PathBuf>,
 }
 
-/// Frame `k`'s file stem in the output folder.
-/// The lock file of a run in its output folder (see run()).
+/// The lock file of a run in its output folder ([`RunLock`]).
 pub const RUN_LOCK: &str = ".lightlearn-animate.lock";
 
+/// Frame `k`'s file stem in the output folder.
 pub fn frame_stem(out: &Path, k: u32) -> PathBuf {
     out.join(format!("frame-{k:04}"))
 }
@@ -171,18 +171,45 @@ pub fn check(req: &AnimateRequest) -> Result<()> {
 pub fn run(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
     // A refused or failed run leaves no empty output folder behind (the frames written
     // before a failure stay, with the folder).
-    let existed = req.out.exists();
-    crate::io::removing_created_folders_on_error(Some(&req.out), || {
-        let result = run_checked(req, ui);
-        // A folder this run made and failed in goes, lock files and all (they are released
-        // when run_checked returns).
-        if result.is_err() && !existed {
-            for lock in [RUN_LOCK, super::animate_output::SUMMARY_LOCK] {
-                let _ = std::fs::remove_file(req.out.join(lock));
+    crate::io::removing_created_folders_on_error(Some(&req.out), || run_checked(req, ui))
+}
+
+/// The run's lock on its output folder ([`RUN_LOCK`]). A run that fails in a folder it made,
+/// holding the lock alone, with nothing but the lock files in the folder, removes them on
+/// drop, so that the folder goes too: a refused run removed them while another run held
+/// them and then the winner's folder (a review, 2026-12-07).
+struct RunLock {
+    file: std::fs::File,
+    dir: PathBuf,
+    made: bool,
+    finished: bool,
+}
+
+impl Drop for RunLock {
+    fn drop(&mut self) {
+        use std::os::fd::AsRawFd;
+        if self.finished || !self.made {
+            return;
+        }
+        // SAFETY: flock on a descriptor this guard owns. A shared holder's upgrade fails
+        // while another run holds the lock (its shared lock may be gone then: it is ending).
+        if unsafe { libc::flock(self.file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) } != 0 {
+            return;
+        }
+        let locks = [RUN_LOCK, super::animate_output::SUMMARY_LOCK];
+        let only_locks = std::fs::read_dir(&self.dir).is_ok_and(|d| {
+            d.flatten().all(|e| {
+                locks
+                    .iter()
+                    .any(|l| e.file_name() == std::ffi::OsStr::new(l))
+            })
+        });
+        if only_locks {
+            for l in locks {
+                let _ = std::fs::remove_file(self.dir.join(l));
             }
         }
-        result
-    })
+    }
 }
 
 fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
@@ -246,18 +273,8 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
             crate::scene::animated::MAX_FRAMES
         );
     }
+    let made = !req.out.exists();
     crate::io::create_output_folder(&req.out, "output folder")?;
-    // One run of a range of frames a folder at a time: two into one folder interleaved
-    // their frames (each frame whole, the sequence and its summary mixed, the statistics'
-    // chain broken, exit 0: an audit, 2026-12-07). Runs of one frame each (`--frame K`, as
-    // a farm renders them) may share the folder with each other.
-    let single = first == last;
-    let _run = crate::io::lock_file(&req.out.join(RUN_LOCK), single, false)?.ok_or_else(|| {
-        anyhow::anyhow!(
-            "another `lightlearn animate` is writing frames to '{}'; wait for it to end or give another --out",
-            req.out.display()
-        )
-    })?;
     // Every file of the run, checked before the first frame's time is spent.
     for k in first..=last {
         let stem = frame_stem(&req.out, k);
@@ -266,6 +283,23 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         }
     }
     crate::io::check_writable(&req.out.join("animation.json"))?;
+    // One run of a range of frames a folder at a time: two into one folder interleaved
+    // their frames (each frame whole, the sequence and its summary mixed, the statistics'
+    // chain broken, exit 0: an audit, 2026-12-07). Runs of one frame each (`--frame K`, as
+    // a farm renders them) may share the folder with each other.
+    let single = first == last;
+    let file = crate::io::lock_file(&req.out.join(RUN_LOCK), single, false)?.ok_or_else(|| {
+        anyhow::anyhow!(
+            "another `lightlearn animate` is writing frames to '{}'; wait for it to end or give another --out",
+            req.out.display()
+        )
+    })?;
+    let mut run_lock = RunLock {
+        file,
+        dir: req.out.clone(),
+        made,
+        finished: false,
+    };
     // None of them may be the scene, a file it names or the --load-stats file (a scene
     // named animation.json inside --out was replaced, with exit 0).
     let mut written: Vec<PathBuf> = (first..=last)
@@ -536,6 +570,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         ));
     }
     let video = video?;
+    run_lock.finished = true;
     Ok(AnimateOutcome {
         frames: records,
         interrupted,

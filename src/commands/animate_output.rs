@@ -94,10 +94,10 @@ pub(super) fn sequence_key(req: &AnimateRequest) -> String {
     )
 }
 
-/// The run of consecutive frames in the sorted `listed` that holds `k`: (first, count).
 /// The lock file around the summary's read and write.
 pub const SUMMARY_LOCK: &str = ".lightlearn-summary.lock";
 
+/// The run of consecutive frames in the sorted `listed` that holds `k`: (first, count).
 fn contiguous_span(listed: &[u32], k: u32) -> (u32, u32) {
     let (mut a, mut b) = (k, k);
     while a > 0 && listed.contains(&(a - 1)) {

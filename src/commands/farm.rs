@@ -230,7 +230,10 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
         bail!("--spp (samples per chunk) must be at least 1");
     }
     // Each task renders --spp: past a film's 2^20 every task failed (a review, 2026-12-07).
-    super::check_spp("--spp", req.spp)?;
+    let most = crate::render::MAX_FILM_SPP;
+    if req.spp > most {
+        bail!("--spp {} is more than the {most} samples per pixel a chunk's film adds without loss; use more --chunks of fewer samples", req.spp);
+    }
     // In farm's own flags: the task's "--chunk K" is not one of them (an audit, 2026-12-06).
     if super::render::chunk_offset(Some(req.chunks - 1), Some(req.spp)).is_err() {
         bail!(

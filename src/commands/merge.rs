@@ -82,8 +82,6 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
             );
         }
     }
-    // Each part's report and image read as one set, never across a render's commit.
-    let reading = crate::io::read_locks(parts.iter().map(PathBuf::as_path));
     let mut reports = Vec::new();
     for p in parts {
         // A missing image was reported as a missing report.
@@ -184,7 +182,22 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
     let mut total = 0u64;
     let mut listed = Vec::new();
     for (p, r) in parts.iter().zip(&reports) {
+        // The image read with its report as one set, never across a render's commit (a
+        // part being checkpointed was refused as split by a kill in 3 of 60 merges: an
+        // audit, 2026-12-07): under a shared lock of its folder, which commits take
+        // exclusively, one part at a time so that a render writing into another part's
+        // folder is not held up by the whole merge.
+        let _reading = crate::io::read_locks(std::iter::once(p.as_path()));
         let (pw, ph, px) = film::read_exr(p)?;
+        let now: Option<Value> = crate::io::read_all(&p.with_extension("json"))
+            .ok()
+            .and_then(|t| serde_json::from_slice(&t).ok());
+        if now.as_ref() != Some(r) {
+            bail!(
+                "part '{}' changed while it was merged (a render still writing it?); merge again when it has finished",
+                p.display()
+            );
+        }
         if (pw, ph) != (w, h) {
             bail!(
                 "part '{}' is {pw}×{ph} but its report says {w}×{h}; render it again",
@@ -235,8 +248,6 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
     }
     report["learning_settings"] = first["learning"]["settings"].clone();
     report["regions"] = region_settings(first);
-    // Before the write's own (exclusive) lock of what may be the same folder.
-    drop(reading);
     // A stop asked for during the writes waits for them (main.rs): a Ctrl-C there left a
     // temporary behind with exit 130 and no word (an audit, 2026-12-07).
     let _writing = crate::interrupt::Active::begin();

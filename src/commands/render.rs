@@ -179,8 +179,9 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
     // load (chunk_offset counts from pass 0; a review, 2026-12-07).
     if let (Some(saved), Some(_), Some(n)) = (&settings.resume, &req.save_stats, req.spp) {
         let end = saved.header.samples_done as u64 + skip as u64 + n as u64;
-        if skip > 0 && end > (render::MAX_PASSES / 2) as u64 {
-            bail!("--chunk after the {} passes of --load-stats ends at pass {end}, past the first 2^30, so the statistics it saves could not be loaded; use fewer or smaller chunks", saved.header.samples_done);
+        if end > (render::MAX_PASSES / 2) as u64 {
+            let what = if skip > 0 { "--chunk" } else { "--spp" };
+            bail!("{what} after the {} passes of --load-stats ends at pass {end}, past the first 2^30, so the statistics it saves could not be loaded; use fewer samples or start from fresh statistics", saved.header.samples_done);
         }
     }
     let mut session = render::Session::new(&ctx, &scene, &gpu, &settings)?;

@@ -306,11 +306,14 @@ pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
 /// nothing (as [`FolderLocks`] commits without).
 pub fn lock_file(path: &Path, shared: bool, wait: bool) -> Result<Option<std::fs::File>> {
     use std::os::fd::AsRawFd;
+    // Read-only where it exists and may not be written (another user's, in a shared
+    // folder): flock needs no write access.
     let f = std::fs::OpenOptions::new()
         .create(true)
         .truncate(false)
         .write(true)
         .open(path)
+        .or_else(|_| std::fs::File::open(path))
         .with_context(|| format!("cannot open the lock file '{}'", path.display()))?;
     let mode = if shared { libc::LOCK_SH } else { libc::LOCK_EX };
     let mode = if wait { mode } else { mode | libc::LOCK_NB };

@@ -437,6 +437,8 @@ pub fn run_session_until(
     };
     let mut batch = 1u32;
     let mut interrupted = false;
+    // The spp of the last checkpoint given (a full film's last image is not given twice).
+    let mut last_checkpoint: Option<u32> = None;
     loop {
         let (done, elapsed) = (session.spp(), session.film_seconds());
         let mut k = match budget {
@@ -455,7 +457,11 @@ pub fn run_session_until(
             // A time budget's film filled: the checkpoints still ahead get the image as it
             // ends, once (compare's convergence.csv lost its last points: a review,
             // 2026-12-07).
-            if matches!(budget, Budget::Seconds(_)) && !pending.is_empty() && done > 0 {
+            if matches!(budget, Budget::Seconds(_))
+                && !pending.is_empty()
+                && done > 0
+                && last_checkpoint != Some(done)
+            {
                 pending.clear();
                 on_checkpoint(Checkpoint {
                     spp: done,
@@ -484,6 +490,7 @@ pub fn run_session_until(
             passed = true;
         }
         if passed {
+            last_checkpoint = Some(done);
             on_checkpoint(Checkpoint {
                 spp: done,
                 seconds: elapsed,
