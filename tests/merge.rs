@@ -44,6 +44,21 @@ fn render_args<'a>(name: &'a str, seed: &'a str) -> Vec<&'a str> {
     ]
 }
 
+/// A render started in `d` with `args`, once its first checkpoint (a.json) is there.
+fn checkpointing(args: &[&str], d: &Path) -> std::process::Child {
+    let child = Command::new(common::exe())
+        .args(args)
+        .current_dir(d)
+        .spawn()
+        .unwrap();
+    let t = std::time::Instant::now();
+    while !d.join("a.json").exists() {
+        assert!(t.elapsed().as_secs() < 60, "no checkpoint within 60 s");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child
+}
+
 fn part(dir: &Path, name: &str, seed: &str, spp: &str, extra: &[&str]) {
     let mut a = render_args(name, seed);
     a.extend_from_slice(&["--spp", spp]);
@@ -354,16 +369,7 @@ fn a_part_being_checkpointed_merges_or_waits() {
         "--checkpoint",
         "0.03",
     ]);
-    let mut child = Command::new(common::exe())
-        .args(&args)
-        .current_dir(d)
-        .spawn()
-        .unwrap();
-    let t = std::time::Instant::now();
-    while !d.join("a.json").exists() {
-        assert!(t.elapsed().as_secs() < 60, "no checkpoint within 60 s");
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
+    let mut child = checkpointing(&args, d);
     let mut merged = 0;
     for i in 0..150 {
         let out = format!("m{i}.exr");
@@ -387,16 +393,7 @@ fn a_killed_render_keeps_its_last_checkpoint_and_merges() {
     let d = dir.path();
     let mut args = render_args("a.exr", "1");
     args.extend_from_slice(&["--time", "120", "--checkpoint", "0.2"]);
-    let mut child = Command::new(common::exe())
-        .args(&args)
-        .current_dir(d)
-        .spawn()
-        .unwrap();
-    let t = std::time::Instant::now();
-    while !d.join("a.json").exists() {
-        assert!(t.elapsed().as_secs() < 60, "no checkpoint within 60 s");
-        std::thread::sleep(std::time::Duration::from_millis(100));
-    }
+    let mut child = checkpointing(&args, d);
     // One more checkpoint's time, so that the kill may land during a write.
     std::thread::sleep(std::time::Duration::from_millis(300));
     child.kill().unwrap();
