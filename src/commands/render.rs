@@ -177,7 +177,12 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
     }
     // A chunk that continues loaded statistics ends past both: the file it saves must still
     // load (chunk_offset counts from pass 0; a review, 2026-12-07).
-    if let (Some(saved), Some(_), Some(n)) = (&settings.resume, &req.save_stats, req.spp) {
+    if let (Some(saved), Some(_)) = (&settings.resume, &req.save_stats) {
+        // The passes this render may take: its budget, or a film's worth for --time.
+        let n = match settings.budget {
+            Budget::Samples(n) => n,
+            Budget::Seconds(_) => render::MAX_FILM_SPP,
+        };
         let end = saved.header.samples_done as u64 + skip as u64 + n as u64;
         if end > (render::MAX_PASSES / 2) as u64 {
             let what = if skip > 0 { "--chunk" } else { "--spp" };

@@ -306,28 +306,44 @@ pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
 /// nothing (as [`FolderLocks`] commits without).
 pub fn lock_file(path: &Path, shared: bool, wait: bool) -> Result<Option<std::fs::File>> {
     use std::os::fd::AsRawFd;
-    // Read-only where it exists and may not be written (another user's, in a shared
-    // folder): flock needs no write access.
-    let f = std::fs::OpenOptions::new()
-        .create(true)
-        .truncate(false)
-        .write(true)
-        .open(path)
-        .or_else(|_| std::fs::File::open(path))
-        .with_context(|| format!("cannot open the lock file '{}'", path.display()))?;
+    use std::os::unix::fs::MetadataExt;
     let mode = if shared { libc::LOCK_SH } else { libc::LOCK_EX };
     let mode = if wait { mode } else { mode | libc::LOCK_NB };
-    // SAFETY: flock on a descriptor `f` owns; closing it unlocks.
-    loop {
-        if unsafe { libc::flock(f.as_raw_fd(), mode) } == 0 {
+    // A lock taken on a file that a failing run removed meanwhile (animate's RunLock) locks
+    // nothing the next run sees: taken again on the file the path names now.
+    for _ in 0..8 {
+        // Read-only where it exists and may not be written (another user's, in a shared
+        // folder): flock needs no write access.
+        let f = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(path)
+            .or_else(|e| match e.raw_os_error() {
+                Some(libc::EACCES | libc::EPERM | libc::EROFS) => std::fs::File::open(path),
+                _ => Err(e),
+            })
+            .with_context(|| format!("cannot open the lock file '{}'", path.display()))?;
+        // SAFETY: flock on a descriptor `f` owns; closing it unlocks.
+        let locked = loop {
+            if unsafe { libc::flock(f.as_raw_fd(), mode) } == 0 {
+                break true;
+            }
+            match std::io::Error::last_os_error().raw_os_error() {
+                Some(libc::EINTR) => continue,
+                Some(libc::EWOULDBLOCK) => return Ok(None),
+                _ => break false,
+            }
+        };
+        let same = match (f.metadata(), std::fs::metadata(path)) {
+            (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+            _ => false,
+        };
+        if same || !locked {
             return Ok(Some(f));
         }
-        match std::io::Error::last_os_error().raw_os_error() {
-            Some(libc::EINTR) => continue,
-            Some(libc::EWOULDBLOCK) => return Ok(None),
-            _ => return Ok(Some(f)),
-        }
     }
+    bail!("the lock file '{}' keeps being replaced", path.display())
 }
 
 /// An exclusive lock (flock) on each target's folder while a set is committed, released
