@@ -480,8 +480,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
             l.saved.header.animation_frame = Some(k);
         }
         ui.phase_done();
-        if matches!(budget, Budget::Seconds(t) if result.render_seconds < t)
-            && result.spp >= render::MAX_FILM_SPP
+        if matches!(budget, Budget::Seconds(t) if render::filled_before(t, result.spp, result.render_seconds))
             && !result.interrupted
         {
             ui.message(&format!(

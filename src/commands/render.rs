@@ -299,8 +299,7 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
             });
         }
     };
-    if matches!(settings.budget, Budget::Seconds(t) if result.render_seconds < t)
-        && result.spp >= render::MAX_FILM_SPP
+    if matches!(settings.budget, Budget::Seconds(t) if render::filled_before(t, result.spp, result.render_seconds))
         && !result.interrupted
     {
         ui.message(&format!(

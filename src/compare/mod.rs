@@ -300,7 +300,7 @@ fn over_budget(c: &Comparison) -> Option<String> {
 fn film_full(c: &Comparison) -> Option<String> {
     let t = c.budget_seconds?;
     let full: Vec<String> = (c.runs.iter())
-        .filter(|r| r.spp >= crate::render::MAX_FILM_SPP && r.seconds < t)
+        .filter(|r| crate::render::filled_before(t, r.spp, r.seconds))
         .map(|r| format!("{} {:.3} s", r.sampler.name(), r.seconds))
         .collect();
     (!full.is_empty()).then(|| {

@@ -283,11 +283,12 @@ pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
         for (_, tmp) in files {
             let _ = std::fs::remove_file(tmp);
         }
-    }
-    for t in &kept {
-        // A backup that could not be put back stays: it is the only copy of the old file.
-        if !failed_restore.contains(&t.display().to_string()) {
-            let _ = std::fs::remove_file(backup(t));
+        // (A commit that succeeded removed its second names before the flush.) A backup
+        // that could not be put back stays: it is the only copy of the old file.
+        for t in &kept {
+            if !failed_restore.contains(&t.display().to_string()) {
+                let _ = std::fs::remove_file(backup(t));
+            }
         }
     }
     match result {

@@ -18,13 +18,12 @@ impl SavedStats {
     /// recomputed when the file is loaded. `samples_done` is the parts' total. Parts of
     /// another scene or other settings are refused naming the field.
     pub fn merge(parts: &[(SavedStats, String)]) -> Result<SavedStats> {
-        // In one order whatever the order given: the first part's slot fields that a sum does
-        // not make (the coefficients, recomputed on load) and the f64 sums' rounding made
-        // `merge a b` and `merge b a` other bytes, so a merge of those two was not refused as
-        // the same statistics twice and counted every observation twice (an audit,
-        // 2026-12-07).
-        let mut parts: Vec<&(SavedStats, String)> = parts.iter().collect();
-        parts.sort_by_cached_key(|(p, _)| p.checksum());
+        Self::merge_keyed(&by_checksum(parts))
+    }
+
+    /// [`Self::merge`] of parts in [`by_checksum`]'s order, with their checksums.
+    fn merge_keyed(keyed: &[(String, &(SavedStats, String))]) -> Result<SavedStats> {
+        let parts: Vec<&(SavedStats, String)> = keyed.iter().map(|(_, p)| *p).collect();
         let parts = parts.as_slice();
         let Some(((first, first_name), rest)) = parts.split_first() else {
             bail!("nothing to merge: give at least one statistics file");
@@ -137,9 +136,8 @@ impl SavedStats {
         }
         header.regions = index.len() as u32;
         header.cuts_len = cuts.len() as u32;
-        // The merge is made from its parts.
-        let mut holds: Vec<String> = parts.iter().map(|(p, _)| p.checksum()).collect();
-        holds.sort_unstable();
+        // The merge is made from its parts (sorted already).
+        let mut holds: Vec<String> = keyed.iter().map(|(k, _)| k.clone()).collect();
         holds.dedup();
         header.holds = Some(holds);
         Ok(SavedStats {
@@ -166,10 +164,10 @@ impl SavedStats {
                 bail!("'{name}' did not start from the --base file (it has learned no more passes than the base, or over another region grid)");
             }
         }
-        let mut merged = SavedStats::merge(parts)?;
         // In merge's order (by checksum), so that the order given changes no byte.
-        let mut sorted: Vec<&(SavedStats, String)> = parts.iter().collect();
-        sorted.sort_by_cached_key(|(p, _)| p.checksum());
+        let keyed = by_checksum(parts);
+        let mut merged = SavedStats::merge_keyed(&keyed)?;
+        let sorted: Vec<&(SavedStats, String)> = keyed.iter().map(|(_, p)| *p).collect();
         let cut_len = |s: &SavedStats, o: u32| 1 + s.cuts[o as usize] as usize;
         // Regions with a cut in the base (the fallback cut, offset 0, is the first part's in
         // `merge`, as for any merge).
@@ -237,6 +235,17 @@ impl SavedStats {
         merged.header.holds = Some(holds);
         Ok(merged)
     }
+}
+
+/// The parts in the order of their checksums, each with its checksum (each file hashed
+/// once). The order given does not matter then: the first part's slot fields that a sum does
+/// not make (the coefficients, recomputed on load) and the f64 sums' rounding made `merge a b`
+/// and `merge b a` other bytes, so a merge of those two was not refused as the same
+/// statistics twice and counted every observation twice (an audit, 2026-12-07).
+fn by_checksum(parts: &[(SavedStats, String)]) -> Vec<(String, &(SavedStats, String))> {
+    let mut keyed: Vec<_> = parts.iter().map(|p| (p.0.checksum(), p)).collect();
+    keyed.sort_by(|a, b| a.0.cmp(&b.0));
+    keyed
 }
 
 /// The regions with a cut in some part, in groups that share one cut: two regions that share

@@ -368,7 +368,7 @@ impl<'a> App<'a, '_> {
         session.pause_growth(moving);
         // A full film ([`render::MAX_FILM_SPP`]: a small window after ~20 minutes) stays as it
         // is; more passes would have darkened it.
-        let k = k.min(render::MAX_FILM_SPP - session.spp().min(render::MAX_FILM_SPP));
+        let k = k.min(render::MAX_FILM_SPP.saturating_sub(session.spp()));
         if k == 0 {
             // Nothing to add: a frame's rest instead of presenting the same image flat out.
             std::thread::sleep(std::time::Duration::from_secs_f64(RESTING_FRAME_SECONDS));

@@ -33,7 +33,9 @@ pub use gpu_scene::{
 pub use learned_state::{touched_list, HostReduction};
 pub use passes::{FOLD_BINDINGS, RENDER_BINDINGS};
 pub use result::{Learned, RegionStats, RenderResult};
-pub use session::{max_film_pixels, Session, MAX_FILM_SPP, MAX_PASSES, POOL_AGE_MAX};
+pub use session::{
+    filled_before, max_film_pixels, Session, MAX_FILM_SPP, MAX_PASSES, POOL_AGE_MAX,
+};
 
 /// The light samplers, a closed set: one value per `SAMPLER` case in `shaders/render.comp`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]

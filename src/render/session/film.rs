@@ -29,6 +29,12 @@ pub(super) struct Film {
 /// renders of other seeds added by `lightlearn merge`, which sums in float64.
 pub const MAX_FILM_SPP: u32 = 1 << 20;
 
+/// Whether a render of `spp` samples in `seconds` stopped short of a time budget of `t`
+/// seconds because its film was full ([`MAX_FILM_SPP`]).
+pub fn filled_before(t: f64, spp: u32, seconds: f64) -> bool {
+    spp >= MAX_FILM_SPP && seconds < t
+}
+
 /// The most pixels a film may have on this device: its accumulators are one storage buffer
 /// of 32 bytes a pixel, read as two texels a pixel.
 pub fn max_film_pixels(ctx: &Context) -> u64 {

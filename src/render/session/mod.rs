@@ -39,7 +39,7 @@ use crate::learning::LearningClock;
 use crate::scene::{Camera, Scene};
 
 use film::Film;
-pub use film::{max_film_pixels, MAX_FILM_SPP};
+pub use film::{filled_before, max_film_pixels, MAX_FILM_SPP};
 use growth::next_growth_point;
 pub use growth::{growth_point, POOL_AGE_MAX};
 
