@@ -651,6 +651,125 @@ fn references_that_cannot_measure_are_said() {
     );
 }
 
+/// An existing --out folder and a reference given back (an audit, 2026-12-07): compare's
+/// reference.json said nothing of whose samples it held, so a reference holding a run's
+/// own samples passed through it (MSE 0, speed-up inf, exit 0); a user's index.html and
+/// metrics.json were replaced; an earlier comparison's images of other samplers stayed
+/// beside a report without them; a folder named index.html failed after every render; a
+/// damaged report beside a given reference was taken for none; the page named corrected
+/// numbers it did not show.
+#[test]
+fn output_folders_and_references_given_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let s = scene();
+    let path = |n: &str| dir.path().join(n);
+    let cmp = |samplers: &str, extra: &[&str], out: &Path| {
+        let out = out.display().to_string();
+        let mut a = vec![
+            "compare",
+            s.as_str(),
+            "--samplers",
+            samplers,
+            "--spp",
+            "4",
+            "--reference-spp",
+            "16",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--max-depth",
+            "1",
+            "--out",
+            &out,
+        ];
+        a.extend_from_slice(extra);
+        run(&a, &cache)
+    };
+    let ok = |o: &Output| {
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    let refused = |o: &Output, want: &str| {
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            o.status.code() == Some(1) && err.contains(want) && err.lines().count() == 1,
+            "{want}: {err}"
+        );
+    };
+    // A render's image given to a comparison of another sampler with its seed, then that
+    // comparison's reference.exr given to one of the render's sampler.
+    let own = path("own.exr").display().to_string();
+    let r = [
+        "render",
+        &s,
+        "--sampler",
+        "power",
+        "--spp",
+        "4",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--max-depth",
+        "1",
+        "--out",
+        &own,
+    ];
+    ok(&run(&r, &cache));
+    let l1 = path("l1");
+    ok(&cmp("bayes", &["--reference", &own], &l1));
+    let back = l1.join("reference.exr").display().to_string();
+    refused(
+        &cmp("uniform,power", &["--reference", &back], &path("l2")),
+        "holds that run's own samples",
+    );
+    assert!(!path("l2").exists());
+    // Its report damaged: refused, not taken for no report.
+    let json = l1.join("reference.json");
+    let bytes = std::fs::read(&json).unwrap();
+    std::fs::write(&json, &bytes[..bytes.len() / 2]).unwrap();
+    refused(
+        &cmp("uniform", &["--reference", &back], &path("l3")),
+        "is damaged",
+    );
+    // A user's files under compare's names.
+    let user = path("user");
+    std::fs::create_dir(&user).unwrap();
+    std::fs::write(user.join("index.html"), "<html>mine</html>").unwrap();
+    std::fs::write(user.join("metrics.json"), r#"{"my": 1}"#).unwrap();
+    refused(
+        &cmp("power", &[], &user),
+        "is not a lightlearn compare's report",
+    );
+    assert_eq!(
+        std::fs::read_to_string(user.join("index.html")).unwrap(),
+        "<html>mine</html>"
+    );
+    // A folder under one of its names: refused before any rendering (no reference made).
+    let sl = path("sl");
+    std::fs::create_dir_all(sl.join("index.html")).unwrap();
+    refused(&cmp("power", &[], &sl), "it is a folder");
+    assert!(std::fs::read_dir(&cache).map_or(true, |d| d.count() == 0));
+    // An earlier comparison's images of other samplers go once the new report is in place;
+    // the page shows the corrected numbers its note names.
+    let st = path("st");
+    ok(&cmp("uniform,power", &[], &st));
+    assert!(st.join("spp-uniform.exr").is_file());
+    ok(&cmp("power", &[], &st));
+    assert!(!st.join("spp-uniform.exr").exists() && st.join("spp-power.exr").is_file());
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(st.join("metrics.json")).unwrap()).unwrap();
+    let html = std::fs::read_to_string(st.join("index.html")).unwrap();
+    let corrected = &m["comparisons"][0]["runs"][0]["corrected"];
+    assert_eq!(
+        html.contains("reference noise out"),
+        !corrected.is_null(),
+        "{corrected}"
+    );
+    assert!(!corrected.is_null(), "{m}");
+}
+
 /// At equal spp the first sampler's times held lavapipe's kernel compile on a cold shader
 /// cache: its 1-spp point at 0.45 s against 0.005 s for the next sampler, in
 /// convergence.csv and the report's time plot (an audit, 2026-12-07). One untimed pass

@@ -4,7 +4,7 @@
 //! wrong with the request is checked before any rendering, and a refused request leaves no
 //! folder behind.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context as _, Result};
 use serde_json::json;
@@ -118,6 +118,7 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
         others.push(("the --reference", r));
     }
     crate::io::check_outputs_spare_scene(&written, a.scene.as_deref(), &others)?;
+    let stale = check_out_folder(&a.out, &written)?;
     let given = match &a.reference {
         Some(p) => {
             let (w, h, px) = film::read_exr(p)?;
@@ -139,9 +140,21 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
             }
             // Its report's noise is subtracted from every error below: only this image's.
             let json = p.with_extension("json");
-            let sidecar: Option<serde_json::Value> = crate::io::read_all(&json)
-                .ok()
-                .and_then(|b| serde_json::from_slice(&b).ok());
+            // A report there that cannot be read was taken for no report, and an image of
+            // another scene passed with only the no-report warning (an audit, 2026-12-07).
+            let sidecar: Option<serde_json::Value> = match crate::io::read_all(&json) {
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+                Err(e) => bail!(
+                    "cannot read the report beside the reference, '{}' ({e}); make it readable, or move it away to use the image unchecked",
+                    json.display()
+                ),
+                Ok(b) => Some(serde_json::from_slice(&b).map_err(|e| {
+                    anyhow::anyhow!(
+                        "the report beside the reference, '{}', is damaged ({e}); restore it, or move it away to use the image unchecked",
+                        json.display()
+                    )
+                })?),
+            };
             if let Some(r) = &sidecar {
                 film::check_report(p, &json, r)?;
             }
@@ -193,7 +206,7 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
     if samplers.iter().any(|s| s.uses_cuts()) {
         crate::render::check_region_index_fits(&ctx, &scene, &regions)?;
     }
-    let (reference_image, reference_note, reference_noise) = match given {
+    let (reference_image, reference_note, reference_noise, reference_origin) = match given {
         Some((p, px, sidecar)) => {
             let noise = match sidecar.as_ref() {
                 Some(r) => reference::noise(r),
@@ -203,7 +216,21 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
                 Ok(e) => format!("its own estimated relMSE {:.2e}", e.rel_mse),
                 Err(why) => format!("its own error is unknown ({why}), so no corrected numbers"),
             };
-            (px, format!("{} (given); {note}", p.display()), noise.ok())
+            // Whose samples it holds, for the check above when this comparison's
+            // reference.json is given back (it said nothing, and a reference holding a
+            // run's own samples passed: MSE 0, speed-up inf; an audit, 2026-12-07).
+            let origin = sidecar.map(|r| {
+                ["seed", "sampler", "merged_from"]
+                    .iter()
+                    .filter_map(|k| Some((k.to_string(), r.get(*k)?.clone())))
+                    .collect()
+            });
+            (
+                px,
+                format!("{} (given); {note}", p.display()),
+                noise.ok(),
+                origin.unwrap_or_default(),
+            )
         }
         None => {
             // Progress and messages both go to the one Ui, as they happen.
@@ -217,7 +244,14 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
                 &mut |m| shared.borrow_mut().message(&m),
             );
             ui.phase_done();
-            r?
+            let (image, note, noise) = r?;
+            let origin: serde_json::Map<String, serde_json::Value> = [
+                ("seed".to_string(), json!(ref_settings.seed)),
+                ("sampler".into(), json!(ref_settings.sampler.name())),
+            ]
+            .into_iter()
+            .collect();
+            (image, note, noise, origin)
         }
     };
 
@@ -268,6 +302,9 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
     if verified {
         reference_report["scene_hash"] = json!(scene_hash);
         reference_report["max_depth"] = json!(a.max_depth);
+    }
+    for (k, v) in reference_origin {
+        reference_report[k] = v;
     }
     if let Some(n) = &reference_noise {
         reference_report["estimated_mse_of_mean"] = json!(n.mse);
@@ -320,10 +357,82 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
     })?;
     out.add(&a.out.join("index.html"), page.as_bytes())?;
     out.commit()?;
+    // An earlier comparison's images that this one did not replace (other samplers or
+    // budgets) stayed beside a report that no longer listed them (an audit, 2026-12-07).
+    for p in stale {
+        if let Err(e) = std::fs::remove_file(&p) {
+            ui.message(&format!(
+                "warning: cannot remove '{}', an earlier comparison's image this report does not list ({e})",
+                p.display()
+            ));
+        }
+    }
     Ok(CompareOutcome {
         comparisons,
         report: a.out.join("index.html"),
     })
+}
+
+/// Checks an existing --out folder before any rendering: every file compare writes there
+/// must be a regular file (a folder named index.html failed only after every render), and
+/// where any of them exists the folder's metrics.json must be a comparison's (a user's
+/// index.html and metrics.json were replaced with exit 0; an audit, 2026-12-07). Returns
+/// the images of the earlier comparison there that this one does not write, to remove once
+/// its own files are in place; only names compare gives (a sampler's, a budget's) are taken
+/// from the old report.
+fn check_out_folder(out: &Path, written: &[&Path]) -> Result<Vec<PathBuf>> {
+    if !out.is_dir() {
+        return Ok(Vec::new());
+    }
+    for p in written {
+        if p.is_dir() {
+            bail!(
+                "cannot write '{}': it is a folder; move it away or give another --out",
+                p.display()
+            );
+        }
+        crate::io::check_not_special(p)?;
+    }
+    let metrics = out.join("metrics.json");
+    let old = crate::io::read_regular(&metrics, 64 << 20)
+        .ok()
+        .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+        .filter(|v| v["comparisons"].is_array() && v.get("reference").is_some());
+    let Some(old) = old else {
+        if let Some(p) = written
+            .iter()
+            .find(|p| std::fs::symlink_metadata(p).is_ok())
+        {
+            bail!(
+                "'{}' exists and '{}' is not a lightlearn compare's report, so it is a file of yours that compare would replace; give another --out (a new folder, or an earlier comparison's)",
+                p.display(),
+                metrics.display()
+            );
+        }
+        return Ok(Vec::new());
+    };
+    let mut stale = Vec::new();
+    for c in old["comparisons"].as_array().into_iter().flatten() {
+        let prefix = if c["budget_seconds"].is_number() {
+            "time"
+        } else {
+            "spp"
+        };
+        for r in c["runs"].as_array().into_iter().flatten() {
+            let Some(s) = LightSampler::ALL
+                .iter()
+                .find(|s| r["sampler"].as_str() == Some(s.name()))
+            else {
+                continue;
+            };
+            let p = out.join(format!("{prefix}-{}.exr", s.name()));
+            let regular = std::fs::symlink_metadata(&p).is_ok_and(|m| m.is_file());
+            if regular && !written.contains(&p.as_path()) && !stale.contains(&p) {
+                stale.push(p);
+            }
+        }
+    }
+    Ok(stale)
 }
 
 /// A given reference must not share the runs' random numbers: one rendered by a compared

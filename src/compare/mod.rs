@@ -284,13 +284,18 @@ fn over_budget(c: &Comparison) -> Option<String> {
     Some(format!(
         "equal time is not equal here: {} against --time {} s (a render stops at the end of a pass, and on a cold shader cache its first pass holds lavapipe's kernel compile), so their speed-ups compare longer renders; give a longer --time",
         over.join(", "),
-        // Rust writes 1e-300 out in 300 digits (an audit, 2026-12-06).
-        if (1e-6..1e9).contains(&t) {
-            format!("{t}")
-        } else {
-            format!("{t:e}")
-        }
+        seconds(t)
     ))
+}
+
+/// A number of seconds as given, in exponent form where Rust would write it out in hundreds
+/// of digits (1e-300: an audit, 2026-12-06; the report's heading too, 2026-12-07).
+pub fn seconds(t: f64) -> String {
+    if (1e-6..1e9).contains(&t) {
+        format!("{t}")
+    } else {
+        format!("{t:e}")
+    }
 }
 
 /// A warning where a run stopped short of `--time` because its film was full (2^20 samples

@@ -195,7 +195,7 @@ pub fn html(input: &ReportInput) -> Result<String> {
     );
     for (ci, c) in input.comparisons.iter().enumerate() {
         let budget = match (c.budget_seconds, c.budget_spp) {
-            (Some(s), _) => format!("{s} s per sampler"),
+            (Some(s), _) => format!("{} s per sampler", super::seconds(s)),
             (_, Some(n)) => format!("{n} samples per pixel"),
             _ => String::new(),
         };
@@ -210,15 +210,30 @@ pub fn html(input: &ReportInput) -> Result<String> {
             .as_ref()
             .map(|w| format!(r#"<p class="warning">Warning: {}</p>"#, esc(w)))
             .unwrap_or_default();
+        // The errors with the reference's noise taken out, where it is known: the page's
+        // note named them and the table did not show them (an audit, 2026-12-07).
+        let corrected = c.runs.iter().any(|r| r.corrected.is_some());
         let _ = write!(
             body,
-            r#"<section class="cmp" id="cmp{ci}"><h2>{} — {budget}</h2>{warning}<table class="metrics"><thead><tr><th>sampler</th><th>spp</th><th>seconds</th><th>MSE</th><th>relMSE</th><th>RMSE</th><th>{ratio}</th><th>zero light samples</th></tr></thead><tbody>"#,
-            c.kind
+            r#"<section class="cmp" id="cmp{ci}"><h2>{} — {budget}</h2>{warning}<table class="metrics"><thead><tr><th>sampler</th><th>spp</th><th>seconds</th><th>MSE</th><th>relMSE</th><th>RMSE</th>{}<th>{ratio}</th><th>zero light samples</th></tr></thead><tbody>"#,
+            c.kind,
+            if corrected {
+                "<th>MSE, reference noise out</th><th>relMSE, reference noise out</th>"
+            } else {
+                ""
+            }
         );
         for r in &c.runs {
+            let out = match (&r.corrected, corrected) {
+                (_, false) => String::new(),
+                (Some(m), true) => {
+                    format!("<td>{}</td><td>{}</td>", sci(m.mse), sci(m.rel_mse))
+                }
+                (None, true) => "<td>—</td><td>—</td>".to_string(),
+            };
             let _ = write!(
                 body,
-                "<tr><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td><td>{:.1} %</td></tr>",
+                "<tr><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{}</td>{out}<td>{:.3}</td><td>{:.1} %</td></tr>",
                 r.sampler.name(),
                 r.spp,
                 r.seconds,
