@@ -62,6 +62,9 @@ fn main() -> ExitCode {
             .and_then(|r| lightlearn::preview::run(&r, &mut Terminal::new(false))),
         Command::Farm(a) => a.request().and_then(|r| {
             let o = commands::farm::write(&r)?;
+            for w in &o.warnings {
+                say!("warning: {w}");
+            }
             say!(
                 "wrote {}: {} steps, {} tasks; run it here with `openjd run {}`",
                 o.template.display(),

@@ -342,3 +342,30 @@ fn bad_farm_requests_are_refused() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("cannot find the scene"));
 }
+
+/// The scene loader's warnings and frames past the animation's end are said when the job is
+/// written: `farm` dropped them (an audit, 2026-12-07), and a job of frames holding the last
+/// pose, or of a file with channels left out, was written without a word.
+#[test]
+fn a_job_says_what_its_frames_will_warn_of() {
+    let dir = tempfile::tempdir().unwrap();
+    let cars = root().join("scenes/city-cars.glb");
+    let job = dir.path().join("job");
+    let o = lightlearn(&[
+        "farm",
+        cars.to_str().unwrap(),
+        "--out",
+        job.to_str().unwrap(),
+        "--frames",
+        "0..99",
+        "--chunks",
+        "2",
+    ]);
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("warning: ")
+            && err.contains("ends at frame 96 at 24 fps; frames 97..99 hold its last pose"),
+        "{err}"
+    );
+}

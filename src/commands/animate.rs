@@ -80,7 +80,8 @@ pub struct FrameRecord {
     pub moved: Changes,
     /// "fresh", "carried", "carried, tempered" or "restarted (light tree rebuilt)".
     pub learning: String,
-    /// The refitted light tree's SAOH cost ÷ a fresh build's at this frame.
+    /// The refitted light tree's SAOH cost ÷ a fresh build's at this frame; infinite (null
+    /// in the JSON) where the frame has other lights than the tree, which it then rebuilds.
     pub tree_cost_ratio: f64,
     pub regions_with_cuts: usize,
     pub regions_added: usize,
@@ -212,6 +213,48 @@ impl Drop for RunLock {
     }
 }
 
+/// The first frame from 0 to `first` whose pose builds, and its scene; where none does,
+/// frame `first`'s error (the first frame asked for).
+fn topology_frame(
+    anim: &AnimatedScene,
+    first: u32,
+    fps: f64,
+    ui: &mut dyn Ui,
+) -> Result<(u32, Scene)> {
+    // The poses' warnings, each said once however many poses were tried.
+    let mut said: Vec<String> = Vec::new();
+    let mut note = |w: String| {
+        if !said.contains(&w) {
+            said.push(w);
+        }
+    };
+    let mut built = None;
+    for k in 0..first {
+        if let Ok(scene) = anim.scene_at(anim.time(k, fps), &mut note) {
+            built = Some(Ok((k, scene)));
+            break;
+        }
+    }
+    let t = anim.time(first, fps);
+    let built = built.unwrap_or_else(|| {
+        let scene = anim.scene_at(t, &mut note).with_context(|| {
+            format!(
+                "frame {first} (t = {t} s){}",
+                if first == 0 {
+                    ", the first frame asked for (--frames K.. starts later)"
+                } else {
+                    ""
+                }
+            )
+        })?;
+        Ok((first, scene))
+    });
+    for w in said {
+        ui.message(&format!("warning: {w}"));
+    }
+    built
+}
+
 fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> {
     check(req)?;
     let started = Instant::now();
@@ -319,11 +362,12 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
 
     let ctx = Context::new(&req.device)?;
     let mut quiet = |_: String| {};
-    // Frame 0's tree: the topology every frame refits.
-    let t0 = anim.time(0, req.fps);
-    let scene0 = anim
-        .scene_at(t0, &mut warn_once(ui))
-        .with_context(|| format!("frame 0 (t = {t0} s)"))?;
+    // The tree every frame refits: that of the first frame from 0 on whose pose builds.
+    // Frame 0's in all but files whose pose there has no lights or no camera (a light
+    // switching on, a camera scaling up): every range of them failed on frame 0, asked for
+    // or not (an audit, 2026-12-07). Always counted from 0, so that every run of one file
+    // at one fps refits the same tree, and a range continues another's statistics.
+    let (k0, scene0) = topology_frame(&anim, first, req.fps, ui)?;
     if let Some(w) = scene0.aspect_warning(req.width, req.height) {
         ui.message(&format!("warning: {w}"));
     }
@@ -345,10 +389,13 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         (None, None) => Budget::Samples(64),
     };
 
+    // The pose before the first frame, to tell what moved since (a pose that does not build,
+    // as a light switching on has none, compares with nothing: the frames after it render).
     let mut previous: Option<Scene> = if first == 0 {
         None
     } else {
-        Some(anim.scene_at(anim.time(first - 1, req.fps), &mut quiet)?)
+        anim.scene_at(anim.time(first - 1, req.fps), &mut quiet)
+            .ok()
     };
     // The file each frame's statistics continue (merge-stats reads it): the loaded one,
     // then the frame before.
@@ -372,7 +419,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
             break;
         }
         let t = anim.time(k, req.fps);
-        let scene = if k == 0 {
+        let scene = if k == k0 {
             scene0.clone()
         } else {
             // A frame's own error names the frame: a camera keyed to a scale of 0 failed

@@ -54,6 +54,10 @@ pub struct FarmOutcome {
     pub template: PathBuf,
     pub steps: usize,
     pub tasks: usize,
+    /// What the scene's loader and the frame range call for a word on (said when the job is
+    /// written: they were dropped, and a job of a file with ignored channels or frames past
+    /// its end was written without one; an audit, 2026-12-07).
+    pub warnings: Vec<String>,
 }
 
 /// Most steps a job may have (two or three per frame); OpenJD's own limit is far above.
@@ -81,7 +85,7 @@ fn bundle_files(scene: &Path) -> Result<(String, Bundle)> {
         .with_context(|| format!("cannot read '{}' for the job bundle", scene.display()))?;
     // The URIs alone kept: the parsed file holds a copy of a .glb's binary chunk (a review).
     let uris: Vec<String> = {
-        let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| {
+        let (gltf, _) = crate::scene::gltf_parse::parse(&bytes, "").map_err(|e| {
             anyhow::anyhow!(
                 "'{}' is not a valid glTF 2.0 file (.gltf or .glb): {e}",
                 scene.display()
@@ -248,7 +252,12 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
     super::animate::check_timing(req.fps, req.forget)?;
     let scene = std::fs::canonicalize(&req.scene)
         .with_context(|| format!("cannot find the scene '{}'", req.scene.display()))?;
-    let anim = AnimatedScene::open(Some(&scene), &mut |_| {})?;
+    let mut warnings = Vec::new();
+    let anim = AnimatedScene::open(Some(&scene), &mut |w| {
+        if !warnings.contains(&w) {
+            warnings.push(w)
+        }
+    })?;
     let frames = match (req.frames, req.still) {
         (_, true) => None,
         (Some((a, b)), _) if b < a => {
@@ -261,6 +270,17 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
     if let Some((a, b)) = frames {
         if b - a >= MAX_FRAMES {
             bail!("--frames {a}..{b}: at most {MAX_FRAMES} frames per job; write several jobs");
+        }
+        if anim.is_animated() {
+            let end = anim.frame_count(req.fps).unwrap_or(u32::MAX) - 1;
+            if b > end {
+                warnings.push(format!(
+                    "'{}' ends at frame {end} at {} fps; frames {}..{b} hold its last pose",
+                    anim.doc.name(),
+                    req.fps,
+                    a.max(end + 1)
+                ));
+            }
         }
         // Each flag within its limit, 2000 frames × 10000 chunks made 20 M tasks: the
         // template (it lists each chunk's files for the merges) ran out of memory and
@@ -477,5 +497,6 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
         template: template_path,
         steps: steps.len(),
         tasks,
+        warnings,
     })
 }

@@ -255,7 +255,7 @@ pub fn input_files(path: &Path) -> Vec<std::path::PathBuf> {
     let Ok(bytes) = crate::io::read_regular(path, 1 << 34) else {
         return files;
     };
-    let Ok(gltf) = gltf::Gltf::from_slice_without_validation(&bytes) else {
+    let Ok((gltf, _)) = super::gltf_parse::parse(&bytes, "") else {
         return files;
     };
     let base = path.parent().unwrap_or(Path::new(""));

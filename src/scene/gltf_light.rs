@@ -7,12 +7,13 @@ use glam::{DMat4, DVec3, DVec4, Vec3};
 
 use super::Light;
 
-/// The light `light` on a node with world transform `world` in file `name`: the light (its
+/// The light `light` on node `node` (its label) with world transform `world` in file `name`: the light (its
 /// position still at the origin: the caller moves it into the scene's frame), its world
 /// position and its label ("light K ('name')"); None where it is skipped (with a warning).
 pub fn read_light(
     light: &gltf::khr_lights_punctual::Light,
     world: DMat4,
+    node: &str,
     name: &str,
     warn: &mut dyn FnMut(String),
 ) -> Result<Option<(Light, DVec3, String)>> {
@@ -43,7 +44,9 @@ pub fn read_light(
             outer_cone_angle,
         } => {
             if direction.length_squared() == 0.0 {
-                bail!("'{name}': {label} sits on a node with a degenerate transform; its direction is undefined");
+                // The node and the way out named, as the camera's message does (an audit,
+                // 2026-12-07: a spot keyed to scale 0 named neither).
+                bail!("'{name}': {label}, a spot, sits on {node} whose transform is degenerate (a scale of 0, here or on a parent, at this time for an animation), so it has no direction; give the node a non-zero scale");
             }
             let outer = outer_cone_angle.clamp(0.0, std::f32::consts::FRAC_PI_2);
             let inner = inner_cone_angle.clamp(0.0, outer);

@@ -72,12 +72,15 @@ pub fn open_bytes(
     warn: &mut dyn FnMut(String),
 ) -> Result<Document> {
     guarded(name, || {
-        let gltf = gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| {
+        let (gltf, dropped) = super::gltf_parse::parse(bytes, name).map_err(|e| {
             anyhow!(
                 "'{name}' is not a valid glTF 2.0 file (.gltf or .glb): {e}. \
                  Export it again or check it with the Khronos glTF validator."
             )
         })?;
+        if let Some(w) = dropped {
+            warn(w);
+        }
         super::gltf_check::check(gltf.as_json(), name)?;
         for w in super::gltf_warn::unsupported_features(&gltf.document, name)
             .into_iter()
@@ -314,7 +317,9 @@ impl Document {
 
             if let Some(light) = node.light() {
                 lights_with_range += light.range().is_some() as usize;
-                if let Some((l, position, label)) = read_light(&light, world, name, warn)? {
+                if let Some((l, position, label)) =
+                    read_light(&light, world, &node_label(node), name, warn)?
+                {
                     light_positions.push(position);
                     light_labels.push(label);
                     scene.lights.push(l);

@@ -16,6 +16,7 @@ pub use gltf_data::percent_decode;
 pub mod gltf_load;
 mod gltf_material;
 mod gltf_mesh;
+pub(crate) mod gltf_parse;
 mod gltf_warn;
 pub mod gltf_write;
 
