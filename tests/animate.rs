@@ -460,7 +460,21 @@ fn malformed_animations_are_named() {
         &[vec![0.0, 1.0, 0.0], vec![1e20, 1.0, 0.0]],
     );
     g.camera(Vec3::new(1.0, 3.0, 5.0), Vec3::new(1.0, 0.0, 0.0), 0.9);
-    check("far.glb", g.to_glb(), &["far out of scale"]);
+    // The message named frame 0's own extent, neither the animation's span nor the time of
+    // the far pose (an audit, 2026-12-07).
+    let (o, out) = tiny("far.glb", g.to_glb(), &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    let lines: Vec<&str> = err.trim().lines().collect();
+    assert!(
+        o.status.code() == Some(1)
+            && lines.len() == 2
+            && lines[0].starts_with("warning: ")
+            && lines[0].contains("its pose at t = 2 s reaches farthest")
+            && lines[1].contains("far out of scale")
+            && lines[1].contains("the animation's poses span together (this pose: 6.000e0)")
+            && !out.join("frame-0000.exr").exists(),
+        "{err}"
+    );
     // A camera keyed to a scale of 0 fails at that frame, after the frames before it: the
     // message blamed "an invalid yfov (0.9)" and named no frame.
     let mut g = moving_light();
@@ -1132,7 +1146,7 @@ fn channels_an_extension_defines_are_left_out() {
 /// frame range failed on it, asked for or not (an audit, 2026-12-07: `--frames 1..4` and a
 /// farm job of them ended "frame 0 … has no lights"). The light tree now comes from the
 /// first frame whose pose builds, counted from 0 (so every range refits the same one), and
-/// frame 0 itself is refused naming the way out.
+/// frame 0 itself is refused naming the frame and the cause.
 #[test]
 fn a_range_renders_where_frame_0_cannot() {
     let dir = tempfile::tempdir().unwrap();
@@ -1163,7 +1177,6 @@ fn a_range_renders_where_frame_0_cannot() {
     assert!(
         o.status.code() == Some(1)
             && err.contains("frame 0 (t = 0 s)")
-            && err.contains("--frames K.. starts later")
             && err.contains("has no lights in this pose"),
         "{err}"
     );

@@ -237,16 +237,9 @@ fn topology_frame(
     }
     let t = anim.time(first, fps);
     let built = built.unwrap_or_else(|| {
-        let scene = anim.scene_at(t, &mut note).with_context(|| {
-            format!(
-                "frame {first} (t = {t} s){}",
-                if first == 0 {
-                    ", the first frame asked for (--frames K.. starts later)"
-                } else {
-                    ""
-                }
-            )
-        })?;
+        let scene = anim
+            .scene_at(t, &mut note)
+            .with_context(|| format!("frame {first} (t = {t} s)"))?;
         Ok((first, scene))
     });
     for w in said {

@@ -22,6 +22,17 @@ impl Frame {
         ((p - self.origin) * self.unit).as_vec3()
     }
 
+    /// The extent triangles are measured against in this frame: a rescaled frame's span
+    /// (its unit brings it to 4..8, scene_frame) where that is larger than the scene's
+    /// `extent` (`animate` takes every frame in the frame of all of them).
+    pub fn span(&self, extent: f64) -> f64 {
+        if self.unit == 1.0 {
+            extent
+        } else {
+            extent.max(4.0 / self.unit)
+        }
+    }
+
     /// `world` triangles in this frame's f32 coordinates, without those that round to zero
     /// area there; `extent` is the scene's largest f64 side and `emits(i)` whether triangle
     /// i emits. Err(i): triangle i lies beyond f32's range.
@@ -36,15 +47,9 @@ impl Frame {
         // at the scene's extent: a sliver (a sphere's pole) also rounds to zero area, and is
         // no news. A node scaled by 1e30 left 2 of 36 triangles and a black image, without
         // a word, before these were counted.
-        // A rescaled frame's span (its unit brings it to 4..8, scene_frame) where that is
-        // larger than the scene's extent: `animate` takes every frame in the frame of all of
-        // them (the review of 2026-12-06: not for unit 1, where it would count slivers).
-        let span = if self.unit == 1.0 {
-            extent
-        } else {
-            extent.max(4.0 / self.unit)
-        };
-        let tiny = span * 1e-6;
+        // [`Frame::span`] (the review of 2026-12-06: not for unit 1, where it would count
+        // slivers).
+        let tiny = self.span(extent) * 1e-6;
         for (i, t) in world.iter().enumerate() {
             let tri = t.map(|p| self.to_local(p));
             if !tri.iter().all(|v| v.is_finite()) {

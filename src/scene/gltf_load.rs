@@ -397,10 +397,20 @@ impl Document {
         let collapsed_emitters = local.collapsed_emitters + lost_emitters;
         let total = triangles.len() + lost_to_position;
         let notes: Vec<String> = [
-            (local.collapsed > 0).then(|| format!(
-                "{} of {total} triangles are too small to keep in 32-bit floats beside the scene's extent of {extent:.3e} units (an object or light far out of scale with the rest?)",
-                local.collapsed
-            )),
+            (local.collapsed > 0).then(|| {
+                // The extent they were measured against: an animation's frame spans all its
+                // poses, and the message gave this pose's own (an audit, 2026-12-07).
+                let span = frame.span(extent);
+                let beside = if span > 1.5 * extent {
+                    format!("the {span:.3e} units the animation's poses span together (this pose: {extent:.3e})")
+                } else {
+                    format!("the scene's extent of {extent:.3e} units")
+                };
+                format!(
+                    "{} of {total} triangles are too small to keep in 32-bit floats beside {beside} (an object or light far out of scale with the rest?)",
+                    local.collapsed
+                )
+            }),
             (lost_to_position > 0).then(|| format!(
                 "{lost_to_position} of {total} triangles lose their area where their node's transform puts them: floating point cannot hold their size that far out (a translation far out of range?)"
             )),
