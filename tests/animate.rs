@@ -1244,3 +1244,69 @@ fn a_spot_scaled_to_nothing_is_named() {
         "{err}"
     );
 }
+
+/// Statistics loaded for `--frame K` are tempered when what they were learned on moved
+/// since, told against the pose they were learned at: it was frame K−1's, whatever frame or
+/// frame rate the file came from (an audit, 2026-12-07: frame 0's statistics, the light 6
+/// units away since, were carried untempered into frame 4 with "moved: nothing"). A file of
+/// another --fps's frame K−1 is said.
+#[test]
+fn loaded_statistics_are_tempered_against_the_pose_they_were_learned_at() {
+    let dir = tempfile::tempdir().unwrap();
+    // The light moves over [0, 1] s and stands still after.
+    let scene = dir.path().join("move-then-stop.glb");
+    std::fs::write(&scene, light_keyed_at([0.0, 1.0]).to_glb()).unwrap();
+    let first = dir.path().join("first");
+    animate(
+        &scene,
+        &first,
+        &["--fps", "4", "--frames", "0..2", "--spp", "4"],
+    );
+    let report = |dir: &Path, k: u32| -> serde_json::Value {
+        let f = dir.join(format!("frame-{k:04}.json"));
+        serde_json::from_slice(&std::fs::read(f).unwrap()).unwrap()
+    };
+    let later = dir.path().join("later");
+    let stats = first.join("frame-0000.stats");
+    let o = animate_output(
+        &scene,
+        &later,
+        &[
+            "--fps",
+            "4",
+            "--frame",
+            "8",
+            "--spp",
+            "4",
+            "--load-stats",
+            stats.to_str().unwrap(),
+        ],
+    );
+    ok(&o);
+    let a = &report(&later, 8)["animation"];
+    assert_eq!(a["learning"], "carried, tempered", "{a}");
+    assert_eq!(a["moved"]["lights"], true, "{a}");
+    // Frame 2 at 4 fps is t = 0.5 s; frame 3 at 8 fps follows t = 0.25 s.
+    let stats = first.join("frame-0002.stats");
+    let o = animate_output(
+        &scene,
+        &dir.path().join("fps"),
+        &[
+            "--fps",
+            "8",
+            "--frame",
+            "3",
+            "--spp",
+            "4",
+            "--load-stats",
+            stats.to_str().unwrap(),
+        ],
+    );
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("was learned at the pose of t = 0.5 s")
+            && err.contains("(t = 0.25 s at 8 fps)"),
+        "{err}"
+    );
+}

@@ -384,12 +384,30 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
 
     // The pose before the first frame, to tell what moved since (a pose that does not build,
     // as a light switching on has none, compares with nothing: the frames after it render).
-    let mut previous: Option<Scene> = if first == 0 {
-        None
-    } else {
-        anim.scene_at(anim.time(first - 1, req.fps), &mut quiet)
-            .ok()
-    };
+    let before = first.checked_sub(1).map(|j| anim.time(j, req.fps));
+    // Loaded statistics of another pose than the frame before's (another frame, or another
+    // --fps): what moved is told against the pose they were learned at, and said.
+    let learned_at = loaded
+        .as_ref()
+        .and_then(|s| s.header.animation_time)
+        .filter(|&t| t.is_finite());
+    // Frame K−1's by number (another frame's was said above): another --fps.
+    let numbered = loaded
+        .as_ref()
+        .and_then(|s| s.header.animation_frame?.checked_add(1))
+        == Some(first);
+    if let (Some(tl), Some(p), true) = (learned_at, &req.load_stats, numbered) {
+        if before.is_none_or(|tb| (tl - tb).abs() > 1e-9 * tb.abs().max(1.0)) {
+            ui.message(&format!(
+                "warning: '{}' was learned at the pose of t = {tl} s, not at that of the frame before frame {first}{}; what moved is told against the pose it was learned at",
+                p.display(),
+                before.map_or(String::new(), |tb| format!(" (t = {tb} s at {} fps)", req.fps))
+            ));
+        }
+    }
+    let mut previous: Option<Scene> = learned_at
+        .or(before)
+        .and_then(|t| anim.scene_at(t, &mut quiet).ok());
     // The file each frame's statistics continue (merge-stats reads it): the loaded one,
     // then the frame before.
     let mut holds: Vec<String> = loaded.iter().map(SavedStats::checksum).collect();
@@ -518,6 +536,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         if let Some(l) = &mut result.learned {
             l.saved.header.start_forget = start_forget;
             l.saved.header.animation_frame = Some(k);
+            l.saved.header.animation_time = Some(t);
         }
         ui.phase_done();
         if matches!(budget, Budget::Seconds(t) if render::filled_before(t, result.spp, result.render_seconds))

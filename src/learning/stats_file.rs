@@ -71,6 +71,13 @@ pub struct StatsHeader {
     /// other took any frame's file without a word).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub animation_frame: Option<u32>,
+    /// The time (seconds) of that frame's pose: `animate --frame K --load-stats` compares
+    /// the pose the statistics were learned at with frame K's to decide whether they are
+    /// tempered; it compared frame K−1's, whatever frame or frame rate the file came from
+    /// (an audit, 2026-12-07: statistics 6 units of light travel old were carried
+    /// untempered).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub animation_time: Option<f64>,
     /// The checksums ([`SavedStats::checksum`]) of the statistics files this one was made
     /// from, and so whose observations it holds: the file a render or an animation's frame
     /// continued from (`--load-stats`, the frame before), or a merge's parts and `--base`.
@@ -561,6 +568,7 @@ mod tests {
             start_forget: None,
             skipped_passes: None,
             animation_frame: None,
+            animation_time: None,
             holds: None,
         };
         let mut json = serde_json::to_value(&new).unwrap();

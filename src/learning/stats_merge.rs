@@ -128,11 +128,12 @@ impl SavedStats {
         header.samples_done = learned.max(last);
         header.skipped_passes = None;
         // One frame's chunks end that frame; parts of several frames end none of them.
-        if parts
-            .iter()
-            .any(|(p, _)| p.header.animation_frame != first.header.animation_frame)
-        {
+        if parts.iter().any(|(p, _)| {
+            (p.header.animation_frame, p.header.animation_time)
+                != (first.header.animation_frame, first.header.animation_time)
+        }) {
             header.animation_frame = None;
+            header.animation_time = None;
         }
         header.regions = index.len() as u32;
         header.cuts_len = cuts.len() as u32;

@@ -100,6 +100,7 @@ pub fn stats_header(scene: &Scene, gpu: &GpuScene, settings: &RenderSettings) ->
         start_forget: None,
         skipped_passes: None,
         animation_frame: None,
+        animation_time: None,
         holds: None,
     }
 }
