@@ -657,3 +657,96 @@ fn one_sample_reports_no_estimated_error() {
         }
     }
 }
+
+/// `--exposure EV` scales `render`'s and `animate`'s PNGs by 2^EV (the README's "no exposure
+/// for render's PNG": one bulb's strings was almost black in it) and nothing else: the EXR is
+/// the same bytes, the report records the factor; a value out of range is refused before
+/// any work.
+#[test]
+fn exposure_scales_the_png_and_nothing_else() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell.glb");
+    let s = scene.to_str().unwrap();
+    let tiny = [
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--spp",
+        "4",
+        "--max-depth",
+        "1",
+        "-q",
+    ];
+    let render = |out: &str, extra: &[&str]| {
+        let mut a = vec!["render", s, "--out", out];
+        a.extend_from_slice(&tiny);
+        a.extend_from_slice(extra);
+        let o = run(&a, dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    render("plain.exr", &[]);
+    render("bright.exr", &["--exposure", "1.5"]);
+    render("dim.exr", &["--exposure", "-2"]);
+    let read = |n: &str| std::fs::read(dir.path().join(n)).unwrap();
+    assert_eq!(read("plain.exr"), read("bright.exr"));
+    for (name, factor) in [("bright", 2f32.powf(1.5)), ("dim", 0.25)] {
+        let report: serde_json::Value =
+            serde_json::from_slice(&read(&format!("{name}.json"))).unwrap();
+        assert_eq!(report["png_exposure"], factor as f64, "{report}");
+        let png = std::fs::File::open(dir.path().join(format!("{name}.png"))).unwrap();
+        let mut reader = png::Decoder::new(std::io::BufReader::new(png))
+            .read_info()
+            .unwrap();
+        let mut bytes = vec![0; reader.output_buffer_size()];
+        let size = reader.next_frame(&mut bytes).unwrap().buffer_size();
+        let radiance = lightlearn::film::read_exr(&dir.path().join(format!("{name}.exr")))
+            .unwrap()
+            .2;
+        let exposed: Vec<[f32; 3]> = radiance.iter().map(|p| p.map(|c| c * factor)).collect();
+        assert!(
+            bytes[..size] == lightlearn::film::tonemap_srgb8(&exposed),
+            "{name}: the PNG is not the image × {factor}"
+        );
+    }
+    let plain: serde_json::Value = serde_json::from_slice(&read("plain.json")).unwrap();
+    assert!(plain.get("png_exposure").is_none(), "{plain}");
+    // animate's frames too.
+    let o = run(
+        &[
+            "animate",
+            s,
+            "--frames",
+            "0..0",
+            "--out",
+            "frames",
+            "--no-video",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--spp",
+            "2",
+            "-q",
+            "--exposure",
+            "1",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_slice(&read("frames/frame-0000.json")).unwrap();
+    assert_eq!(report["png_exposure"], 2.0, "{report}");
+    for bad in ["21", "nan", "-inf"] {
+        let o = run(
+            &["render", s, "--out", "bad.exr", "--exposure", bad],
+            dir.path(),
+        );
+        assert!(
+            o.status.code() == Some(1) && stderr(&o).contains("--exposure"),
+            "{bad}: {}",
+            stderr(&o)
+        );
+        assert!(!dir.path().join("bad.exr").exists());
+    }
+}

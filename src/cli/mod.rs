@@ -244,6 +244,16 @@ pub struct RenderArgs {
     /// another seed); the final outputs replace them. 0: none.
     #[arg(long, default_value_t = 300.0, value_name = "SECONDS")]
     pub checkpoint: f64,
+    /// Exposure of the PNG in stops: its pixels × 2^EV before the sRGB curve (a dim scene's
+    /// PNG is black at 0; `+4` is 16× brighter). The EXR holds the radiance as rendered
+    /// either way; the report records the factor (`png_exposure`). −20 to 20.
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        value_name = "EV",
+        allow_hyphen_values = true
+    )]
+    pub exposure: f32,
     #[command(flatten)]
     pub device: DeviceArgs,
 }
@@ -419,6 +429,7 @@ impl RenderArgs {
             regions: self.regions.settings()?,
             learn: self.learn.settings()?,
             checkpoint_seconds: self.checkpoint,
+            exposure: lightlearn::film::exposure_factor(self.exposure)?,
             save_stats: self.save_stats.clone(),
             load_stats: self.load_stats.clone(),
             force: self.force,

@@ -61,6 +61,8 @@ pub struct AnimateRequest {
     pub load_stats: Option<PathBuf>,
     /// Encode DIR/animation.mp4 with ffmpeg when it is installed.
     pub video: bool,
+    /// `--exposure`: the PNGs' (and so the video's) factor (2^EV).
+    pub exposure: f32,
     /// A farm chunk of a single frame: samples [K·spp, (K+1)·spp) after what it loaded.
     pub chunk: Option<u32>,
     pub device: ContextOptions,
@@ -579,6 +581,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
             &result.mean(),
             &report,
             &extra,
+            req.exposure,
         )?;
         records.push(FrameRecord {
             frame: k,

@@ -50,6 +50,8 @@ pub struct RenderRequest {
     pub device: ContextOptions,
     /// `--checkpoint`: seconds of rendering between writes of the image so far (0: none).
     pub checkpoint_seconds: f64,
+    /// `--exposure`: the PNG's factor (2^EV).
+    pub exposure: f32,
 }
 
 /// What a finished (or interrupted) render wrote.
@@ -212,7 +214,15 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         };
         let extra: Vec<(&std::path::Path, &[u8])> =
             stats.iter().map(|(p, b)| (*p, b.as_slice())).collect();
-        film::write_outputs_with(paths, req.width, req.height, &image, &report, &extra)?;
+        film::write_outputs_with(
+            paths,
+            req.width,
+            req.height,
+            &image,
+            &report,
+            &extra,
+            req.exposure,
+        )?;
         Ok(!extra.is_empty())
     };
     let every = req.checkpoint_seconds;

@@ -104,11 +104,13 @@ pub fn write_outputs(
     rgb: &[[f32; 3]],
     report: &serde_json::Value,
 ) -> Result<()> {
-    write_outputs_with(paths, width, height, rgb, report, &[])
+    write_outputs_with(paths, width, height, rgb, report, &[], 1.0)
 }
 
-/// [`write_outputs`] with more files of the same run (`--save-stats`): every file is written
-/// to a temporary first and all are moved into place together ([`crate::io::commit_all`]).
+/// [`write_outputs`] with more files of the same run (`--save-stats`) and the PNG's pixels ×
+/// `png_exposure` (`--exposure`; the report says the factor where it is not 1, the EXR
+/// holds the radiance either way): every file is written to a temporary first and all are
+/// moved into place together ([`crate::io::commit_all`]).
 pub fn write_outputs_with(
     paths: &OutputPaths,
     width: u32,
@@ -116,8 +118,14 @@ pub fn write_outputs_with(
     rgb: &[[f32; 3]],
     report: &serde_json::Value,
     extra: &[(&Path, &[u8])],
+    png_exposure: f32,
 ) -> Result<()> {
-    write_all(paths, width, height, rgb, report, extra, 1.0)
+    if png_exposure == 1.0 {
+        return write_all(paths, width, height, rgb, report, extra, 1.0);
+    }
+    let mut report = report.clone();
+    report["png_exposure"] = serde_json::json!(png_exposure);
+    write_all(paths, width, height, rgb, &report, extra, png_exposure)
 }
 
 /// [`write_outputs`] with the PNG scaled by `exposure` (the preview's, so that P saves the
@@ -134,6 +142,17 @@ pub fn write_outputs_exposed(
     let mut report = report.clone();
     report["png_exposure"] = serde_json::json!(exposure);
     write_all(paths, width, height, rgb, &report, &[], exposure)
+}
+
+/// `--exposure EV` (render, animate): the PNG's factor 2^EV; −20 to 20 stops (the preview's
+/// range), finite.
+pub fn exposure_factor(ev: f32) -> Result<f32> {
+    if !(ev.is_finite() && (-20.0..=20.0).contains(&ev)) {
+        anyhow::bail!(
+            "--exposure {ev} is out of range: give stops from -20 to 20 (0: as rendered)"
+        );
+    }
+    Ok(2f32.powf(ev))
 }
 
 fn write_all(
