@@ -61,10 +61,7 @@ fn main() -> ExitCode {
             .request()
             .and_then(|r| lightlearn::preview::run(&r, &mut Terminal::new(false))),
         Command::Farm(a) => a.request().and_then(|r| {
-            let o = commands::farm::write(&r)?;
-            for w in &o.warnings {
-                say!("warning: {w}");
-            }
+            let o = commands::farm::write(&r, &mut |w| say!("warning: {w}"))?;
             say!(
                 "wrote {}: {} steps, {} tasks; run it here with `openjd run {}`",
                 o.template.display(),

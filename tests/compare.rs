@@ -768,6 +768,35 @@ fn output_folders_and_references_given_back() {
         "{corrected}"
     );
     assert!(!corrected.is_null(), "{m}");
+    // A given reference that is an earlier run's image there stays (it was removed as
+    // stale: a review, 2026-12-07).
+    let given = st.join("spp-power.exr").display().to_string();
+    ok(&cmp("uniform", &["--reference", &given], &st));
+    assert!(st.join("spp-power.exr").is_file() && st.join("spp-uniform.exr").is_file());
+    // A folder holding a reference and its report, as `reference` writes them, is compared
+    // into (it was refused as a user's files).
+    let rf = path("rf");
+    std::fs::create_dir(&rf).unwrap();
+    let made = rf.join("reference.exr").display().to_string();
+    ok(&run(
+        &[
+            "reference",
+            &s,
+            "--spp",
+            "16",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--max-depth",
+            "1",
+            "--out",
+            &made,
+        ],
+        &cache,
+    ));
+    ok(&cmp("power", &["--reference", &made], &rf));
+    assert!(rf.join("metrics.json").is_file());
 }
 
 /// At equal spp the first sampler's times held lavapipe's kernel compile on a cold shader

@@ -368,4 +368,32 @@ fn a_job_says_what_its_frames_will_warn_of() {
             && err.contains("ends at frame 96 at 24 fps; frames 97..99 hold its last pose"),
         "{err}"
     );
+    // The loader's, as they come, also where the job is then refused (a review,
+    // 2026-12-07: the note on ignored channels that renumbers the rest was lost with it).
+    let bytes = std::fs::read(&cars).unwrap();
+    let edited = common::edit_glb(&bytes, |j| {
+        let channels = j["animations"][0]["channels"].as_array_mut().unwrap();
+        channels.insert(
+            0,
+            serde_json::json!({"sampler": 0, "target": {"path": "pointer"}}),
+        );
+    });
+    let pointer = dir.path().join("pointer.glb");
+    std::fs::write(&pointer, edited).unwrap();
+    let o = lightlearn(&[
+        "farm",
+        pointer.to_str().unwrap(),
+        "--out",
+        dir.path().join("job2").to_str().unwrap(),
+        "--frames",
+        "3..2",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success()
+            && err.contains("warning: ")
+            && err.contains("1 animation channel targets no node's")
+            && err.contains("the last frame comes before the first"),
+        "{err}"
+    );
 }

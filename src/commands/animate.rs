@@ -2,13 +2,13 @@
 //! from each frame to the next (`--carry on`) or learned afresh (`--carry off`).
 //!
 //! Frame k is the scene at t0 + k / fps in one coordinate frame and one region grid
-//! ([`AnimatedScene`]). Its light tree is the tree built at frame 0 refitted to the lights
-//! as they are at frame k, so a cut node, and what was learned about it, keeps its meaning;
+//! ([`AnimatedScene`]). Its light tree is the tree built at frame 0 (or the first frame from
+//! 0 whose pose builds: `topology_frame`) refitted to the lights as they are at frame k, so a cut node, and what was learned about it, keeps its meaning;
 //! when the refit's SAOH cost exceeds [`DEGRADED`] × a fresh build's, the frame builds its
 //! own tree and learns afresh. Its starting statistics are frame k−1's final ones (from
 //! memory, or from `--load-stats`: the same bytes, so `--frame k --load-stats
 //! frame-(k−1).stats` gives frame k of the sequence bit for bit), tempered by `--forget` when
-//! lights or geometry moved between the two frames. Every frame is unbiased whatever it
+//! lights or geometry moved between the pose they were learned at and frame k's. Every frame is unbiased whatever it
 //! carries: the statistics only shape the pmfs, which stay exact.
 
 use std::path::{Path, PathBuf};

@@ -118,7 +118,13 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
         others.push(("the --reference", r));
     }
     crate::io::check_outputs_spare_scene(&written, a.scene.as_deref(), &others)?;
-    let stale = check_out_folder(&a.out, &written)?;
+    let mut inputs: Vec<PathBuf> = a
+        .scene
+        .as_deref()
+        .map(crate::scene::gltf_load::input_files)
+        .unwrap_or_default();
+    inputs.extend(a.reference.clone());
+    let stale = check_out_folder(&a.out, &written, &inputs)?;
     let given = match &a.reference {
         Some(p) => {
             let (w, h, px) = film::read_exr(p)?;
@@ -379,8 +385,10 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
 /// index.html and metrics.json were replaced with exit 0; an audit, 2026-12-07). Returns
 /// the images of the earlier comparison there that this one does not write, to remove once
 /// its own files are in place; only names compare gives (a sampler's, a budget's) are taken
-/// from the old report.
-fn check_out_folder(out: &Path, written: &[&Path]) -> Result<Vec<PathBuf>> {
+/// from the old report, and never one of the comparison's `inputs` (a given --reference
+/// that was an earlier run's image was removed: a review, 2026-12-07). A reference and its
+/// lightlearn report (`reference` or a comparison wrote them) are not a user's files.
+fn check_out_folder(out: &Path, written: &[&Path], inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
     if !out.is_dir() {
         return Ok(Vec::new());
     }
@@ -399,9 +407,13 @@ fn check_out_folder(out: &Path, written: &[&Path]) -> Result<Vec<PathBuf>> {
         .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
         .filter(|v| v["comparisons"].is_array() && v.get("reference").is_some());
     let Some(old) = old else {
+        let report = out.join("reference.json");
+        let ours = |p: &Path| {
+            (p == report || p == out.join("reference.exr")) && crate::film::is_report(&report)
+        };
         if let Some(p) = written
             .iter()
-            .find(|p| std::fs::symlink_metadata(p).is_ok())
+            .find(|p| std::fs::symlink_metadata(p).is_ok() && !ours(p))
         {
             bail!(
                 "'{}' exists and '{}' is not a lightlearn compare's report, so it is a file of yours that compare would replace; give another --out (a new folder, or an earlier comparison's)",
@@ -427,7 +439,8 @@ fn check_out_folder(out: &Path, written: &[&Path]) -> Result<Vec<PathBuf>> {
             };
             let p = out.join(format!("{prefix}-{}.exr", s.name()));
             let regular = std::fs::symlink_metadata(&p).is_ok_and(|m| m.is_file());
-            if regular && !written.contains(&p.as_path()) && !stale.contains(&p) {
+            let input = inputs.iter().any(|i| crate::io::same_path(i, &p));
+            if regular && !input && !written.contains(&p.as_path()) && !stale.contains(&p) {
                 stale.push(p);
             }
         }

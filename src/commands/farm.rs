@@ -54,10 +54,6 @@ pub struct FarmOutcome {
     pub template: PathBuf,
     pub steps: usize,
     pub tasks: usize,
-    /// What the scene's loader and the frame range call for a word on (said when the job is
-    /// written: they were dropped, and a job of a file with ignored channels or frames past
-    /// its end was written without one; an audit, 2026-12-07).
-    pub warnings: Vec<String>,
 }
 
 /// Most steps a job may have (two or three per frame); OpenJD's own limit is far above.
@@ -221,12 +217,15 @@ fn run_action(arguments: Vec<String>) -> Value {
 }
 
 /// Writes JOBDIR/template.yaml.
-pub fn write(req: &FarmRequest) -> Result<FarmOutcome> {
+/// `warn` hears what the scene's loader and the frame range call for a word on, as it comes
+/// (they were dropped, and a job of a file with ignored channels or frames past its end was
+/// written without one; an audit, 2026-12-07).
+pub fn write(req: &FarmRequest, warn: &mut dyn FnMut(String)) -> Result<FarmOutcome> {
     // A refused job leaves no empty job folder behind.
-    crate::io::removing_created_folders_on_error(Some(&req.job_dir), || write_checked(req))
+    crate::io::removing_created_folders_on_error(Some(&req.job_dir), || write_checked(req, warn))
 }
 
-fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
+fn write_checked(req: &FarmRequest, warn: &mut dyn FnMut(String)) -> Result<FarmOutcome> {
     if !(2..=10_000).contains(&req.chunks) {
         bail!("--chunks must be 2..=10000 (for one chunk, run `lightlearn render` or `animate` directly)");
     }
@@ -252,12 +251,7 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
     super::animate::check_timing(req.fps, req.forget)?;
     let scene = std::fs::canonicalize(&req.scene)
         .with_context(|| format!("cannot find the scene '{}'", req.scene.display()))?;
-    let mut warnings = Vec::new();
-    let anim = AnimatedScene::open(Some(&scene), &mut |w| {
-        if !warnings.contains(&w) {
-            warnings.push(w)
-        }
-    })?;
+    let anim = AnimatedScene::open(Some(&scene), warn)?;
     let frames = match (req.frames, req.still) {
         (_, true) => None,
         (Some((a, b)), _) if b < a => {
@@ -274,7 +268,7 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
         if anim.is_animated() {
             let end = anim.frame_count(req.fps).unwrap_or(u32::MAX) - 1;
             if b > end {
-                warnings.push(format!(
+                warn(format!(
                     "'{}' ends at frame {end} at {} fps; frames {}..{b} hold its last pose",
                     anim.doc.name(),
                     req.fps,
@@ -497,6 +491,5 @@ fn write_checked(req: &FarmRequest) -> Result<FarmOutcome> {
         template: template_path,
         steps: steps.len(),
         tasks,
-        warnings,
     })
 }

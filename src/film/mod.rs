@@ -84,7 +84,7 @@ impl OutputPaths {
 /// Whether `p` is a report lightlearn wrote (a JSON object naming its EXR's checksum, its
 /// version or its merged parts). Past 64 MiB, more than any report, it is cut short and so
 /// not one.
-fn is_report(p: &Path) -> bool {
+pub(crate) fn is_report(p: &Path) -> bool {
     let Ok(bytes) = crate::io::read_regular(p, 64 << 20) else {
         return false;
     };

@@ -128,13 +128,24 @@ impl SavedStats {
         header.samples_done = learned.max(last);
         header.skipped_passes = None;
         // One frame's chunks end that frame; parts of several frames end none of them.
-        if parts.iter().any(|(p, _)| {
-            (p.header.animation_frame, p.header.animation_time)
-                != (first.header.animation_frame, first.header.animation_time)
-        }) {
+        if parts
+            .iter()
+            .any(|(p, _)| p.header.animation_frame != first.header.animation_frame)
+        {
             header.animation_frame = None;
-            header.animation_time = None;
         }
+        // The time where every part that records one agrees (files of builds before it
+        // record none: a review, 2026-12-07).
+        let times: Vec<f64> = parts
+            .iter()
+            .filter_map(|(p, _)| p.header.animation_time)
+            .collect();
+        header.animation_time = match times.first() {
+            Some(&t) if header.animation_frame.is_some() && times.iter().all(|&u| u == t) => {
+                Some(t)
+            }
+            _ => None,
+        };
         header.regions = index.len() as u32;
         header.cuts_len = cuts.len() as u32;
         // The merge is made from its parts (sorted already).

@@ -15,11 +15,6 @@ use super::Scene;
 /// committed scenes' paths (straight walks, car loops) to be inside the union.
 const BOUND_SAMPLES: usize = 33;
 
-/// The span of all poses over the smallest one's beyond which a far pose is warned of
-/// (triangles below 1e-6 of the span are lost, and said where they are; the committed
-/// animations: 1.0–1.3).
-const FAR_POSE: f64 = 1e4;
-
 /// Most frames one animation may have (a typo in --fps must not start a million renders).
 pub const MAX_FRAMES: u32 = 100_000;
 
@@ -47,8 +42,7 @@ impl AnimatedScene {
         };
         let span = doc.animations.span().unwrap_or((0.0, 0.0));
         let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-        // The smallest pose's extent, and the time of the pose that reaches farthest, for
-        // the warning below.
+        // The smallest pose's extent, and the time of the pose that reaches farthest.
         let (mut smallest, mut farthest) = (f64::INFINITY, (0.0, f64::NEG_INFINITY));
         for i in 0..BOUND_SAMPLES {
             let s = i as f64 / (BOUND_SAMPLES - 1) as f64;
@@ -64,26 +58,19 @@ impl AnimatedScene {
                 }
             }
         }
-        // Every frame is flattened in the frame of all poses, so one pose keyed far out of
-        // scale shrinks every other frame's geometry below f32's resolution: the error then
-        // came on frame 0, naming its own extent and neither the cause nor its time (an
-        // audit, 2026-12-07). Said first, with the time.
-        let union = (hi - lo).max_element();
-        if union > FAR_POSE * smallest {
-            warn(format!(
-                "'{}': the animation's poses together span {union:.3e} units, {:.1e}× its smallest pose (its pose at t = {} s reaches farthest: a node keyed far out of scale?); every frame is rendered in the frame of them all, where small geometry can be lost",
-                doc.name(),
-                union / smallest,
-                farthest.0
-            ));
-        }
         if !(lo.is_finite() && hi.is_finite()) {
             bail!(
                 "'{}' has no geometry or lights to bound in any pose; check the file",
                 doc.name()
             );
         }
-        let frame = Frame::of(lo, hi);
+        let mut frame = Frame::of(lo, hi);
+        // Every frame is flattened in the frame of all poses, so one pose keyed far out of
+        // scale shrinks every other frame's geometry below f32's resolution; where triangles
+        // are lost so, the message names the time of the pose that reaches farthest.
+        if (hi - lo).max_element() > 1.5 * smallest {
+            frame.far_pose = Some(farthest.0);
+        }
         let grid_box = (frame.to_local(lo), frame.to_local(hi));
         Ok(AnimatedScene {
             doc,

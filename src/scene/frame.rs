@@ -9,13 +9,22 @@ use glam::{DVec3, Vec3};
 pub struct Frame {
     pub origin: DVec3,
     pub unit: f64,
+    /// An animation's frame (the union of its poses) where its poses differ in extent: the
+    /// time of the pose that reaches farthest, which the lost-triangle message names (a
+    /// pose keyed far out of scale shrank every frame's geometry, and the error came on
+    /// frame 0 naming its own extent; an audit, 2026-12-07).
+    pub far_pose: Option<f64>,
 }
 
 impl Frame {
     /// The frame for a scene with f64 bounds [lo, hi].
     pub fn of(lo: DVec3, hi: DVec3) -> Frame {
         let (origin, unit) = scene_frame(lo, hi);
-        Frame { origin, unit }
+        Frame {
+            origin,
+            unit,
+            far_pose: None,
+        }
     }
 
     pub fn to_local(&self, p: DVec3) -> Vec3 {

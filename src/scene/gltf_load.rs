@@ -401,8 +401,8 @@ impl Document {
                 // The extent they were measured against: an animation's frame spans all its
                 // poses, and the message gave this pose's own (an audit, 2026-12-07).
                 let span = frame.span(extent);
-                let beside = if span > 1.5 * extent {
-                    format!("the {span:.3e} units the animation's poses span together (this pose: {extent:.3e})")
+                let beside = if let (Some(t), true) = (frame.far_pose, span > 1.5 * extent) {
+                    format!("the {span:.3e} units the animation's poses span together (its pose at t = {t} s reaches farthest; this pose: {extent:.3e})")
                 } else {
                     format!("the scene's extent of {extent:.3e} units")
                 };

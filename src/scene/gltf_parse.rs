@@ -99,7 +99,7 @@ fn without_foreign_channels(bytes: &[u8], name: &str) -> Option<(Vec<u8>, String
         .join(", ");
     let more = if n > 3 { ", …" } else { "" };
     let warning = format!(
-        "'{name}': {n} animation channel{} target{} no node's translation, rotation, scale or weights ({shown}{more}: an extension's targets, such as KHR_animation_pointer's); ignored, the scene renders without them",
+        "'{name}': {n} animation channel{} target{} no node's translation, rotation, scale or weights ({shown}{more}: an extension's targets, such as KHR_animation_pointer's); ignored, the scene renders without them (messages below number the channels without them)",
         if n == 1 { "" } else { "s" },
         if n == 1 { "s" } else { "" }
     );
