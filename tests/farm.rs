@@ -325,6 +325,12 @@ fn bad_farm_requests_are_refused() {
             vec!["--spp", "1048577"],
             "--spp 1048577 is more than the 1048576",
         ),
+        // A frame's chunks refined their cuts apart and the job failed at its first merge
+        // of statistics (an audit, 2026-12-07).
+        (
+            vec!["--frames", "0..1", "--refine-cuts", "4"],
+            "--refine-cuts with statistics carried from frame to frame",
+        ),
     ] {
         let mut a = vec![
             "farm",

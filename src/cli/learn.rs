@@ -117,7 +117,8 @@ pub struct LearnArgs {
     /// longer cut costs (≥ 64 observations); the children inherit the cluster's statistics as
     /// their prior, up to 64 clusters (--k-max caps the cut as built). 0: cuts never change
     /// (the default: at equal time 1.05× on rooms36, 1.01× on rooms16, and 1–7 % lost where
-    /// little splits; docs/results.md).
+    /// little splits; docs/results.md). A continuation (--load-stats) refines from its own
+    /// counts, so it is not the uninterrupted run bit for bit (still unbiased).
     #[arg(long, default_value_t = 0, value_name = "N")]
     pub refine_cuts: u32,
     /// bayes: a cluster slot with no observation of its own borrows up to N observations of

@@ -309,6 +309,15 @@ fn write_checked(req: &FarmRequest, warn: &mut dyn FnMut(String)) -> Result<Farm
     // sampler that learns nothing writes none, and the job failed at its first merge with
     // "cannot read the statistics file" (an audit, 2026-12-06). Offer only those that learn.
     let carries = frames.is_some() && req.carry && req.sampler.learned();
+    // A frame's chunks refine their cuts apart, and the job's merge of their statistics
+    // refused them at its first frame (an audit, 2026-12-07: exit 1 after frame 0).
+    let refines = (req.options.iter())
+        .position(|o| o == "--refine-cuts")
+        .and_then(|i| req.options.get(i + 1))
+        .is_some_and(|n| n != "0");
+    if carries && refines {
+        bail!("--refine-cuts with statistics carried from frame to frame: each chunk of a frame refines its cuts from its own samples, so their statistics cannot be merged for the next frame; leave out --refine-cuts, or give --carry off");
+    }
     let samplers: Vec<&str> = (LightSampler::ALL.iter())
         .filter(|s| s.learned() || !carries)
         .map(|s| s.name())
