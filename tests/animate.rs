@@ -1137,6 +1137,21 @@ fn channels_an_extension_defines_are_left_out() {
     }
 }
 
+/// `g`'s last node keyed from scale `scale[0]` at t = 0 to `scale[1]` at t = 1, a camera
+/// over the origin, written to `path`.
+fn scaled_over_a_second(mut g: GltfBuilder, scale: [f32; 2], path: &Path) -> PathBuf {
+    let node = g.last_node();
+    g.animate(
+        node,
+        "scale",
+        &[0.0, 1.0],
+        &[vec![scale[0]; 3], vec![scale[1]; 3]],
+    );
+    g.camera(Vec3::new(0.0, 3.0, 5.0), Vec3::ZERO, 0.9);
+    std::fs::write(path, g.to_glb()).unwrap();
+    path.to_path_buf()
+}
+
 /// A light switching on (an emitter keyed from scale 0): frame 0 has no lights, and every
 /// frame range failed on it, asked for or not (an audit, 2026-12-07: `--frames 1..4` and a
 /// farm job of them ended "frame 0 … has no lights"). The light tree now comes from the
@@ -1157,16 +1172,7 @@ fn a_range_renders_where_frame_0_cannot() {
         ],
         lamp,
     );
-    let node = g.last_node();
-    g.animate(
-        node,
-        "scale",
-        &[0.0, 1.0],
-        &[vec![0.0, 0.0, 0.0], vec![1.0, 1.0, 1.0]],
-    );
-    g.camera(Vec3::new(0.0, 3.0, 5.0), Vec3::ZERO, 0.9);
-    let scene = dir.path().join("switch-on.glb");
-    std::fs::write(&scene, g.to_glb()).unwrap();
+    let scene = scaled_over_a_second(g, [0.0, 1.0], &dir.path().join("switch-on.glb"));
     let o = animate_output(&scene, &dir.path().join("all"), &["--fps", "4"]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
@@ -1220,15 +1226,7 @@ fn a_spot_scaled_to_nothing_is_named() {
         0.6,
     );
     let node = g.last_node();
-    g.animate(
-        node,
-        "scale",
-        &[0.0, 1.0],
-        &[vec![1.0, 1.0, 1.0], vec![0.0, 0.0, 0.0]],
-    );
-    g.camera(Vec3::new(0.0, 3.0, 5.0), Vec3::ZERO, 0.9);
-    let scene = dir.path().join("spot.glb");
-    std::fs::write(&scene, g.to_glb()).unwrap();
+    let scene = scaled_over_a_second(g, [1.0, 0.0], &dir.path().join("spot.glb"));
     let o = animate_output(&scene, &dir.path().join("o"), &["--fps", "1", "--spp", "2"]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(

@@ -49,16 +49,8 @@ pub struct AnimateArgs {
     /// Do not encode DIR/animation.mp4 even when ffmpeg is installed.
     #[arg(long)]
     pub no_video: bool,
-    /// Exposure of the frames' PNGs, and so of the video, in stops: pixels × 2^EV before the
-    /// sRGB curve. The EXRs hold the radiance as rendered; each report records the factor
-    /// (`png_exposure`). −20 to 20.
-    #[arg(
-        long,
-        default_value_t = 0.0,
-        value_name = "EV",
-        allow_hyphen_values = true
-    )]
-    pub exposure: f32,
+    #[command(flatten)]
+    pub exposure: super::ExposureArgs,
     /// Render farm chunk K of one frame (--frame): the samples [K·spp, (K+1)·spp) after what
     /// --load-stats learned; `lightlearn merge` combines the chunks.
     #[arg(long, value_name = "K")]
@@ -122,7 +114,7 @@ impl AnimateArgs {
             learn: self.learn.settings()?,
             load_stats: self.load_stats.clone(),
             video: !self.no_video,
-            exposure: lightlearn::film::exposure_factor(self.exposure)?,
+            exposure: self.exposure.factor()?,
             chunk: self.chunk,
             device: self.device.options(),
             stratify: lightlearn::render::Stratify::Sobol,

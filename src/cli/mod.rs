@@ -244,9 +244,19 @@ pub struct RenderArgs {
     /// another seed); the final outputs replace them. 0: none.
     #[arg(long, default_value_t = 300.0, value_name = "SECONDS")]
     pub checkpoint: f64,
-    /// Exposure of the PNG in stops: its pixels × 2^EV before the sRGB curve (a dim scene's
-    /// PNG is black at 0; `+4` is 16× brighter). The EXR holds the radiance as rendered
-    /// either way; the report records the factor (`png_exposure`). −20 to 20.
+    #[command(flatten)]
+    pub exposure: ExposureArgs,
+    #[command(flatten)]
+    pub device: DeviceArgs,
+}
+
+/// `--exposure`, shared by `render` and `animate`.
+#[derive(Args)]
+pub struct ExposureArgs {
+    /// Exposure of the PNG (animate: of every frame's, and so of the video) in stops: its
+    /// pixels × 2^EV before the sRGB curve (a dim scene's PNG is black at 0; 4 is 16×
+    /// brighter). The EXR holds the radiance as rendered either way; the report records the
+    /// factor (`png_exposure`). −20 to 20.
     #[arg(
         long,
         default_value_t = 0.0,
@@ -254,8 +264,12 @@ pub struct RenderArgs {
         allow_hyphen_values = true
     )]
     pub exposure: f32,
-    #[command(flatten)]
-    pub device: DeviceArgs,
+}
+
+impl ExposureArgs {
+    pub fn factor(&self) -> Result<f32> {
+        lightlearn::film::exposure_factor(self.exposure)
+    }
 }
 
 #[derive(Args)]
@@ -429,7 +443,7 @@ impl RenderArgs {
             regions: self.regions.settings()?,
             learn: self.learn.settings()?,
             checkpoint_seconds: self.checkpoint,
-            exposure: lightlearn::film::exposure_factor(self.exposure)?,
+            exposure: self.exposure.factor()?,
             save_stats: self.save_stats.clone(),
             load_stats: self.load_stats.clone(),
             force: self.force,
