@@ -63,11 +63,14 @@ fn main() -> ExitCode {
         Command::Farm(a) => a.request().and_then(|r| {
             let o = commands::farm::write(&r, &mut |w| say!("warning: {w}"))?;
             say!(
-                "wrote {}: {} steps, {} tasks; run it here with `openjd run {}`",
-                o.template.display(),
-                o.steps,
-                o.tasks,
-                o.template.display()
+                "{}",
+                one_line(&format!(
+                    "wrote {}: {} steps, {} tasks; run it here with `openjd run {}`",
+                    o.template.display(),
+                    o.steps,
+                    o.tasks,
+                    shell_word(&o.template)
+                ))
             );
             Ok(())
         }),
@@ -79,10 +82,13 @@ fn main() -> ExitCode {
         Command::Variance(a) => a.run(&mut Terminal::new(false)).map(|t| out!("{t}")),
         Command::Merge(a) => commands::merge::images(&a.parts, &a.out).map(|o| {
             say!(
-                "wrote {} (+ .png, .json): {} parts, {} spp",
-                o.exr.display(),
-                o.parts,
-                o.spp
+                "{}",
+                one_line(&format!(
+                    "wrote {} (+ .png, .json): {} parts, {} spp",
+                    o.exr.display(),
+                    o.parts,
+                    o.spp
+                ))
             )
         }),
         Command::MergeStats(a) => {
@@ -91,11 +97,14 @@ fn main() -> ExitCode {
             })
             .map(|m| {
                 say!(
-                    "wrote {}: {} files, {} passes learned, {} regions with cuts",
-                    a.out.display(),
-                    a.parts.len(),
-                    m.header.samples_done,
-                    m.index.iter().filter(|&&o| o != 0).count()
+                    "{}",
+                    one_line(&format!(
+                        "wrote {}: {} files, {} passes learned, {} regions with cuts",
+                        a.out.display(),
+                        a.parts.len(),
+                        m.header.samples_done,
+                        m.index.iter().filter(|&&o| o != 0).count()
+                    ))
                 )
             })
         }
@@ -114,6 +123,25 @@ fn main() -> ExitCode {
 /// naming such a file spanned two; an audit, 2026-12-06).
 fn one_line(s: &str) -> String {
     s.replace('\n', "\\n").replace('\r', "\\r")
+}
+
+/// `p` as one word a POSIX shell reads back as `p`: quoted where it holds anything but
+/// letters, digits and `_./-`, and after `./` where it starts with `-` (farm's hint to paste
+/// read `openjd run -job/template.yaml`, an option, and broke on spaces and quotes; an
+/// audit, 2026-12-07).
+fn shell_word(p: &std::path::Path) -> String {
+    let s = p.display().to_string();
+    let s = if s.starts_with('-') {
+        format!("./{s}")
+    } else {
+        s
+    };
+    let plain = |c: char| c.is_ascii_alphanumeric() || "_./-".contains(c);
+    if !s.is_empty() && s.chars().all(plain) {
+        s
+    } else {
+        format!("'{}'", s.replace('\'', "'\\''"))
+    }
 }
 
 /// Progress on a terminal (a bar per phase, 0..BAR_STEPS = fraction done) and messages on
@@ -334,10 +362,13 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
 fn cmd_scene(a: SceneArgs) -> Result<()> {
     let bytes = commands::scene::run(a.family, &a.params()?, &a.out)?;
     say!(
-        "wrote {} ({:?}, {} lights, {bytes} bytes)",
-        a.out.display(),
-        a.family,
-        a.lights
+        "{}",
+        one_line(&format!(
+            "wrote {} ({:?}, {} lights, {bytes} bytes)",
+            a.out.display(),
+            a.family,
+            a.lights
+        ))
     );
     Ok(())
 }

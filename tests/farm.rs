@@ -315,11 +315,10 @@ fn bad_farm_requests_are_refused() {
             vec!["--frames", "0..1999", "--chunks", "51"],
             "is 102000 render tasks, more than the 100000",
         ),
-        // It blamed "--chunk 3", a flag of the tasks, not of farm.
-        (
-            vec!["--chunks", "2000", "--spp", "1048576"],
-            "--chunks 2000 × --spp 1048576: the last chunk would end",
-        ),
+        // A merge lists every chunk's file on one command line: 10000 in a job folder of
+        // ~170 bytes passed the system's 2 MiB (an audit, 2026-12-07). (2000 chunks of 2^20
+        // samples were refused as ending past 2^30, naming a flag of the tasks before.)
+        (vec!["--chunks", "1001"], "--chunks must be 2..=1000"),
         // Past a film's 2^20 samples every task failed (a review, 2026-12-07).
         (
             vec!["--spp", "1048577"],

@@ -137,7 +137,7 @@ pub struct FarmArgs {
     /// Render a still (render) even when the scene is animated.
     #[arg(long, conflicts_with = "frames")]
     pub still: bool,
-    /// Sample chunks per image, 2 to 10000, each a task (chunk k renders the samples
+    /// Sample chunks per image, 2 to 1000, each a task (chunk k renders the samples
     /// [k·spp, (k+1)·spp)).
     #[arg(long, default_value_t = 4)]
     pub chunks: u32,
@@ -177,7 +177,13 @@ impl FarmArgs {
     pub fn request(&self) -> Result<FarmRequest> {
         self.regions.settings()?;
         self.learn.settings()?;
+        // A relative path with a folder in it is the tasks' working folder's, which is
+        // OpenJD's session folder (every task failed "not found"; an audit, 2026-12-07): taken
+        // from here. A bare name is looked up on the workers' PATH.
         let exe = match &self.lightlearn {
+            Some(p) if p.is_relative() && p.components().count() > 1 => {
+                std::env::current_dir()?.join(p)
+            }
             Some(p) => p.clone(),
             None => std::env::current_exe()?,
         };

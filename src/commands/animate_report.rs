@@ -312,7 +312,9 @@ fn report_html(
     let scene = req
         .scene
         .as_ref()
-        .map_or("the default scene".to_string(), |p| p.display().to_string());
+        .map_or("the default scene".to_string(), |p| {
+            crate::compare::report::esc(&p.display().to_string())
+        });
     let mut h = String::new();
     let _ = write!(
         h,

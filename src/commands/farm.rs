@@ -56,6 +56,11 @@ pub struct FarmOutcome {
     pub tasks: usize,
 }
 
+/// The first line of every template farm writes (how a job folder is told from a user's).
+const TEMPLATE_HEADER: &str =
+    "# Open Job Description job template written by `lightlearn farm` (JSON is YAML).";
+/// Most chunks an image may have.
+const MAX_CHUNKS: u32 = 1000;
 /// Most steps a job may have (two or three per frame); OpenJD's own limit is far above.
 const MAX_FRAMES: u32 = 2000;
 /// The most (frame, chunk) render tasks a job takes: 2000 frames of 50 chunks.
@@ -226,8 +231,12 @@ pub fn write(req: &FarmRequest, warn: &mut dyn FnMut(String)) -> Result<FarmOutc
 }
 
 fn write_checked(req: &FarmRequest, warn: &mut dyn FnMut(String)) -> Result<FarmOutcome> {
-    if !(2..=10_000).contains(&req.chunks) {
-        bail!("--chunks must be 2..=10000 (for one chunk, run `lightlearn render` or `animate` directly)");
+    // A Merge step lists every chunk's file on one command line: 10000 chunks in a job
+    // folder of ~170 bytes passed the 2 MiB the system takes, after every render task had
+    // run (an audit, 2026-12-07). 1000 of 2^20 samples each are 2^30, all a pixel's random
+    // streams hold.
+    if !(2..=MAX_CHUNKS).contains(&req.chunks) {
+        bail!("--chunks must be 2..={MAX_CHUNKS} (a merge names every chunk's file on one command line; for one chunk, run `lightlearn render` or `animate` directly)");
     }
     if req.spp == 0 {
         bail!("--spp (samples per chunk) must be at least 1");
@@ -293,9 +302,22 @@ fn write_checked(req: &FarmRequest, warn: &mut dyn FnMut(String)) -> Result<Farm
             bail!("{} frames × {} chunks × {} spp carried from frame to frame is {total} passes, more than the 2^30 the random streams hold; fewer frames per job, chunks or spp", b - a + 1, req.chunks, req.spp);
         }
     }
+    // openjd cannot run a job from a path that is not text (it failed with a
+    // UnicodeEncodeError; an audit, 2026-12-07).
+    path(&req.job_dir)?;
     crate::io::create_output_folder(&req.job_dir, "job folder")?;
     let template_path = req.job_dir.join("template.yaml");
     crate::io::check_writable(&template_path)?;
+    // A job folder holding a template lightlearn did not write is a user's folder, whose
+    // template and scene/ files were replaced without a word (an audit, 2026-12-07).
+    let ours = crate::io::read_regular(&template_path, 1 << 30)
+        .is_ok_and(|b| b.starts_with(TEMPLATE_HEADER.as_bytes()));
+    if template_path.exists() && !ours {
+        bail!(
+            "'{}' exists and was not written by `lightlearn farm`; give another --out (a new folder, or an earlier farm job's)",
+            template_path.display()
+        );
+    }
     if std::fs::canonicalize(&req.job_dir)?
         .starts_with(scene.parent().unwrap_or(Path::new("/")).join("scene"))
     {
@@ -460,10 +482,11 @@ fn write_checked(req: &FarmRequest, warn: &mut dyn FnMut(String)) -> Result<Farm
         "parameterDefinitions": parameters,
         "steps": steps,
     });
+    // The path in the comment as text of one line: a line break in the job folder's name
+    // ended the comment and the template was no YAML (an audit, 2026-12-07).
     let text = format!(
-        "# Open Job Description job template written by `lightlearn farm` (JSON is YAML).\n\
-         # Run it here: openjd run {}\n{}\n",
-        template_path.display(),
+        "{TEMPLATE_HEADER}\n# Run it here: openjd run {}\n{}\n",
+        plain(&template_path.display().to_string()),
         serde_json::to_string_pretty(&template)?
     );
     // The bundle and the template together: all or none (io::commit_all). The folders
@@ -474,6 +497,15 @@ fn write_checked(req: &FarmRequest, warn: &mut dyn FnMut(String)) -> Result<Farm
         let mut set = crate::io::FileSet::default();
         for (rel, bytes) in &bundle {
             let target = req.job_dir.join(rel);
+            // In a folder that is no farm job's, a file of another content there is a
+            // user's (the scene's own folder as --out: its scene/t.png was replaced).
+            if !ours && crate::io::read_regular(&target, 1 << 34).is_ok_and(|b| b != *bytes) {
+                bail!(
+                    "'{}' exists with other content than the job's copy of '{}'; give another --out (a new folder, or an earlier farm job's)",
+                    target.display(),
+                    rel.strip_prefix("scene").unwrap_or(rel).display()
+                );
+            }
             if let Some(parent) = target.parent() {
                 made.extend(
                     parent

@@ -72,7 +72,9 @@ fn fraction_uri(w: u32, h: u32, f: &[f32]) -> Result<String> {
     Ok(data_uri(&film::png_bytes(w, h, &rgb8)?))
 }
 
-fn esc(s: &str) -> String {
+/// Text for HTML (also `animate --reference-spp`'s page: a scene named `<img …>.glb` went
+/// into its heading as markup; an audit, 2026-12-07).
+pub(crate) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")

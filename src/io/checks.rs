@@ -14,6 +14,16 @@ use super::{check_parent, folder_of, temp_path};
 /// folder failed only after the whole render; a 300-byte name, or a 255-byte EXR name whose
 /// JSON is 256, passed the probe and lost the render at its end.)
 pub fn check_writable(p: &Path) -> Result<()> {
+    // `x.exr/` names a folder to the file system but `x.exr` to the path's parts: it passed
+    // these checks and the render, then failed at its write (a reference was lost whole; an
+    // audit, 2026-12-07).
+    use std::os::unix::ffi::OsStrExt;
+    if p.as_os_str().as_bytes().ends_with(b"/") {
+        bail!(
+            "cannot write '{}': it ends in a slash, which names a folder; name a file (without the slash)",
+            p.display()
+        );
+    }
     check_parent(p)?;
     if p.is_dir() {
         bail!(

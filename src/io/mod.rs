@@ -12,20 +12,31 @@ pub use checks::*;
 /// A long name keeps its first 96 bytes and a hash of the whole: the prefix and suffix
 /// took a 246-character name (legal) past the 255 bytes a file system allows, and the
 /// output was refused with a permissions hint.
+/// Built from the name's bytes: a lossy text made two names that differ only in bytes
+/// that are not UTF-8 share one temporary, and a render lost its samples (an audit,
+/// 2026-12-07: `--out a\xff.exr --save-stats a\xfe.exr`).
 pub fn temp_path(p: &Path) -> PathBuf {
-    let mut name = p
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
+    use std::os::unix::ffi::{OsStrExt, OsStringExt};
+    let name = p.file_name().map_or(&[][..], |n| n.as_bytes());
+    let mut temp = b".".to_vec();
     if name.len() > 128 {
-        let hash = crate::fnv::fnv1a(name.as_bytes());
-        let cut = (0..=96)
-            .rev()
-            .find(|&i| name.is_char_boundary(i))
-            .unwrap_or(0);
-        name = format!("{}-{hash:016x}", &name[..cut]);
+        let hash = crate::fnv::fnv1a(name);
+        // At a character's boundary where the name is text.
+        let cut = if std::str::from_utf8(name).is_ok() {
+            (0..=96)
+                .rev()
+                .find(|&i| std::str::from_utf8(&name[..i]).is_ok())
+                .unwrap_or(0)
+        } else {
+            96
+        };
+        temp.extend_from_slice(&name[..cut]);
+        temp.extend_from_slice(format!("-{hash:016x}").as_bytes());
+    } else {
+        temp.extend_from_slice(name);
     }
-    p.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+    temp.extend_from_slice(format!(".{}.tmp", std::process::id()).as_bytes());
+    p.with_file_name(std::ffi::OsString::from_vec(temp))
 }
 
 /// The folder `p` is in ("." for a bare name).
@@ -92,8 +103,24 @@ fn not_a_folder(dir: &Path) -> Option<&Path> {
         .filter(|a| !a.is_dir())
 }
 
+/// Refuses a path that starts with a `~` folder that does not exist: the shell expands `~`
+/// only unquoted at a word's start (`--out ~/x`, not `--out=~/x`), and lightlearn never
+/// does, so such a path made a folder named `~` in the working folder, or was refused as
+/// "folder '~' does not exist; create it first" (an audit, 2026-12-07).
+fn check_tilde(p: &Path) -> Result<()> {
+    let first = p.components().next();
+    if first == Some(std::path::Component::Normal("~".as_ref())) && !Path::new("~").exists() {
+        bail!(
+            "'{}' starts with '~', which lightlearn does not expand (the shell does only at the start of a word: `--out ~/x`, not `--out=~/x`); give the home folder's path",
+            p.display()
+        );
+    }
+    Ok(())
+}
+
 /// Fails early, before any work, when `p`'s folder does not exist.
 pub fn check_parent(p: &Path) -> Result<()> {
+    check_tilde(p)?;
     let dir = folder_of(p);
     // A file where a folder of the path should be was reported as a missing folder, and
     // `--mkdir` then failed with "File exists" (an audit, 2026-12-06).
@@ -118,6 +145,7 @@ pub fn check_parent(p: &Path) -> Result<()> {
 /// file, FIFO or link of that name is named as such (it was "File exists (os error 17)"),
 /// and a failure says why where it can.
 pub fn create_output_folder(dir: &Path, what: &str) -> Result<()> {
+    check_tilde(dir)?;
     if let Some(f) = not_a_folder(dir) {
         bail!(
             "cannot create the {what} '{}': '{}' is something else than a folder (a file, a FIFO or a link to nothing); name another --out",
