@@ -102,15 +102,35 @@ impl SavedStats {
     /// Tempers old knowledge (`animate --forget G`): counts and sums × `g`, so the posterior
     /// keeps its means and loses confidence, and becomes the prior of the next frame (the
     /// scale, Σy² / n, is unchanged). Coefficients are recomputed when a session loads it.
+    ///
+    /// What falls below [`FORGOTTEN`] of one observation is forgotten outright: halved at
+    /// every frame that moved, a slot's count underflowed to 0 after ~150 frames while its
+    /// sums were still a subnormal above it, and the next frame refused those totals as
+    /// impossible (an audit, 2026-12-07: a 60-fps city-cars run ended at frame 157 of 241).
     pub fn temper(&mut self, g: f32) {
-        for s in &mut self.stats {
-            s.n_zero *= g;
-            s.n_nonzero *= g;
-            s.sum *= g;
-            s.sum_sq *= g;
+        temper_slots(&mut self.stats, g);
+    }
+}
+
+/// [`SavedStats::temper`] of `stats`.
+fn temper_slots(stats: &mut [SlotStats], g: f32) {
+    for s in stats {
+        s.n_zero *= g;
+        s.n_nonzero *= g;
+        s.sum *= g;
+        s.sum_sq *= g;
+        if s.n_zero < FORGOTTEN {
+            s.n_zero = 0.0;
+        }
+        if s.n_nonzero < FORGOTTEN {
+            (s.n_nonzero, s.sum, s.sum_sq) = (0.0, 0.0, 0.0);
         }
     }
 }
+
+/// The weight below which tempered observations are forgotten (about 20 halvings of one
+/// observation: nothing next to the next frame's, each of weight 1).
+pub const FORGOTTEN: f32 = 1e-6;
 
 /// FNV-1a over the light tree's bytes: equal for the same lights in the same order.
 pub fn scene_fingerprint(tree: &LightTree) -> String {
@@ -542,6 +562,38 @@ pub(crate) fn possible_totals(s: &SlotStats) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Tempered frame after frame (`animate`, something moving in every frame), a slot's
+    /// count underflowed to 0 before its sums and the next frame refused the totals as
+    /// impossible (an audit, 2026-12-07: frame 157 of 241). Every tempering now leaves
+    /// possible totals, and what fell below one millionth of an observation is gone.
+    #[test]
+    fn tempering_frame_after_frame_keeps_possible_totals() {
+        let slot = SlotStats {
+            n_zero: 3.0,
+            n_nonzero: 1.0,
+            sum: 1000.0,
+            sum_sq: 1e6,
+            scale: 1.0,
+            ..Default::default()
+        };
+        let mut stats = [slot];
+        for frame in 0..300 {
+            temper_slots(&mut stats, 0.5);
+            assert!(possible_totals(&stats[0]), "frame {frame}: {:?}", stats[0]);
+        }
+        let s = stats[0];
+        assert_eq!(
+            (s.n_zero, s.n_nonzero, s.sum, s.sum_sq),
+            (0.0, 0.0, 0.0, 0.0)
+        );
+        // Ten halvings keep what they should.
+        let mut stats = [slot];
+        for _ in 0..10 {
+            temper_slots(&mut stats, 0.5);
+        }
+        assert_eq!(stats[0].n_nonzero, 1.0 / 1024.0);
+    }
 
     /// A file saved before `--regression importance` existed regressed on distance: its
     /// header (no `regression_importance`) reads as that, and a render with the new default

@@ -107,7 +107,7 @@ impl<'a> Session<'a> {
                 gpu,
                 settings,
                 saved,
-                std::path::Path::new("--load-stats"),
+                std::path::Path::new("the statistics this render starts from"),
             )?;
         }
         let learned = LearnedState::new(ctx, scene, gpu, settings, &scene.camera)?;
