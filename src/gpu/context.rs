@@ -45,6 +45,11 @@ pub struct Context {
     pub queue_family: u32,
     pub allocator: ManuallyDrop<Mutex<Allocator>>,
     command_pool: vk::CommandPool,
+    /// Kernels compiled once for the context's life ([`super::pipeline::Compiled`]), by
+    /// kernel and specialization, destroyed with the device.
+    pub(super) compiled: Mutex<super::pipeline::CompiledCache>,
+    /// Kernels compiled so far ([`Context::compiled_kernels`]).
+    pub(super) compiles: std::sync::atomic::AtomicUsize,
     pub device_name: String,
     pub device_type: vk::PhysicalDeviceType,
     pub properties: vk::PhysicalDeviceProperties,
@@ -236,10 +241,17 @@ impl Context {
             queue_family,
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
             command_pool,
+            compiled: Mutex::new(Default::default()),
+            compiles: Default::default(),
             device_name,
             device_type: properties.device_type,
             properties,
         }))
+    }
+
+    /// How many kernels this context has compiled (each kernel and specialization once).
+    pub fn compiled_kernels(&self) -> usize {
+        self.compiles.load(std::sync::atomic::Ordering::Relaxed)
     }
 
     /// Errors reported by the validation layer since the last call, as an `Err`.
@@ -332,6 +344,11 @@ impl Drop for Context {
         unsafe {
             let _ = self.device.device_wait_idle();
             self.device.destroy_command_pool(self.command_pool, None);
+            if let Ok(cache) = self.compiled.get_mut() {
+                for c in cache.values() {
+                    c.destroy(&self.device);
+                }
+            }
             ManuallyDrop::drop(&mut self.allocator);
             self.device.destroy_device(None);
             if let Some(s) = &self.surface {
