@@ -516,3 +516,21 @@ fn a_frame_and_the_frame_it_carried_are_not_merged() {
         "'walk/frame-0001.stats' already holds the statistics of 'walk/frame-0000.stats'",
     );
 }
+
+/// `merge-stats` holds every part in memory: parts larger together than the free memory
+/// aborted with a failed allocation and a backtrace (an audit, 2026-12-07: 40 parts of
+/// 134 MB under a 4 GB limit). Refused before any is read (two sparse files of 1 TiB here).
+#[test]
+fn statistics_too_large_to_hold_are_refused_before_reading() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["a.stats", "b.stats"] {
+        let f = std::fs::File::create(dir.path().join(name)).unwrap();
+        f.set_len(1 << 40).unwrap();
+    }
+    let o = run(
+        &["merge-stats", "a.stats", "b.stats", "--out", "m.stats"],
+        dir.path(),
+    );
+    refused(&o, "a merge keeps them all in memory");
+    assert!(!dir.path().join("m.stats").exists());
+}
