@@ -48,6 +48,8 @@ fn a_trailing_slash_is_refused_before_any_work() {
     for args in [
         vec!["render", s.as_str(), "--out", "x.exr/"],
         vec!["reference", s.as_str(), "--out", "r.exr/"],
+        // The same through `/.` (a review, 2026-12-07).
+        vec!["render", s.as_str(), "--out", "x.exr/."],
         vec![
             "render",
             s.as_str(),
@@ -80,6 +82,7 @@ fn a_tilde_the_shell_left_is_named() {
         vec!["animate", s.as_str(), "--frames", "0..0", "--out=~/frames"],
         vec!["compare", s.as_str(), "--samplers", "power", "--out=~/cmp"],
         vec!["farm", s.as_str(), "--out=~/job"],
+        vec!["render", s.as_str(), "--out=~bob/r.exr"],
     ] {
         let mut a = args.clone();
         a.extend_from_slice(&TINY);
@@ -87,6 +90,11 @@ fn a_tilde_the_shell_left_is_named() {
         common::refused(&o, &["starts with '~', which lightlearn does not expand"]);
         assert!(!dir.path().join("~").exists(), "{args:?}");
     }
+    // A name of its own that starts with `~` is a name.
+    let mut a = vec!["render", s.as_str(), "--out", "~draft.exr"];
+    a.extend_from_slice(&TINY);
+    let o = run(&os(&a), dir.path());
+    assert!(o.status.success(), "{}", common::stderr(&o));
 }
 
 /// Two outputs whose names differ only in bytes that are not UTF-8 shared one temporary:

@@ -312,7 +312,7 @@ fn write_checked(req: &FarmRequest, warn: &mut dyn FnMut(String)) -> Result<Farm
     // template and scene/ files were replaced without a word (an audit, 2026-12-07).
     let ours = crate::io::read_regular(&template_path, 1 << 30)
         .is_ok_and(|b| b.starts_with(TEMPLATE_HEADER.as_bytes()));
-    if template_path.exists() && !ours {
+    if std::fs::symlink_metadata(&template_path).is_ok() && !ours {
         bail!(
             "'{}' exists and was not written by `lightlearn farm`; give another --out (a new folder, or an earlier farm job's)",
             template_path.display()

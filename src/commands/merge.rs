@@ -432,6 +432,21 @@ fn check_memory(parts: &[PathBuf], base: Option<&Path>) -> Result<()> {
             line.split_whitespace().nth(1)?.parse::<u64>().ok()
         })
         .map(|kib| kib * 1024);
+    // A container's own limit (cgroup v2), where it is below the host's free memory (a
+    // review, 2026-12-07).
+    let read = |f: &str| -> Option<u64> {
+        std::fs::read_to_string(format!("/sys/fs/cgroup/{f}"))
+            .ok()?
+            .trim()
+            .parse()
+            .ok()
+    };
+    let cgroup =
+        read("memory.max").map(|max| max.saturating_sub(read("memory.current").unwrap_or(0)));
+    let available = match (available, cgroup) {
+        (Some(a), Some(c)) => Some(a.min(c)),
+        (a, c) => a.or(c),
+    };
     // The merge holds each part and its result: about 1.2× the files (measured 1.46 GB for
     // 10 parts of 134 MB).
     let need = bytes + bytes / 5;

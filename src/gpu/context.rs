@@ -105,9 +105,17 @@ impl Context {
         instance_extensions: &[*const i8],
         make_surface: Option<SurfaceMaker>,
     ) -> Result<Arc<Context>> {
-        let entry = unsafe { ash::Entry::load() }.map_err(|e| {
-            anyhow!("cannot load the Vulkan loader (libvulkan.so.1): {e}. Run `ci/setup.sh` (package libvulkan1).")
-        })?;
+        // One loader for the process: every context loaded and unloaded libvulkan (and with
+        // it the layers and lavapipe) again, which threads creating contexts at once (the
+        // tests) do at the same time; one clean-clone run of the suite died with SIGSEGV
+        // there once (2026-12-07, not reproduced; a review's suspicion).
+        static ENTRY: std::sync::OnceLock<Result<ash::Entry, String>> = std::sync::OnceLock::new();
+        let entry = ENTRY
+            .get_or_init(|| unsafe { ash::Entry::load() }.map_err(|e| e.to_string()))
+            .clone()
+            .map_err(|e| {
+                anyhow!("cannot load the Vulkan loader (libvulkan.so.1): {e}. Run `ci/setup.sh` (package libvulkan1).")
+            })?;
         let app_name = c"lightlearn";
         let app = vk::ApplicationInfo::default()
             .application_name(app_name)

@@ -97,10 +97,17 @@ impl ComputePipeline {
                     push_size,
                     specialization,
                 )?);
-                cache()?.insert(key, c.clone());
-                ctx.compiles
-                    .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                c
+                // Another thread may have compiled the same kernel meanwhile: one is kept,
+                // the other destroyed (it was left undestroyed: a review, 2026-12-07).
+                let kept = cache()?.entry(key).or_insert_with(|| c.clone()).clone();
+                if Arc::ptr_eq(&kept, &c) {
+                    ctx.compiles
+                        .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                } else {
+                    // SAFETY: `c` was made here and nothing else holds it.
+                    unsafe { c.destroy(&ctx.device) };
+                }
+                kept
             }
         };
         let d = &ctx.device;

@@ -18,9 +18,11 @@ pub fn check_writable(p: &Path) -> Result<()> {
     // these checks and the render, then failed at its write (a reference was lost whole; an
     // audit, 2026-12-07).
     use std::os::unix::ffi::OsStrExt;
-    if p.as_os_str().as_bytes().ends_with(b"/") {
+    let bytes = p.as_os_str().as_bytes();
+    let last = bytes.rsplit(|&c| c == b'/').next().unwrap_or(b"");
+    if bytes.ends_with(b"/") || last == b"." || last == b".." {
         bail!(
-            "cannot write '{}': it ends in a slash, which names a folder; name a file (without the slash)",
+            "cannot write '{}': it ends in a slash (or '.' or '..'), which names a folder; name a file",
             p.display()
         );
     }

@@ -108,8 +108,14 @@ fn not_a_folder(dir: &Path) -> Option<&Path> {
 /// does, so such a path made a folder named `~` in the working folder, or was refused as
 /// "folder '~' does not exist; create it first" (an audit, 2026-12-07).
 fn check_tilde(p: &Path) -> Result<()> {
-    let first = p.components().next();
-    if first == Some(std::path::Component::Normal("~".as_ref())) && !Path::new("~").exists() {
+    use std::os::unix::ffi::OsStrExt;
+    let Some(std::path::Component::Normal(first)) = p.components().next() else {
+        return Ok(());
+    };
+    // `~`, and `~user/…` (a file or folder of its own named `~draft.exr` is a name).
+    let home = first.as_bytes() == b"~"
+        || first.as_bytes().starts_with(b"~") && p.components().count() > 1;
+    if home && std::fs::symlink_metadata(first).is_err() {
         bail!(
             "'{}' starts with '~', which lightlearn does not expand (the shell does only at the start of a word: `--out ~/x`, not `--out=~/x`); give the home folder's path",
             p.display()
