@@ -61,17 +61,14 @@ fn main() -> ExitCode {
             .request()
             .and_then(|r| lightlearn::preview::run(&r, &mut Terminal::new(false))),
         Command::Farm(a) => a.request().and_then(|r| {
-            let o = commands::farm::write(&r, &mut |w| say!("warning: {w}"))?;
-            say!(
-                "{}",
-                one_line(&format!(
-                    "wrote {}: {} steps, {} tasks; run it here with `openjd run {}`",
-                    o.template.display(),
-                    o.steps,
-                    o.tasks,
-                    shell_word(&o.template)
-                ))
-            );
+            let o = commands::farm::write(&r, &mut |w| say_line(&format!("warning: {w}")))?;
+            say_line(&format!(
+                "wrote {}: {} steps, {} tasks; run it here with `openjd run {}`",
+                o.template.display(),
+                o.steps,
+                o.tasks,
+                shell_word(&o.template)
+            ));
             Ok(())
         }),
         Command::Compare(a) => cmd_compare(a),
@@ -81,38 +78,32 @@ fn main() -> ExitCode {
         Command::Profile(a) => a.run(&mut Terminal::new(false)).map(|t| out!("{t}")),
         Command::Variance(a) => a.run(&mut Terminal::new(false)).map(|t| out!("{t}")),
         Command::Merge(a) => commands::merge::images(&a.parts, &a.out).map(|o| {
-            say!(
-                "{}",
-                one_line(&format!(
-                    "wrote {} (+ .png, .json): {} parts, {} spp",
-                    o.exr.display(),
-                    o.parts,
-                    o.spp
-                ))
-            )
+            say_line(&format!(
+                "wrote {} (+ .png, .json): {} parts, {} spp",
+                o.exr.display(),
+                o.parts,
+                o.spp
+            ))
         }),
         Command::MergeStats(a) => {
             commands::merge::stats(&a.parts, a.base.as_deref(), &a.out, a.force, &mut |w| {
-                say!("warning: {}", one_line(&w))
+                say_line(&format!("warning: {w}"))
             })
             .map(|m| {
-                say!(
-                    "{}",
-                    one_line(&format!(
-                        "wrote {}: {} files, {} passes learned, {} regions with cuts",
-                        a.out.display(),
-                        a.parts.len(),
-                        m.header.samples_done,
-                        m.index.iter().filter(|&&o| o != 0).count()
-                    ))
-                )
+                say_line(&format!(
+                    "wrote {}: {} files, {} passes learned, {} regions with cuts",
+                    a.out.display(),
+                    a.parts.len(),
+                    m.header.samples_done,
+                    m.index.iter().filter(|&&o| o != 0).count()
+                ))
             })
         }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            say!("error: {}", one_line(&format!("{e:#}")));
+            say_line(&format!("error: {e:#}"));
             ExitCode::FAILURE
         }
     }
@@ -123,6 +114,12 @@ fn main() -> ExitCode {
 /// naming such a file spanned two; an audit, 2026-12-06).
 fn one_line(s: &str) -> String {
     s.replace('\n', "\\n").replace('\r', "\\r")
+}
+
+/// `s` on stderr as one line ([`one_line`]): every result, warning and error line outside a
+/// [`Terminal`] (farm's loader warnings went out as they were).
+fn say_line(s: &str) {
+    say!("{}", one_line(s));
 }
 
 /// `p` as one word a POSIX shell reads back as `p`: quoted where it holds anything but
@@ -361,15 +358,12 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
 
 fn cmd_scene(a: SceneArgs) -> Result<()> {
     let bytes = commands::scene::run(a.family, &a.params()?, &a.out)?;
-    say!(
-        "{}",
-        one_line(&format!(
-            "wrote {} ({:?}, {} lights, {bytes} bytes)",
-            a.out.display(),
-            a.family,
-            a.lights
-        ))
-    );
+    say_line(&format!(
+        "wrote {} ({:?}, {} lights, {bytes} bytes)",
+        a.out.display(),
+        a.family,
+        a.lights
+    ));
     Ok(())
 }
 

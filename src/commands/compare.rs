@@ -117,12 +117,7 @@ fn run_checked(a: &CompareRequest, ui: &mut dyn Ui) -> Result<CompareOutcome> {
     if let Some(r) = &a.reference {
         others.push(("the --reference", r));
     }
-    crate::io::check_outputs_spare_scene(&written, a.scene.as_deref(), &others)?;
-    let mut inputs: Vec<PathBuf> = a
-        .scene
-        .as_deref()
-        .map(crate::scene::gltf_load::input_files)
-        .unwrap_or_default();
+    let mut inputs = crate::io::check_outputs_spare_scene(&written, a.scene.as_deref(), &others)?;
     inputs.extend(a.reference.clone());
     let stale = check_out_folder(&a.out, &written, &inputs)?;
     let given = match &a.reference {

@@ -310,8 +310,8 @@ fn write_checked(req: &FarmRequest, warn: &mut dyn FnMut(String)) -> Result<Farm
     crate::io::check_writable(&template_path)?;
     // A job folder holding a template lightlearn did not write is a user's folder, whose
     // template and scene/ files were replaced without a word (an audit, 2026-12-07).
-    let ours = crate::io::read_regular(&template_path, 1 << 30)
-        .is_ok_and(|b| b.starts_with(TEMPLATE_HEADER.as_bytes()));
+    let ours = crate::io::read_regular(&template_path, TEMPLATE_HEADER.len() as u64)
+        .is_ok_and(|b| b == TEMPLATE_HEADER.as_bytes());
     if std::fs::symlink_metadata(&template_path).is_ok() && !ours {
         bail!(
             "'{}' exists and was not written by `lightlearn farm`; give another --out (a new folder, or an earlier farm job's)",

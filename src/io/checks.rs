@@ -156,12 +156,13 @@ pub fn read_all(path: &Path) -> std::io::Result<Vec<u8>> {
 }
 
 /// [`check_outputs_spare_inputs`] against the scene `scene` (with the buffers and images it
-/// names) and `others`.
+/// names) and `others`; the scene's files, for a caller that needs them too (they are read
+/// from the file once).
 pub fn check_outputs_spare_scene(
     outputs: &[&Path],
     scene: Option<&Path>,
     others: &[(&str, &Path)],
-) -> Result<()> {
+) -> Result<Vec<PathBuf>> {
     let files = scene
         .map(crate::scene::gltf_load::input_files)
         .unwrap_or_default();
@@ -180,7 +181,8 @@ pub fn check_outputs_spare_scene(
         })
         .collect();
     inputs.extend_from_slice(others);
-    check_outputs_spare_inputs(outputs, &inputs)
+    check_outputs_spare_inputs(outputs, &inputs)?;
+    Ok(files)
 }
 
 /// Whether `a` and `b` name the same file (also when neither exists yet: their folders and
