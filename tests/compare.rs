@@ -842,3 +842,57 @@ fn equal_spp_times_leave_out_the_kernel_compile() {
     // A 32×24 pass takes a few milliseconds; a compile takes hundreds.
     assert!(first.iter().all(|&s| s < 0.15), "{first:?}\n{csv}");
 }
+
+/// A large comparison's page shows its images shrunk by a whole factor (each shown pixel
+/// the mean of f×f): at 2048×2048 every image went in at full size, some twice, 286 MB of
+/// page. The EXRs keep every pixel.
+#[test]
+fn a_large_comparison_shows_shrunk_images() {
+    use base64::Engine;
+    let dir = tempfile::tempdir().unwrap();
+    let (cache, out) = (dir.path().join("cache"), dir.path().join("report"));
+    let (s, out_s) = (scene(), out.display().to_string());
+    let o = run(
+        &[
+            "compare",
+            s.as_str(),
+            "--samplers",
+            "uniform,power",
+            "--spp",
+            "1",
+            "--reference-spp",
+            "2",
+            "--width",
+            "1100",
+            "--height",
+            "5",
+            "--out",
+            out_s.as_str(),
+            "-q",
+        ],
+        &cache,
+    );
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(
+        html.contains("shown at 1/2 of their size (550×3"),
+        "no note"
+    );
+    let pngs: Vec<Vec<u8>> = html
+        .split("data:image/png;base64,")
+        .skip(1)
+        .map(|p| {
+            let end = p.find('"').unwrap();
+            base64::engine::general_purpose::STANDARD
+                .decode(&p[..end])
+                .unwrap()
+        })
+        .collect();
+    assert!(pngs.len() >= 7, "{} images", pngs.len());
+    for png in &pngs {
+        let be = |o: usize| u32::from_be_bytes(png[o..o + 4].try_into().unwrap());
+        assert_eq!((be(16), be(20)), (550, 3), "the page's images are shrunk");
+    }
+    let (w, h, _) = lightlearn::film::read_exr(&out.join("spp-power.exr")).unwrap();
+    assert_eq!((w, h), (1100, 5), "the EXRs keep every pixel");
+}

@@ -51,12 +51,57 @@ fn data_uri(png: &[u8]) -> String {
     )
 }
 
-fn image_uri(w: u32, h: u32, rgb: &[[f32; 3]]) -> Result<String> {
-    Ok(data_uri(&film::png_bytes(w, h, &film::tonemap_srgb8(rgb))?))
+/// The longest side of the page's images: a 2048×2048 comparison embedded each image at full
+/// size, some twice, in a 286 MB page that browsers choke on (an audit, 2026-12-07). Larger
+/// images are shown shrunk by a whole factor; the EXRs beside the page hold every pixel.
+pub const MAX_SHOWN: u32 = 1024;
+
+/// The whole factor the page shrinks a `w`×`h` image by (1: shown as rendered).
+pub fn shown_factor(w: u32, h: u32) -> u32 {
+    w.max(h).div_ceil(MAX_SHOWN).max(1)
 }
 
-fn error_uri(w: u32, h: u32, image: &[[f32; 3]], reference: &[[f32; 3]]) -> Result<String> {
-    let rgb8: Vec<u8> = rel_error_map(image, reference)
+/// `v` (`w`×`h` pixels of `channels` floats, row by row) averaged over `f`×`f` boxes (those
+/// at the right and bottom edges partial), with its new size.
+fn shrink(w: u32, h: u32, f: u32, channels: usize, v: &[f32]) -> (u32, u32, Vec<f32>) {
+    if f <= 1 {
+        return (w, h, v.to_vec());
+    }
+    let (sw, sh) = (w.div_ceil(f), h.div_ceil(f));
+    let mut sum = vec![0f64; (sw * sh) as usize * channels];
+    let mut n = vec![0u32; (sw * sh) as usize];
+    for y in 0..h {
+        for x in 0..w {
+            let (s, p) = (((y / f) * sw + x / f) as usize, (y * w + x) as usize);
+            n[s] += 1;
+            for c in 0..channels {
+                sum[s * channels + c] += v[p * channels + c] as f64;
+            }
+        }
+    }
+    let out = sum
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s / n[i / channels] as f64) as f32)
+        .collect();
+    (sw, sh, out)
+}
+
+/// Radiance averaged over boxes (linear, before the tone map).
+fn image_uri(w: u32, h: u32, f: u32, rgb: &[[f32; 3]]) -> Result<String> {
+    let (w, h, v) = shrink(w, h, f, 3, bytemuck::cast_slice(rgb));
+    let rgb: Vec<[f32; 3]> = v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    Ok(data_uri(&film::png_bytes(
+        w,
+        h,
+        &film::tonemap_srgb8(&rgb),
+    )?))
+}
+
+/// The per-pixel relative squared error, averaged over boxes.
+fn error_uri(w: u32, h: u32, f: u32, image: &[[f32; 3]], reference: &[[f32; 3]]) -> Result<String> {
+    let (w, h, e) = shrink(w, h, f, 1, &rel_error_map(image, reference));
+    let rgb8: Vec<u8> = e
         .iter()
         .flat_map(|e| {
             let l = e.max(1e-12).log10();
@@ -66,9 +111,10 @@ fn error_uri(w: u32, h: u32, image: &[[f32; 3]], reference: &[[f32; 3]]) -> Resu
     Ok(data_uri(&film::png_bytes(w, h, &rgb8)?))
 }
 
-/// A map of fractions in [0, 1] on the inferno scale.
-fn fraction_uri(w: u32, h: u32, f: &[f32]) -> Result<String> {
-    let rgb8: Vec<u8> = f.iter().flat_map(|&x| inferno(x)).collect();
+/// A map of fractions in [0, 1] on the inferno scale, averaged over boxes.
+fn fraction_uri(w: u32, h: u32, f: u32, v: &[f32]) -> Result<String> {
+    let (w, h, v) = shrink(w, h, f, 1, v);
+    let rgb8: Vec<u8> = v.iter().flat_map(|&x| inferno(x)).collect();
     Ok(data_uri(&film::png_bytes(w, h, &rgb8)?))
 }
 
@@ -186,7 +232,8 @@ fn plot_svg(c: &Comparison) -> String {
 /// The whole page.
 pub fn html(input: &ReportInput) -> Result<String> {
     let (w, h) = (input.width, input.height);
-    let reference_uri = image_uri(w, h, input.reference)?;
+    let f = shown_factor(w, h);
+    let reference_uri = image_uri(w, h, f, input.reference)?;
     let mut body = String::new();
     let _ = write!(
         body,
@@ -195,6 +242,14 @@ pub fn html(input: &ReportInput) -> Result<String> {
         esc(input.device),
         esc(input.reference_note)
     );
+    if f > 1 {
+        let _ = write!(
+            body,
+            r#"<p class="meta shrunk">Images are shown at 1/{f} of their size ({}×{}: each shown pixel the mean of {f}×{f}), so that the page stays small; the EXRs beside it hold every pixel.</p>"#,
+            w.div_ceil(f),
+            h.div_ceil(f)
+        );
+    }
     for (ci, c) in input.comparisons.iter().enumerate() {
         let budget = match (c.budget_seconds, c.budget_spp) {
             (Some(s), _) => format!("{} s per sampler", super::seconds(s)),
@@ -254,7 +309,7 @@ pub fn html(input: &ReportInput) -> Result<String> {
         );
         let mut names = vec![("reference".to_string(), reference_uri.clone())];
         for r in &c.runs {
-            names.push((r.sampler.name().to_string(), image_uri(w, h, &r.image)?));
+            names.push((r.sampler.name().to_string(), image_uri(w, h, f, &r.image)?));
         }
         for (n, uri) in &names {
             let _ = write!(
@@ -268,7 +323,7 @@ pub fn html(input: &ReportInput) -> Result<String> {
             let _ = write!(
                 body,
                 r#"<figure><div class="view"><img class="zoom" alt="{n} error" src="{}"></div><figcaption>{n}: relMSE {}</figcaption></figure>"#,
-                error_uri(w, h, &r.image, input.reference)?,
+                error_uri(w, h, f, &r.image, input.reference)?,
                 sci(r.metrics.rel_mse)
             );
         }
@@ -297,7 +352,7 @@ pub fn html(input: &ReportInput) -> Result<String> {
             let _ = write!(
                 body,
                 r#"<figure><div class="view"><img class="zoom" alt="{n} zero samples" src="{}"></div><figcaption>{n}: {:.1} % zero</figcaption></figure>"#,
-                fraction_uri(w, h, &r.zero_map)?,
+                fraction_uri(w, h, f, &r.zero_map)?,
                 100.0 * r.zero_sample_fraction
             );
         }
@@ -401,4 +456,24 @@ pub fn convergence_csv(comparisons: &[Comparison]) -> String {
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shrink_averages_boxes_with_partial_edges() {
+        // 3×3 of one channel, factor 2: boxes of 4, 2, 2 and 1 pixels.
+        let v = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0];
+        assert_eq!(shrink(3, 3, 2, 1, &v), (2, 2, vec![3.0, 4.5, 7.5, 9.0]));
+        assert_eq!(shrink(3, 3, 1, 1, &v), (3, 3, v.to_vec()));
+        // Channels stay apart.
+        let rgb = [1.0, 10.0, 3.0, 30.0];
+        assert_eq!(shrink(2, 1, 2, 2, &rgb), (1, 1, vec![2.0, 20.0]));
+        assert_eq!(shown_factor(1024, 8), 1);
+        assert_eq!(shown_factor(1025, 8), 2);
+        assert_eq!(shown_factor(8, 2048), 2);
+        assert_eq!(shown_factor(3000, 3000), 3);
+    }
 }
