@@ -144,6 +144,7 @@ pub fn read_many(ctx: &Arc<Context>, reads: &[(&Buffer, u64)]) -> Result<Vec<Vec
                     .cmd_copy_buffer(cmd, buf.raw, staging.raw, &region)
             };
         }
+        ctx.host_read_barrier(cmd);
     })?;
     let mapped = staging.mapped()?;
     Ok(reads
