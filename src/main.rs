@@ -48,6 +48,9 @@ fn main() -> ExitCode {
             // _exit, not exit: exit's handlers (the Vulkan driver's among them) would run on
             // this thread while the main thread is still inside the driver (a review,
             // 2026-12-06). Status 130 for every signal.
+            // The temporaries being written and the folders made for this command go
+            // first (files only: no driver state).
+            lightlearn::io::remove_pending();
             // SAFETY: _exit ends the process at once; it touches no Rust state.
             unsafe { libc::_exit(130) }
         }

@@ -919,3 +919,56 @@ fn fuzzed_inputs_fail_cleanly_through_the_command_line() {
         .collect();
     assert!(left.is_empty(), "{left:?}");
 }
+
+/// A Ctrl-C while a command writes its output ends it at once (exit 130); the hidden
+/// temporary it was filling goes with it. With the build before, `scene` left a full-size
+/// temporary (270 MB for a million lights) that only a later write of that name, an hour
+/// on, removed (an audit, 2026-12-07).
+#[test]
+fn a_stop_during_a_write_leaves_no_temporary() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut landed = 0;
+    for _ in 0..6 {
+        let _ = std::fs::remove_file(d.join("big.glb"));
+        let mut child = Command::new(common::exe())
+            .args(["scene", "rooms", "--lights", "300000", "--out", "big.glb"])
+            .current_dir(d)
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // The temporary appears once the scene is built; the signal goes while it fills.
+        let t = Instant::now();
+        let seen = loop {
+            if files(d).iter().any(|f| f.ends_with(".tmp")) {
+                break true;
+            }
+            if child.try_wait().unwrap().is_some() || t.elapsed() > Duration::from_secs(60) {
+                break false;
+            }
+            std::thread::sleep(Duration::from_micros(200));
+        };
+        if seen {
+            let _ = Command::new("kill")
+                .args(["-INT", &child.id().to_string()])
+                .status();
+        }
+        let status = child.wait().unwrap();
+        let left = files(d);
+        assert!(!left.iter().any(|f| f.ends_with(".tmp")), "{left:?}");
+        match status.code() {
+            Some(130) => {
+                landed += 1;
+                assert!(!d.join("big.glb").exists(), "{left:?}");
+            }
+            // The write ended before the signal: the file is whole.
+            Some(0) => assert!(d.join("big.glb").exists()),
+            c => panic!("exit {c:?}"),
+        }
+        if landed >= 2 {
+            break;
+        }
+    }
+    assert!(landed >= 1, "no stop landed during the write in six tries");
+}

@@ -182,7 +182,9 @@ pub fn removing_created_folders_on_error<T>(
         .take_while(|p| !p.as_os_str().is_empty() && !p.exists())
         .map(Path::to_path_buf)
         .collect();
+    pending().1.extend(created.iter().cloned());
     let result = f();
+    pending().1.retain(|d| !created.contains(d));
     if result.is_err() {
         for d in &created {
             let _ = std::fs::remove_dir(d); // only if still empty
@@ -199,6 +201,8 @@ pub fn write_atomic(p: &Path, bytes: &[u8]) -> Result<()> {
 /// Lets `write` fill a temporary file, then renames it to `p`; removes it on failure.
 pub fn write_atomic_with(p: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let tmp = write_temp(p, write)?;
+    // The rename is not cut by a first Ctrl-C (it ends the command at once otherwise).
+    let _whole = crate::interrupt::Active::begin();
     let result = std::fs::rename(&tmp, p).map_err(|e| {
         let e = anyhow::Error::new(e);
         let what = write_failed(p, &e);
@@ -210,7 +214,44 @@ pub fn write_atomic_with(p: &Path, write: impl FnOnce(&Path) -> Result<()>) -> R
             let _ = std::fs::remove_file(&tmp);
         }
     }
+    untrack_temp(&tmp);
     result
+}
+
+/// The temporaries this process is writing or holds until a commit, and the output folders
+/// it made for a command still running: a second Ctrl-C (or one outside a pass loop) ends
+/// the process at once (`_exit` in main.rs), so its handler removes them first
+/// ([`remove_pending`]). Without, `scene` and `variance` stopped in their writes left
+/// full-size hidden temporaries (270 MB for a million-light scene) and empty folders (an
+/// audit, 2026-12-07).
+static PENDING: std::sync::Mutex<(Vec<PathBuf>, Vec<PathBuf>)> =
+    std::sync::Mutex::new((Vec::new(), Vec::new()));
+
+fn pending() -> std::sync::MutexGuard<'static, (Vec<PathBuf>, Vec<PathBuf>)> {
+    PENDING.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn track_temp(tmp: &Path) {
+    pending().0.push(tmp.to_path_buf());
+}
+
+fn untrack_temp(tmp: &Path) {
+    let mut p = pending();
+    if let Some(i) = p.0.iter().rposition(|t| t == tmp) {
+        p.0.swap_remove(i);
+    }
+}
+
+/// Removes the temporaries being written and the empty output folders of a command still
+/// running: for a signal handler about to end the process at once.
+pub fn remove_pending() {
+    let p = pending();
+    for t in &p.0 {
+        let _ = std::fs::remove_file(t);
+    }
+    for d in &p.1 {
+        let _ = std::fs::remove_dir(d); // only if still empty
+    }
 }
 
 /// Lets `write` fill the temporary of `target` (stale ones of dead processes removed first)
@@ -218,10 +259,12 @@ pub fn write_atomic_with(p: &Path, write: impl FnOnce(&Path) -> Result<()>) -> R
 fn write_temp(target: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<PathBuf> {
     remove_stale_temps(target);
     let tmp = temp_path(target);
+    track_temp(&tmp);
     match write(&tmp).and_then(|_| sync_file(&tmp)) {
         Ok(()) => Ok(tmp),
         Err(e) => {
             let _ = std::fs::remove_file(&tmp);
+            untrack_temp(&tmp);
             let what = write_failed(target, &e);
             Err(e.context(what))
         }
@@ -272,6 +315,9 @@ fn sync_folder(p: &Path) {
 /// and the new ones that had no predecessor are removed. So a failure leaves the old set,
 /// never a mix. The temporaries are removed on failure.
 pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
+    // The moves together, never cut by a first Ctrl-C: `variance` stopped between two of
+    // its renames paired new maps with the old report (an audit, 2026-12-07).
+    let _whole = crate::interrupt::Active::begin();
     let _locks = FolderLocks::take(files.iter().map(|(t, _)| t.as_path()), false);
     let backup = |p: &Path| temp_path(p).with_extension("old");
     let mut kept: Vec<&Path> = Vec::new(); // targets with a second name of their old file
@@ -324,6 +370,9 @@ pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
                 let _ = std::fs::remove_file(backup(t));
             }
         }
+    }
+    for (_, tmp) in files {
+        untrack_temp(tmp);
     }
     match result {
         Err(e) if !failed_restore.is_empty() => Err(e.context(format!(
@@ -478,6 +527,7 @@ impl Drop for FileSet {
     fn drop(&mut self) {
         for (_, tmp) in &self.files {
             let _ = std::fs::remove_file(tmp);
+            untrack_temp(tmp);
         }
     }
 }
