@@ -212,6 +212,52 @@ fn a_smaller_run_into_one_folder_leaves_no_earlier_maps() {
     assert!(out.join("row0.exr").is_file() && !out.join("row1.exr").exists());
 }
 
+/// A folder holding a user's `variance.json` or `rowN.exr` is refused before any work, the
+/// files kept: they were replaced, and row1.exr, row2.exr, … deleted, with exit 0 (an
+/// audit, 2026-12-07). An earlier run's folder is still written over.
+#[test]
+fn files_of_a_user_in_the_output_folder_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_file(dir.path());
+    let out = dir.path().join("v");
+    let small = || VarianceRequest {
+        width: 16,
+        height: 12,
+        spp: 8,
+        hits: 2,
+        area_samples: 4,
+        out: Some(out.clone()),
+        ..request(scene.clone(), vec![LightSampler::Uniform], None)
+    };
+    std::fs::create_dir_all(&out).unwrap();
+    for (name, other) in [
+        ("variance.json", None),
+        ("row1.exr", None),
+        ("row2.exr", Some("row0.exr")),
+    ] {
+        for f in std::fs::read_dir(&out).unwrap() {
+            std::fs::remove_file(f.unwrap().path()).unwrap();
+        }
+        if let Some(o) = other {
+            // An earlier run's folder, and a user's map beside it.
+            run(&small(), &mut Silent).unwrap();
+            assert!(out.join(o).is_file());
+        }
+        std::fs::write(out.join(name), b"mine").unwrap();
+        let Err(err) = run(&small(), &mut Silent) else {
+            panic!("{name} of a user replaced");
+        };
+        let err = err.to_string();
+        assert!(
+            err.contains(name) && err.contains("move the file away"),
+            "{err}"
+        );
+        assert_eq!(std::fs::read(out.join(name)).unwrap(), b"mine");
+    }
+    std::fs::remove_file(out.join("row2.exr")).unwrap();
+    run(&small(), &mut Silent).unwrap();
+}
+
 /// Runs `lightlearn ARGS` in the crate folder, expecting a refusal: its stderr (no panic).
 fn refused(args: &[&str]) -> String {
     let out = std::process::Command::new(common::exe())

@@ -26,7 +26,7 @@ use crate::scene::{luminance, Scene};
 use crate::variance::{hit_terms, pixel_terms, HitTerms, Learned, PixelTerms, Selection};
 
 pub use super::variance_report::Row;
-use super::variance_report::{table, write_outputs};
+use super::variance_report::{earlier_maps, is_map_name, table, write_outputs};
 
 pub struct VarianceRequest {
     pub scene: Option<PathBuf>,
@@ -119,6 +119,7 @@ pub fn run(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> {
 }
 
 fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> {
+    let mut earlier = Vec::new();
     if let Some(out) = &a.out {
         crate::io::create_output_folder(out, "output folder")?;
         crate::io::check_writable(&out.join("variance.json"))?;
@@ -128,10 +129,7 @@ fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> 
         if let Some(scene) = &a.scene {
             for f in crate::scene::gltf_load::input_files(scene) {
                 let name = f.file_name().and_then(|n| n.to_str()).unwrap_or("");
-                let row = name
-                    .strip_prefix("row")
-                    .and_then(|r| r.strip_suffix(".exr"))
-                    .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()));
+                let row = is_map_name(name);
                 let inside = f.parent().is_some_and(|d| {
                     crate::io::same_path(d, out)
                         || (d.as_os_str().is_empty() && crate::io::same_path(Path::new("."), out))
@@ -145,6 +143,7 @@ fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> 
                 }
             }
         }
+        earlier = earlier_maps(out)?;
     }
     let (scene, ctx, gpu, _) = prepare(a.scene.as_deref(), (a.width, a.height), &a.device, ui)?;
     check_scene(&scene)?;
@@ -266,7 +265,7 @@ fn run_checked(a: &VarianceRequest, ui: &mut dyn Ui) -> Result<VarianceOutcome> 
     }
     let table = table(a, &rows);
     if let Some(out) = &a.out {
-        write_outputs(out, a, &rows)?;
+        write_outputs(out, a, &rows, &earlier)?;
     }
     Ok(VarianceOutcome { rows, table })
 }

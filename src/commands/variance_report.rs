@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use serde_json::json;
 
 use super::variance::VarianceRequest;
@@ -130,7 +130,67 @@ pub(super) fn table(a: &VarianceRequest, rows: &[Row]) -> String {
     t
 }
 
-pub(super) fn write_outputs(out: &Path, a: &VarianceRequest, rows: &[Row]) -> Result<()> {
+/// `rowN.exr`.
+pub(super) fn is_map_name(name: &str) -> bool {
+    name.strip_prefix("row")
+        .and_then(|r| r.strip_suffix(".exr"))
+        .is_some_and(|n| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+}
+
+/// The maps that an earlier variance report in `out` lists (none where there is no report).
+/// Refuses a `variance.json` that is not such a report and a `rowN.exr` that it does not
+/// list: a user's files of those names were replaced, and `row1.exr`, `row2.exr`, …
+/// deleted, with exit 0 (an audit, 2026-12-07).
+pub(super) fn earlier_maps(out: &Path) -> Result<Vec<String>> {
+    let report = out.join("variance.json");
+    let listed: Vec<String> = match std::fs::read(&report) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
+        Err(e) => bail!("cannot read '{}': {e}", report.display()),
+        Ok(bytes) => {
+            let v: Option<serde_json::Value> = serde_json::from_slice(&bytes).ok();
+            let maps = v
+                .as_ref()
+                .filter(|v| v.get("map_channels").is_some())
+                .and_then(|v| v["rows"].as_array())
+                .map(|rows| {
+                    rows.iter()
+                        .filter_map(|r| r["maps"].as_str())
+                        .filter(|m| is_map_name(m))
+                        .map(String::from)
+                        .collect()
+                });
+            match maps {
+                Some(m) => m,
+                None => bail!(
+                    "'{}' exists and is not a `lightlearn variance` report; name another --out, or move the file away",
+                    report.display()
+                ),
+            }
+        }
+    };
+    let entries = std::fs::read_dir(out)
+        .with_context(|| format!("cannot list the output folder '{}'", out.display()))?;
+    for e in entries.flatten() {
+        let name = e.file_name();
+        let Some(name) = name.to_str() else { continue };
+        if is_map_name(name) && !listed.iter().any(|m| m == name) {
+            bail!(
+                "'{}' is not a map of an earlier `lightlearn variance` run in this folder; name another --out, or move the file away",
+                out.join(name).display()
+            );
+        }
+    }
+    Ok(listed)
+}
+
+/// Writes the report and the maps into `out`; `earlier`: the maps the report there listed
+/// ([`earlier_maps`]), of which those past this run's rows are removed.
+pub(super) fn write_outputs(
+    out: &Path,
+    a: &VarianceRequest,
+    rows: &[Row],
+    earlier: &[String],
+) -> Result<()> {
     let (w, h) = (a.width.div_ceil(a.stride), a.height.div_ceil(a.stride));
     let mut set = crate::io::FileSet::default();
     let mut json_rows = Vec::new();
@@ -176,14 +236,15 @@ pub(super) fn write_outputs(out: &Path, a: &VarianceRequest, rows: &[Row]) -> Re
     )?;
     set.commit()?;
     // Maps of an earlier run with more samplers would stay beside a report that lists fewer
-    // (an audit, 2026-12-07): the rows after the last are this command's own files.
-    for k in rows.len().. {
-        let stale = out.join(format!("row{k}.exr"));
-        if !std::fs::symlink_metadata(&stale).is_ok_and(|m| m.is_file()) {
-            break;
+    // (an audit, 2026-12-07): those its report listed, past this run's rows.
+    let ours: Vec<String> = (0..rows.len()).map(|i| format!("row{i}.exr")).collect();
+    for m in earlier.iter().filter(|m| !ours.contains(m)) {
+        let stale = out.join(m);
+        if std::fs::symlink_metadata(&stale).is_ok_and(|m| m.is_file()) {
+            std::fs::remove_file(&stale).with_context(|| {
+                format!("cannot remove the earlier run's '{}'", stale.display())
+            })?;
         }
-        std::fs::remove_file(&stale)
-            .with_context(|| format!("cannot remove the earlier run's '{}'", stale.display()))?;
     }
     Ok(())
 }
