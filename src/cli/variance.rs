@@ -44,8 +44,9 @@ pub struct VarianceArgs {
     /// for; more rays only make it smaller).
     #[arg(long, default_value_t = 32, value_name = "A")]
     pub area_samples: u32,
-    /// Above 1: also measure the path-traced variance at this depth, for the split between
-    /// direct light at the first vertex and later vertices.
+    /// Above 1: also measure the path-traced variance at this depth, and its ratio to the
+    /// direct light's (not a split by vertex: at depth > 1 the first vertex also takes
+    /// MIS-weighted BSDF rays, so its own estimator differs).
     #[arg(long, default_value_t = 1, value_name = "D")]
     pub max_depth: u32,
     /// Folder for variance.json and per-pixel maps (rowN.exr: channels cluster, light,

@@ -66,11 +66,11 @@ pub(super) fn table(a: &VarianceRequest, rows: &[Row]) -> String {
         rows.first().map_or(0, |r| r.pixels.len()),
         a.hits
     );
-    t += "| sampler | predicted | measured | ÷ wang | cluster | light in cluster | point on light | footprint (at emitter pixels) | measured, stratified | stratification's gain | zero samples (lit hits) | dark hits | top pixel's share of measured |";
+    t += "| sampler | predicted | measured | gain over wang (wang ÷ this) | cluster | light in cluster | point on light | footprint (at emitter pixels) | measured, stratified | stratification's gain | zero samples (lit hits) | dark hits | top pixel's share of measured |";
     if a.max_depth > 1 {
         t += &format!(
-            " measured, depth {} (stratified) | later vertices (beyond stratified direct) |",
-            a.max_depth
+            " measured, depth {} (stratified) | depth {} ÷ direct |",
+            a.max_depth, a.max_depth
         );
     }
     t += "\n|---|---|---|---|---|---|---|---|---|---|---|---|---|";
@@ -110,10 +110,13 @@ pub(super) fn table(a: &VarianceRequest, rows: &[Row]) -> String {
             100.0 * r.top_pixel_share(),
         );
         if let Some(g) = r.measured_gi {
-            // No variance at all (no hit lit: a camera facing away) printed "NaN %" (an
-            // audit, 2026-12-06); the other columns say "—".
-            let later = if g > 0.0 {
-                format!("{:.1} %", 100.0 * (g - r.measured_r2) / g)
+            // The ratio, not a share of "later vertices": at depth > 1 the first vertex's
+            // light also comes by MIS-weighted BSDF rays and the learned samplers learn at
+            // every vertex, so the first vertex's estimator is not depth 1's; a scene with
+            // no indirect light at all showed "later vertices" of 69 % (uniform) and −32 %
+            // (bayes) (an audit, 2026-12-07). No variance at all (no hit lit) says "—".
+            let later = if r.measured_r2 > 0.0 && g > 0.0 {
+                format!("{:.2}×", g / r.measured_r2)
             } else {
                 "—".into()
             };
