@@ -273,6 +273,37 @@ fn animate_checks_its_frames_names_before_the_first_frame_quickly() {
     }
 }
 
+/// `scene --out` over a file it did not write (a user's own scene, even read-only) is
+/// refused unless `--force`; its own scenes are replaced as before. With the build before
+/// a Blender file and a text file were replaced, exit 0 (an audit, 2026-12-07).
+#[test]
+fn scene_keeps_a_users_file_of_its_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let blender = br#"{"asset":{"version":"2.0","generator":"Blender"}}"#;
+    std::fs::write(d.join("user.gltf"), blender).unwrap();
+    std::fs::write(d.join("mine.glb"), b"mine").unwrap();
+    for name in ["user.gltf", "mine.glb"] {
+        let o = run(&["scene", "cornell", "--lights", "2", "--out", name], d);
+        refused(&o, &[name, "not written by `lightlearn scene`", "--force"]);
+    }
+    assert_eq!(std::fs::read(d.join("user.gltf")).unwrap(), blender);
+    assert_eq!(std::fs::read(d.join("mine.glb")).unwrap(), b"mine");
+    // Its own scenes, binary and text, are written over; --force replaces any file.
+    for name in ["own.glb", "own.gltf", "own.glb", "own.gltf"] {
+        let o = run(&["scene", "cornell", "--lights", "3", "--out", name], d);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let o = run(
+        &[
+            "scene", "cornell", "--lights", "2", "--out", "mine.glb", "--force",
+        ],
+        d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(&std::fs::read(d.join("mine.glb")).unwrap()[..4], b"glTF");
+}
+
 /// Files a command writes into its output folder replaced a scene (or the scene's texture,
 /// or a given reference) of the same name there, with exit 0: `compare` (metrics.json, a
 /// run's EXR), `animate` (animation.json), `variance` (variance.json), `render` (the

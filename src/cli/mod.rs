@@ -350,12 +350,13 @@ pub struct ReferenceArgs {
 }
 
 #[derive(Args)]
+#[command(allow_negative_numbers = true)]
 pub struct SceneArgs {
     /// Scene family.
     #[arg(value_parser = family_parser())]
     pub family: Family,
     /// Number of lights, exact (each emissive triangle counts as one). cornell: 1..=64,
-    /// city: 16..=1000000, others: 1..=1000000.
+    /// city: 16..=1000000, hall: 1..=about 290000 (the triangle cap), others: 1..=1000000.
     #[arg(long, value_name = "N")]
     pub lights: usize,
     /// Random seed of the layout and light placement.
@@ -383,6 +384,10 @@ pub struct SceneArgs {
     /// taken from the lamp budget so --lights stays exact).
     #[arg(long)]
     pub animate: bool,
+    /// Replace an existing --out that `lightlearn scene` did not write (a scene of yours is
+    /// refused otherwise).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn parse_grid(s: &str) -> std::result::Result<(usize, usize), String> {
