@@ -337,6 +337,26 @@ mod tests {
         }
     }
 
+    /// city's default block count for the seeds whose buildings came out short of window
+    /// slots: refused, naming a `--blocks` never given (an audit, 2026-12-07). Now one
+    /// block more, with the light count exact; a given `--blocks` is still refused.
+    #[test]
+    fn city_default_blocks_fit_every_seed() {
+        for seed in [33, 61, 100, 119, 320] {
+            let mut p = params(685);
+            p.seed = seed;
+            let glb = generate(Family::City, &p).unwrap().to_glb();
+            let s =
+                gltf_load::load_bytes(&glb, "t", std::path::Path::new("."), &mut |w| panic!("{w}"))
+                    .unwrap();
+            assert_eq!(s.lights.len(), 685, "seed {seed}");
+        }
+        let mut p = params(685);
+        p.seed = 33;
+        p.blocks = Some(1);
+        assert!(generate(Family::City, &p).is_err());
+    }
+
     /// Light counts the families accept but `render` could not take, or a default the
     /// family's own check refused (an audit, 2026-12-06): hall past the triangle cap is
     /// refused with the count that fits; rooms past 250 000 lights gets a grid it allows.
