@@ -36,7 +36,9 @@ pub(super) fn write_summary(
     let old: Option<Value> = crate::io::read_all(&path)
         .ok()
         .and_then(|b| serde_json::from_slice(&b).ok());
-    let ours: Vec<u64> = records.iter().map(|r| r.frame as u64).collect();
+    // Sets, not lists: a run's thousandth frame searched its 999 records for each of the
+    // summary's (an audit, 2026-12-07).
+    let ours: std::collections::HashSet<u64> = records.iter().map(|r| r.frame as u64).collect();
     if let Some(old) = old.filter(|o| same(o)) {
         for f in old["frames"].as_array().into_iter().flatten() {
             if f["frame"].as_u64().is_some_and(|k| !ours.contains(&k)) {
@@ -45,7 +47,7 @@ pub(super) fn write_summary(
         }
     }
     frames.sort_by_key(|f| f["frame"].as_u64().unwrap_or(0));
-    let listed: Vec<u32> = frames
+    let listed: std::collections::HashSet<u32> = frames
         .iter()
         .filter_map(|f| f["frame"].as_u64().map(|k| k as u32))
         .collect();
@@ -97,8 +99,8 @@ pub(super) fn sequence_key(req: &AnimateRequest) -> String {
 /// The lock file around the summary's read and write.
 pub const SUMMARY_LOCK: &str = ".lightlearn-summary.lock";
 
-/// The run of consecutive frames in the sorted `listed` that holds `k`: (first, count).
-fn contiguous_span(listed: &[u32], k: u32) -> (u32, u32) {
+/// The run of consecutive frames in `listed` that holds `k`: (first, count).
+fn contiguous_span(listed: &std::collections::HashSet<u32>, k: u32) -> (u32, u32) {
     let (mut a, mut b) = (k, k);
     while a > 0 && listed.contains(&(a - 1)) {
         a -= 1;
