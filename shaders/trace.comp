@@ -17,7 +17,8 @@ layout(push_constant) uniform Push { TraceParams params; };
 #include "bvh.glsl"
 
 void main() {
-    uint i = gl_GlobalInvocationID.x;
+    // Rows of workgroups (src/accel/gpu_trace.rs: at most 8192 a row).
+    uint i = gl_GlobalInvocationID.y * gl_NumWorkGroups.x * 64u + gl_GlobalInvocationID.x;
     if (i >= params.ray_count) return;
     GpuRay r = rays[i];
     float t;

@@ -43,3 +43,50 @@ pub fn active() -> bool {
 pub fn requested() -> bool {
     REQUESTED.load(Ordering::SeqCst)
 }
+
+/// How many [`Writing`] guards live, and whether a quick exit waits for them.
+static WRITING: AtomicUsize = AtomicUsize::new(0);
+static DEFERRED: AtomicBool = AtomicBool::new(false);
+
+/// Marks a rename or a commit of outputs in progress, which a quick exit (a Ctrl-C outside a
+/// render, or a second one) must not cut: such an exit waits for the guard's end
+/// ([`defer_exit`]), then ends the process as it would have (status 130). Unlike [`Active`],
+/// it never turns the stop into "finish the batch" (a review, 2026-12-07).
+pub struct Writing;
+
+impl Writing {
+    pub fn begin() -> Writing {
+        WRITING.fetch_add(1, Ordering::SeqCst);
+        Writing
+    }
+}
+
+impl Drop for Writing {
+    fn drop(&mut self) {
+        if WRITING.fetch_sub(1, Ordering::SeqCst) == 1 && DEFERRED.load(Ordering::SeqCst) {
+            quick_exit();
+        }
+    }
+}
+
+/// For a signal handler about to end the process at once: where a [`Writing`] guard lives,
+/// the exit is left to it (true); else false, and the handler ends the process itself.
+pub fn defer_exit() -> bool {
+    if WRITING.load(Ordering::SeqCst) == 0 {
+        return false;
+    }
+    DEFERRED.store(true, Ordering::SeqCst);
+    // The last guard may have ended between the two lines above, before it could see the
+    // flag: then nobody else will exit.
+    WRITING.load(Ordering::SeqCst) > 0
+}
+
+/// Ends the process at once with status 130, removing the temporaries being written and the
+/// empty folders of the command first (crate::io::remove_pending). `_exit`, not `exit`:
+/// exit's handlers (the Vulkan driver's among them) would run while another thread is
+/// still inside the driver (a review, 2026-12-06).
+pub fn quick_exit() -> ! {
+    crate::io::remove_pending();
+    // SAFETY: _exit ends the process at once; it touches no Rust state.
+    unsafe { libc::_exit(130) }
+}

@@ -45,14 +45,13 @@ fn main() -> ExitCode {
     // terminal's stop had lost every sample of a long render.
     let _ = ctrlc::set_handler(|| {
         if lightlearn::interrupt::requested() || !lightlearn::interrupt::active() {
-            // _exit, not exit: exit's handlers (the Vulkan driver's among them) would run on
-            // this thread while the main thread is still inside the driver (a review,
-            // 2026-12-06). Status 130 for every signal.
-            // The temporaries being written and the folders made for this command go
-            // first (files only: no driver state).
-            lightlearn::io::remove_pending();
-            // SAFETY: _exit ends the process at once; it touches no Rust state.
-            unsafe { libc::_exit(130) }
+            // Status 130 for every signal, at once, or once a rename or commit of outputs in
+            // progress ends (interrupt::Writing); the temporaries being written and the
+            // folders made for the command go first (interrupt::quick_exit).
+            if !lightlearn::interrupt::defer_exit() {
+                lightlearn::interrupt::quick_exit();
+            }
+            return;
         }
         lightlearn::interrupt::request();
         say!("\ninterrupted: finishing the current batch (Ctrl-C again to quit at once)");
@@ -102,6 +101,23 @@ fn main() -> ExitCode {
                 ))
             })
         }
+    };
+    // `--validation`: what the layer said as the command's contexts were destroyed (objects
+    // never destroyed), after the command's own result.
+    let late = lightlearn::gpu::context::teardown_errors();
+    let result = match result {
+        Ok(()) if !late.is_empty() => Err(anyhow::anyhow!(
+            "Vulkan validation errors while the device was released: {}",
+            late.join(" | ")
+        )),
+        Err(e) if !late.is_empty() => {
+            say_line(&format!("error: {e:#}"));
+            Err(anyhow::anyhow!(
+                "and Vulkan validation errors while the device was released: {}",
+                late.join(" | ")
+            ))
+        }
+        r => r,
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -188,3 +188,33 @@ fn edge_margin_by_hand() {
     assert!((at(-0.3, 1.0) + 0.1).abs() < 1e-7);
     assert!(at(2.0, 2.0) < -EDGE);
 }
+
+/// More rays than one row of workgroups (8192 × 64) is dispatched in rows, each ray traced
+/// once at its own index: the rays past the first row hit what the same rays in a small
+/// dispatch hit. (A one-row dispatch of 2048 × 2048 rays asked 65536 workgroups, past the
+/// 65535 lavapipe takes: an audit, 2026-12-07.)
+#[test]
+fn rays_past_one_row_of_workgroups_are_traced() {
+    let ctx = common::ctx();
+    let mesh = bench_mesh(2_000, 3);
+    let bvh = Bvh::build(&mesh);
+    let nodes = Buffer::texels(&ctx, "nodes", &bvh.nodes).unwrap();
+    let tris = Buffer::texels(&ctx, "tris", &bvh.tris).unwrap();
+    let small = primary_rays(64, 48);
+    let (want, _) = gpu_trace::trace(&ctx, &nodes, &tris, &small, false, 1).unwrap();
+    assert!(want.iter().any(|h| h.prim != u32::MAX));
+    let rays: Vec<GpuRay> = small
+        .iter()
+        .cycle()
+        .take(8192 * 64 + 5000)
+        .copied()
+        .collect();
+    let (hits, _) = gpu_trace::trace(&ctx, &nodes, &tris, &rays, false, 1).unwrap();
+    for (i, h) in hits.iter().enumerate() {
+        let w = want[i % small.len()];
+        assert!(
+            h.prim == w.prim && h.t == w.t,
+            "ray {i}: {h:?} against {w:?}"
+        );
+    }
+}

@@ -46,3 +46,35 @@ fn objects_left_at_the_end_fail_validation() {
     // A context that destroys what it made ends quietly.
     drop(common::ctx());
 }
+
+/// The loader's own errors (a driver file that does not open, as a container's
+/// nvidia_icd.json without the driver) are no validation errors: with the messenger chained
+/// into the instance's creation they failed every `--validation` run (a review,
+/// 2026-12-07).
+#[test]
+fn a_missing_driver_file_is_no_validation_error() {
+    let lvp = "/usr/share/vulkan/icd.d/lvp_icd.x86_64.json";
+    let drivers = std::env::var("VK_DRIVER_FILES").unwrap_or_else(|_| lvp.into());
+    let dir = tempfile::tempdir().unwrap();
+    let o = common::run_in(
+        &[
+            "render",
+            "--validation",
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "--spp",
+            "1",
+            "--out",
+            "r.exr",
+            "-q",
+        ],
+        dir.path(),
+        &[(
+            "VK_DRIVER_FILES",
+            &format!("{drivers}:/nonexistent/x_icd.json"),
+        )],
+    );
+    assert!(o.status.success(), "{}", common::stderr(&o));
+}

@@ -39,7 +39,11 @@ pub fn trace(
         any_hit: any_hit as u32,
         ..Default::default()
     };
-    let groups = [(rays.len() as u32).div_ceil(64), 1, 1];
+    // Rows of at most TRACE_GROUPS_X workgroups (trace.comp): a device may take no more
+    // than 65535 in x (lavapipe), and `bench-rays --width 2048 --height 2048` asked 65536
+    // (an audit, 2026-12-07).
+    let wgs = (rays.len() as u32).div_ceil(64);
+    let groups = [wgs.min(TRACE_GROUPS_X), wgs.div_ceil(TRACE_GROUPS_X), 1];
     // One untimed dispatch first: lavapipe compiles a kernel at its first dispatch, and with
     // a cold shader cache `--repeats 1` timed that compile, 20–35× below the rate (an audit,
     // 2026-12-07; `profile` does the same).
@@ -53,3 +57,6 @@ pub fn trace(
     let hits: Vec<GpuHit> = hit_buf.read()?;
     Ok((hits[..rays.len()].to_vec(), best))
 }
+
+/// The most workgroups in a row of a trace dispatch (trace.comp numbers rays row by row).
+const TRACE_GROUPS_X: u32 = 8192;

@@ -146,7 +146,7 @@ pub(super) fn is_map_name(name: &str) -> bool {
 /// deleted, with exit 0 (an audit, 2026-12-07).
 pub(super) fn earlier_maps(out: &Path) -> Result<Vec<String>> {
     let report = out.join("variance.json");
-    let listed: Vec<String> = match std::fs::read(&report) {
+    let mut listed: Vec<String> = match std::fs::read(&report) {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
         Err(e) => bail!("cannot read '{}': {e}", report.display()),
         Ok(bytes) => {
@@ -176,7 +176,12 @@ pub(super) fn earlier_maps(out: &Path) -> Result<Vec<String>> {
     for e in entries.flatten() {
         let name = e.file_name();
         let Some(name) = name.to_str() else { continue };
-        if is_map_name(name) && !listed.iter().any(|m| m == name) {
+        if !is_map_name(name) || listed.iter().any(|m| m == name) {
+            continue;
+        }
+        if is_our_map(&e.path()) {
+            listed.push(name.to_string());
+        } else {
             bail!(
                 "'{}' is not a map of an earlier `lightlearn variance` run in this folder; name another --out, or move the file away",
                 out.join(name).display()
@@ -184,6 +189,34 @@ pub(super) fn earlier_maps(out: &Path) -> Result<Vec<String>> {
         }
     }
     Ok(listed)
+}
+
+/// Whether `p` is an EXR with exactly a variance map's channels: a map that an earlier run
+/// left unlisted (stopped between its commit and the removal of its extra maps) is ours to
+/// replace (a review, 2026-12-07).
+fn is_our_map(p: &Path) -> bool {
+    let Ok((file, _)) = crate::io::open_regular(p) else {
+        return false;
+    };
+    let mut reader = std::io::BufReader::new(file);
+    let Ok(meta) = exr::meta::MetaData::read_from_buffered(&mut reader, false) else {
+        return false;
+    };
+    let mut names: Vec<String> = meta
+        .headers
+        .iter()
+        .flat_map(|h| h.channels.list.iter().map(|c| c.name.to_string()))
+        .collect();
+    names.sort();
+    names
+        == [
+            "cluster",
+            "footprint",
+            "light",
+            "measured",
+            "point",
+            "value",
+        ]
 }
 
 /// Writes the report and the maps into `out`; `earlier`: the maps the report there listed

@@ -64,10 +64,15 @@ impl Buffer {
                     .with_context(|| format!("cannot allocate {size} bytes for '{name}'"));
             }
         };
-        unsafe {
+        if let Err(e) = unsafe {
             ctx.device
                 .bind_buffer_memory(raw, allocation.memory(), allocation.offset())
-        }?;
+        } {
+            // Nothing left behind (a leak is a validation error at the context's end).
+            unsafe { ctx.device.destroy_buffer(raw, None) };
+            let _ = ctx.allocator.lock().map(|mut a| a.free(allocation));
+            return Err(e).with_context(|| format!("cannot bind the memory of '{name}'"));
+        }
         Ok(Buffer {
             ctx: ctx.clone(),
             raw,

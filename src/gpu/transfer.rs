@@ -134,6 +134,8 @@ pub fn read_many(ctx: &Arc<Context>, reads: &[(&Buffer, u64)]) -> Result<Vec<Vec
         MemoryLocation::GpuToCpu,
     )?;
     ctx.submit(|cmd| {
+        // The writes of earlier submissions (kernels, transfers) before the copies read them.
+        ctx.barrier(cmd);
         for (&(buf, bytes), &a) in reads.iter().zip(&at) {
             if bytes == 0 {
                 continue;

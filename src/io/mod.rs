@@ -220,8 +220,8 @@ pub fn write_atomic(p: &Path, bytes: &[u8]) -> Result<()> {
 /// Lets `write` fill a temporary file, then renames it to `p`; removes it on failure.
 pub fn write_atomic_with(p: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let tmp = write_temp(p, write)?;
-    // The rename is not cut by a first Ctrl-C (it ends the command at once otherwise).
-    let _whole = crate::interrupt::Active::begin();
+    // A quick exit waits for the rename (crate::interrupt::Writing).
+    let _whole = crate::interrupt::Writing::begin();
     let result = std::fs::rename(&tmp, p).map_err(|e| {
         let e = anyhow::Error::new(e);
         let what = write_failed(p, &e);
@@ -334,10 +334,11 @@ fn sync_folder(p: &Path) {
 /// and the new ones that had no predecessor are removed. So a failure leaves the old set,
 /// never a mix. The temporaries are removed on failure.
 pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
-    // The moves together, never cut by a first Ctrl-C: `variance` stopped between two of
-    // its renames paired new maps with the old report (an audit, 2026-12-07).
-    let _whole = crate::interrupt::Active::begin();
     let _locks = FolderLocks::take(files.iter().map(|(t, _)| t.as_path()), false);
+    // The moves together, never cut by a quick exit (crate::interrupt::Writing), which
+    // waits for them (not for the locks): `variance` stopped between two of its renames
+    // paired new maps with the old report (an audit, 2026-12-07).
+    let _whole = crate::interrupt::Writing::begin();
     let backup = |p: &Path| temp_path(p).with_extension("old");
     let mut kept: Vec<&Path> = Vec::new(); // targets with a second name of their old file
     let mut moved: Vec<&Path> = Vec::new(); // targets that hold the new file

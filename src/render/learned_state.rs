@@ -207,7 +207,8 @@ impl LearnedState {
         } else {
             4
         };
-        if (l.cuts.cuts.len() + most_new) * slot_bytes > max_bytes {
+        let words = l.cuts.cuts.len() + most_new;
+        if words * slot_bytes > max_bytes || (learning && words as u64 > most_slots(ctx)) {
             l.full = true;
             return Ok(0);
         }
@@ -403,8 +404,7 @@ impl LearnedState {
             return Ok(0);
         }
         let grown: usize = plans.iter().map(|(_, (c, _))| c.len() + 1).sum();
-        let max_bytes = ctx.properties.limits.max_storage_buffer_range as usize;
-        if (self.cuts.cuts.len() + grown) * std::mem::size_of::<SlotStats>() > max_bytes {
+        if (self.cuts.cuts.len() + grown) as u64 > most_slots(ctx) {
             self.full = true;
             return Ok(0);
         }
@@ -470,11 +470,19 @@ const SIDE_BYTES: u64 = 24;
 /// allows (one statistics buffer, two texels a slot: learned_texels.glsl), never fewer than
 /// `want` (growth stops before that would not fit, [`LearnedState::grow`]).
 fn slot_capacity(ctx: &Context, want: u64) -> u64 {
+    (2 * want).min(most_slots(ctx)).max(want)
+}
+
+/// The most learned slots this device holds: one statistics buffer, two texels a slot, and
+/// a fold over every slot in one dispatch of 64-wide workgroups (a device may take no more
+/// than 65535 in x, as lavapipe: at its 4194304 slots of 128 MiB the fold asked 65536; an
+/// audit, 2026-12-07).
+pub(super) fn most_slots(ctx: &Context) -> u64 {
     let limits = &ctx.properties.limits;
     let slot = std::mem::size_of::<SlotStats>() as u64;
-    let most = (limits.max_storage_buffer_range as u64 / slot)
-        .min(limits.max_texel_buffer_elements as u64 / 2);
-    (2 * want).min(most).max(want)
+    (limits.max_storage_buffer_range as u64 / slot)
+        .min(limits.max_texel_buffer_elements as u64 / 2)
+        .min(64 * limits.max_compute_work_group_count[0] as u64)
 }
 
 /// The empty list of touched slots (render.comp `mark_touched`, fold.comp) for `slots`

@@ -12,6 +12,8 @@ use lightlearn::scene::{gltf_load, Scene};
 
 /// A Vulkan context with the validation layer on: any validation error fails the test.
 pub fn ctx() -> Arc<Context> {
+    // Objects left at a context's end fail the test (src/gpu/context.rs).
+    lightlearn::gpu::context::strict_teardown(true);
     Context::new(&ContextOptions {
         device: std::env::var("LIGHTLEARN_TEST_DEVICE").ok(),
         validation: true,
