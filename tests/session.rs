@@ -475,6 +475,34 @@ fn path_queue_bands_give_the_same_image() {
     assert!(banded.set_path_queue_bytes(1000).is_err());
 }
 
+/// A session's scratch (the path queues) released between runs is made again by the next:
+/// the same image bit for bit, also with the camera moved while it was released (the
+/// preview frees the scratch of every session it does not show).
+#[test]
+fn released_scratch_gives_the_same_image() {
+    let ctx = common::ctx();
+    let s = scene("rooms16.glb");
+    let gpu = GpuScene::upload(&ctx, &s, &Bvh::build(&s.triangles)).unwrap();
+    for depth in [4, 1] {
+        let mut set = settings(LightSampler::Bayes, 5);
+        set.max_depth = depth;
+        let mut freed = Session::new(&ctx, &s, &gpu, &set).unwrap();
+        let mut kept = Session::new(&ctx, &s, &gpu, &set).unwrap();
+        for x in [&mut freed, &mut kept] {
+            x.run_passes(2).unwrap();
+        }
+        freed.release_scratch();
+        freed.release_scratch();
+        for x in [&mut freed, &mut kept] {
+            x.set_camera(camera_b(&s)).unwrap();
+            x.run_passes(2).unwrap();
+        }
+        let (a, b) = (freed.image().unwrap(), kept.image().unwrap());
+        assert!(a.iter().flatten().any(|&v| v > 0.0), "depth {depth}");
+        assert_eq!(a, b, "depth {depth}");
+    }
+}
+
 /// Direct light takes several passes per dispatch (render.comp main, `params.passes`): a
 /// sampler that does not learn up to 2^20 samples, a learned one the passes of a learning
 /// window. The image must be bit for bit that of one dispatch per pass (here one

@@ -279,6 +279,12 @@ impl<'a> App<'a, '_> {
             self.sessions.insert(key, s);
             self.per_pass = None;
         }
+        // Only the session shown keeps its scratch buffers (Session::release_scratch).
+        for (k, s) in self.sessions.iter_mut() {
+            if *k != key {
+                s.release_scratch();
+            }
+        }
         let camera = self.view;
         let session = self.sessions.get_mut(&key).expect("inserted above");
         let (_, fw, fh) = session.film();

@@ -302,8 +302,19 @@ impl PassKernels {
         Ok(())
     }
 
+    /// Frees the path queues until the next [`Self::bind_film`] makes them again.
+    pub(super) fn release_queues(&mut self) {
+        self.queues = None;
+    }
+
+    /// Whether the path queues are there (the film bound and not released since).
+    pub(super) fn has_queues(&self) -> bool {
+        self.queues.is_some()
+    }
+
     /// Direct light covers `rows` from the next pass on (a new camera); binds the film's
-    /// buffers again with them. On an error the binding stays as it was.
+    /// buffers again with them (with the queues released, the next bind_film does). On an
+    /// error the binding stays as it was.
     pub(super) fn set_live_rows(
         &mut self,
         ctx: &Arc<Context>,
@@ -311,8 +322,10 @@ impl PassKernels {
         counters: &Buffer,
         rows: &[u32],
     ) -> Result<()> {
+        let Some(queues) = self.queues.as_ref() else {
+            return Ok(());
+        };
         let live = live_rows_buffer(ctx, rows)?;
-        let queues = self.queues.as_ref().expect("the film is bound");
         self.bind_film_set(accum, counters, queues, &live.0)?;
         self.live = Some(live);
         Ok(())
