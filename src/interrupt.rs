@@ -57,6 +57,12 @@ pub struct Writing;
 impl Writing {
     pub fn begin() -> Writing {
         WRITING.fetch_add(1, Ordering::SeqCst);
+        // An exit already under way (its handler saw no guard and is removing the
+        // temporaries) must not be raced by renames: exit here, before any (a review,
+        // 2026-12-07).
+        if DEFERRED.load(Ordering::SeqCst) {
+            quick_exit();
+        }
         Writing
     }
 }
@@ -72,12 +78,10 @@ impl Drop for Writing {
 /// For a signal handler about to end the process at once: where a [`Writing`] guard lives,
 /// the exit is left to it (true); else false, and the handler ends the process itself.
 pub fn defer_exit() -> bool {
-    if WRITING.load(Ordering::SeqCst) == 0 {
-        return false;
-    }
+    // The flag first: a guard that begins or ends after it sees it and exits itself; one
+    // that ended before leaves the count at 0 here, and the handler exits. Both exiting is
+    // harmless (the first `_exit` wins).
     DEFERRED.store(true, Ordering::SeqCst);
-    // The last guard may have ended between the two lines above, before it could see the
-    // flag: then nobody else will exit.
     WRITING.load(Ordering::SeqCst) > 0
 }
 

@@ -82,6 +82,9 @@ fn request(
     samplers: Vec<LightSampler>,
     converge: Option<u32>,
 ) -> VarianceRequest {
+    // The command makes its own context: objects it leaves at the end fail the test, as
+    // under common::ctx().
+    lightlearn::gpu::context::strict_teardown(true);
     VarianceRequest {
         scene: Some(scene),
         samplers,

@@ -248,9 +248,10 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
     }
     report["learning_settings"] = first["learning"]["settings"].clone();
     report["regions"] = region_settings(first);
-    // A stop asked for during the writes waits for them (main.rs): a Ctrl-C there left a
-    // temporary behind with exit 130 and no word (an audit, 2026-12-07).
-    let _writing = crate::interrupt::Active::begin();
+    // A Ctrl-C during the writes ends the command at once (status 130) with no temporary
+    // left and no output half moved (crate::io::remove_pending, crate::interrupt::Writing):
+    // it had left a temporary behind (an audit, 2026-12-07), then printed "finishing the
+    // current batch" and exited 0 (a review, 2026-12-07).
     film::write_outputs(&paths, w, h, &image, &report)?;
     Ok(MergeOutcome {
         exr: paths.exr,
@@ -365,8 +366,7 @@ pub fn stats(
         Some(b) => SavedStats::merge_onto(b, &loaded)?,
         None => SavedStats::merge(&loaded)?,
     };
-    // As images() above: a stop waits for the write (a 14.7 MB temporary was left).
-    let _writing = crate::interrupt::Active::begin();
+    // As images() above (a 14.7 MB temporary was left).
     merged.save(out)?;
     Ok(merged)
 }

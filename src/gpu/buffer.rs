@@ -267,6 +267,8 @@ impl Buffer {
     pub fn copy_from(&self, src: &Buffer) -> Result<()> {
         let region = [vk::BufferCopy::default().size(self.size.min(src.size))];
         self.ctx.submit(|cmd| unsafe {
+            // Earlier submissions' writes (kernels, the clear of this buffer) first.
+            self.ctx.barrier(cmd);
             self.ctx
                 .device
                 .cmd_copy_buffer(cmd, src.raw, self.raw, &region)

@@ -131,11 +131,17 @@ impl ComputePipeline {
                     .pool_sizes(&sizes),
                 None,
             )?;
-            let sets = d.allocate_descriptor_sets(
+            let sets = match d.allocate_descriptor_sets(
                 &vk::DescriptorSetAllocateInfo::default()
                     .descriptor_pool(pool)
                     .set_layouts(&compiled.set_layouts),
-            )?;
+            ) {
+                Ok(s) => s,
+                Err(e) => {
+                    d.destroy_descriptor_pool(pool, None);
+                    return Err(e.into());
+                }
+            };
             let p = ComputePipeline {
                 ctx: ctx.clone(),
                 compiled,

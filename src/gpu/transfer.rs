@@ -90,6 +90,8 @@ impl Transfers {
             Some(s)
         };
         ctx.submit(|cmd| {
+            // Earlier submissions' writes (kernels) before these overwrite or clear them.
+            ctx.barrier(cmd);
             for op in &self.ops {
                 match *op {
                     Op::Write {

@@ -227,6 +227,8 @@ pub fn write_atomic_with(p: &Path, write: impl FnOnce(&Path) -> Result<()>) -> R
         let what = write_failed(p, &e);
         e.context(what)
     });
+    // The folder's flush is not waited for (a slow disk would hold every Ctrl-C off).
+    drop(_whole);
     match result {
         Ok(()) => sync_folder(p),
         Err(_) => {
@@ -365,9 +367,13 @@ pub fn commit_all(files: &[(PathBuf, PathBuf)]) -> Result<()> {
         for t in &kept {
             let _ = std::fs::remove_file(backup(t));
         }
-        _locks.sync();
         Ok(())
     })();
+    // The set is whole here; the folders' flush is not waited for by a quick exit.
+    if result.is_ok() {
+        drop(_whole);
+        _locks.sync();
+    }
     let mut failed_restore = Vec::new();
     if result.is_err() {
         for t in &moved {

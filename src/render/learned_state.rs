@@ -101,6 +101,15 @@ impl LearnedState {
             (_, false) => vec![SlotStats::default()],
         };
         let slots = stats.len() as u32;
+        // Past it the fold's dispatch asks more workgroups than the device takes (a device
+        // of a 65535 x-limit and a larger storage range loading another machine's
+        // statistics: a review, 2026-12-07).
+        if settings.sampler.learned() && slots as u64 > most_slots(ctx) {
+            anyhow::bail!(
+                "the learned state has {slots} cluster slots, more than this device holds ({}); use a coarser --grid or a smaller --k-max, or statistics saved with them",
+                most_slots(ctx)
+            );
+        }
         // Room for growth from the start: the first growth point's reallocation, with its
         // copies, was 6.1-6.2 ms of a 64-spp render's 0.18-0.22 s on city10k and cornell40
         // (128x96; city10k had 46.7k slots after it, 58.3k after 64 passes;

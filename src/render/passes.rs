@@ -305,6 +305,8 @@ impl PassKernels {
     /// Frees the path queues until the next [`Self::bind_film`] makes them again.
     pub(super) fn release_queues(&mut self) {
         self.queues = None;
+        // Told again by the next bind_film (the camera may move meanwhile).
+        self.live = None;
     }
 
     /// Whether the path queues are there (the film bound and not released since).
