@@ -189,6 +189,23 @@ fn the_split_adds_up_to_the_measured_variance() {
     }
 }
 
+/// A 16×12 request of `samplers` writing into `out`.
+fn small_request(
+    scene: &std::path::Path,
+    out: &std::path::Path,
+    samplers: Vec<LightSampler>,
+) -> VarianceRequest {
+    VarianceRequest {
+        width: 16,
+        height: 12,
+        spp: 8,
+        hits: 2,
+        area_samples: 4,
+        out: Some(out.to_path_buf()),
+        ..request(scene.to_path_buf(), samplers, None)
+    }
+}
+
 /// A second run into one folder with fewer samplers leaves no map of the first beside its
 /// report (an audit, 2026-12-07: row1.exr stayed while variance.json listed row0 alone).
 #[test]
@@ -196,15 +213,7 @@ fn a_smaller_run_into_one_folder_leaves_no_earlier_maps() {
     let dir = tempfile::tempdir().unwrap();
     let scene = scene_file(dir.path());
     let out = dir.path().join("v");
-    let small = |samplers| VarianceRequest {
-        width: 16,
-        height: 12,
-        spp: 8,
-        hits: 2,
-        area_samples: 4,
-        out: Some(out.clone()),
-        ..request(scene.clone(), samplers, None)
-    };
+    let small = |samplers| small_request(&scene, &out, samplers);
     run(
         &small(vec![LightSampler::Uniform, LightSampler::Wang]),
         &mut Silent,
@@ -223,15 +232,7 @@ fn files_of_a_user_in_the_output_folder_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let scene = scene_file(dir.path());
     let out = dir.path().join("v");
-    let small = || VarianceRequest {
-        width: 16,
-        height: 12,
-        spp: 8,
-        hits: 2,
-        area_samples: 4,
-        out: Some(out.clone()),
-        ..request(scene.clone(), vec![LightSampler::Uniform], None)
-    };
+    let small = || small_request(&scene, &out, vec![LightSampler::Uniform]);
     std::fs::create_dir_all(&out).unwrap();
     for (name, other) in [
         ("variance.json", None),
