@@ -50,8 +50,11 @@ static DEFERRED: AtomicBool = AtomicBool::new(false);
 
 /// Marks a rename or a commit of outputs in progress, which a quick exit (a Ctrl-C outside a
 /// render, or a second one) must not cut: such an exit waits for the guard's end
-/// ([`defer_exit`]), then ends the process as it would have (status 130). Unlike [`Active`],
-/// it never turns the stop into "finish the batch" (a review, 2026-12-07).
+/// ([`defer_exit`]), then ends the process as it would have (status 130); a guard begun
+/// after such an exit was asked ends the process at once, before its renames. Unlike
+/// [`Active`], it never turns the stop into "finish the batch" (a review, 2026-12-07).
+/// Every guard lives on the main thread (a guard begun on another thread while one is in a
+/// commit would end the process between that commit's renames).
 pub struct Writing;
 
 impl Writing {

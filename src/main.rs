@@ -378,9 +378,9 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
 fn cmd_scene(a: SceneArgs) -> Result<()> {
     let bytes = commands::scene::run(a.family, &a.params()?, &a.out, a.force)?;
     say_line(&format!(
-        "wrote {} ({:?}, {} lights, {bytes} bytes)",
+        "wrote {} ({}, {} lights, {bytes} bytes)",
         a.out.display(),
-        a.family,
+        a.family.name(),
         a.lights
     ));
     Ok(())

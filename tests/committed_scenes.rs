@@ -183,6 +183,29 @@ fn scene_command_refuses_bad_requests() {
     );
 }
 
+/// `--glossy=-0` is `--glossy 0`: it wrote "roughnessFactor": -0.0, other bytes for the
+/// same scene; and errors name a family as it is typed (an audit, 2026-12-07).
+#[test]
+fn negative_zero_roughness_is_zero_and_families_are_named_as_typed() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = |args: &[&str]| {
+        Command::new(common::exe())
+            .arg("scene")
+            .args(args)
+            .current_dir(dir.path())
+            .output()
+            .unwrap()
+    };
+    for (g, out) in [("--glossy=-0", "a.glb"), ("--glossy=0", "b.glb")] {
+        let o = scene(&["cornell", "--lights", "3", g, "--out", out]);
+        assert!(o.status.success(), "{}", common::stderr(&o));
+    }
+    let read = |f: &str| std::fs::read(dir.path().join(f)).unwrap();
+    assert_eq!(read("a.glb"), read("b.glb"));
+    let o = scene(&["cornell", "--lights", "99", "--out", "c.glb"]);
+    assert!(common::stderr(&o).contains("out of range for cornell:"));
+}
+
 #[test]
 fn gltf_text_output_loads_like_glb() {
     let dir = tempfile::tempdir().unwrap();

@@ -514,7 +514,9 @@ impl SceneArgs {
             rooms: self.rooms,
             blocks: self.blocks,
             resolution: self.resolution.unwrap_or(24),
-            glossy: self.glossy,
+            // -0 is 0: `--glossy=-0` wrote "roughnessFactor": -0.0, other bytes than
+            // `--glossy 0` for the same scene (an audit, 2026-12-07).
+            glossy: self.glossy.map(|r| r + 0.0),
         })
     }
 }

@@ -332,6 +332,8 @@ impl Context {
                 vk::AccessFlags::SHADER_READ
                     | vk::AccessFlags::SHADER_WRITE
                     | vk::AccessFlags::TRANSFER_READ
+                    // A copy or clear over what a kernel or copy wrote (write after write).
+                    | vk::AccessFlags::TRANSFER_WRITE
                     | vk::AccessFlags::INDIRECT_COMMAND_READ,
             )];
         unsafe {

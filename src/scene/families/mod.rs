@@ -126,8 +126,9 @@ pub fn generate(family: Family, p: &FamilyParams) -> Result<GltfBuilder> {
     let (lo, hi) = family.light_range();
     if p.lights < lo || p.lights > hi {
         bail!(
-            "--lights {} is out of range for {family:?}: use {lo}..={hi}",
-            p.lights
+            "--lights {} is out of range for {}: use {lo}..={hi}",
+            p.lights,
+            family.name()
         );
     }
     if let Some(r) = p.glossy {
@@ -140,13 +141,22 @@ pub fn generate(family: Family, p: &FamilyParams) -> Result<GltfBuilder> {
     }
     // An option of another family was ignored without a word (`cornell --rooms 2x2`).
     if p.rooms.is_some() && family != Family::Rooms {
-        bail!("--rooms applies to the rooms family only; {family:?} has no grid of rooms");
+        bail!(
+            "--rooms applies to the rooms family only; {} has no grid of rooms",
+            family.name()
+        );
     }
     if p.blocks.is_some() && family != Family::City {
-        bail!("--blocks applies to the city family only; {family:?} has no blocks");
+        bail!(
+            "--blocks applies to the city family only; {} has no blocks",
+            family.name()
+        );
     }
     if p.animate && !matches!(family, Family::Rooms | Family::City) {
-        bail!("--animate is supported for rooms (a camera walk) and city (moving headlights); {family:?} has no animated variant");
+        bail!(
+            "--animate is supported for rooms (a camera walk) and city (moving headlights); {} has no animated variant",
+            family.name()
+        );
     }
     let g = match family {
         Family::Rooms => rooms::build(p)?,
@@ -160,7 +170,8 @@ pub fn generate(family: Family, p: &FamilyParams) -> Result<GltfBuilder> {
     let (triangles, most) = (g.triangle_count(), super::gltf_load::MAX_TRIANGLES);
     if triangles > most {
         bail!(
-            "{family:?} with --lights {} has {triangles} triangles, more than the {most} lightlearn renders; use at most about {} lights",
+            "{} with --lights {} has {triangles} triangles, more than the {most} lightlearn renders; use at most about {} lights",
+            family.name(),
             p.lights,
             (p.lights as f64 * most as f64 / triangles as f64 * 0.99) as usize
         );
