@@ -105,19 +105,20 @@ fn main() -> ExitCode {
     // `--validation`: what the layer said as the command's contexts were destroyed (objects
     // never destroyed), after the command's own result.
     let late = lightlearn::gpu::context::teardown_errors();
-    let result = match result {
-        Ok(()) if !late.is_empty() => Err(anyhow::anyhow!(
-            "Vulkan validation errors while the device was released: {}",
+    let result = if late.is_empty() {
+        result
+    } else {
+        let also = match &result {
+            Err(e) => {
+                say_line(&format!("error: {e:#}"));
+                "and "
+            }
+            Ok(()) => "",
+        };
+        Err(anyhow::anyhow!(
+            "{also}Vulkan validation errors while the device was released: {}",
             late.join(" | ")
-        )),
-        Err(e) if !late.is_empty() => {
-            say_line(&format!("error: {e:#}"));
-            Err(anyhow::anyhow!(
-                "and Vulkan validation errors while the device was released: {}",
-                late.join(" | ")
-            ))
-        }
-        r => r,
+        ))
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

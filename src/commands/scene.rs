@@ -63,9 +63,10 @@ fn written_by_us(p: &Path) -> bool {
                 .ok()
                 .and_then(|_| serde_json::from_slice(&json).ok())
         } else {
-            std::fs::File::open(p)
+            // A .gltf: the whole text, from its start again.
+            std::io::Seek::rewind(&mut r)
                 .ok()
-                .and_then(|f| serde_json::from_reader(std::io::BufReader::new(f)).ok())
+                .and_then(|_| serde_json::from_reader(r).ok())
         };
     doc.and_then(|d| d.asset.generator)
         .is_some_and(|g| g == "lightlearn")

@@ -111,7 +111,7 @@ pub fn remove_stale_temps(p: &Path) {
 
 /// The temporaries this process is writing or holds until a commit, and the output folders
 /// it made for a command still running: a second Ctrl-C (or one outside a pass loop) ends
-/// the process at once (`_exit` in main.rs), so its handler removes them first
+/// the process at once (`crate::interrupt::quick_exit`), which removes them first
 /// ([`remove_pending`]). Without, `scene` and `variance` stopped in their writes left
 /// full-size hidden temporaries (270 MB for a million-light scene) and empty folders (an
 /// audit, 2026-12-07).
