@@ -46,6 +46,11 @@ pub struct AnimateArgs {
     /// The statistics of the frame before the first (DIR/frame-NNNN.stats of an earlier run).
     #[arg(long, value_name = "FILE")]
     pub load_stats: Option<PathBuf>,
+    /// Which frames' statistics files (.stats, ~2.5 MB a frame at 320×240) stay: all (each
+    /// frame re-renderable alone with --frame K --load-stats) or last (the newest whole
+    /// frame's, to continue the sequence; this run's earlier ones are removed).
+    #[arg(long, default_value = "all", value_parser = ["all", "last"], value_name = "WHICH")]
+    pub keep_stats: String,
     /// Do not encode DIR/animation.mp4 even when ffmpeg is installed.
     #[arg(long)]
     pub no_video: bool,
@@ -113,6 +118,7 @@ impl AnimateArgs {
             regions: self.regions.settings()?,
             learn: self.learn.settings()?,
             load_stats: self.load_stats.clone(),
+            keep_all_stats: self.keep_stats == "all",
             video: !self.no_video,
             exposure: self.exposure.factor()?,
             chunk: self.chunk,
