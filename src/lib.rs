@@ -11,6 +11,7 @@ pub mod fnv;
 pub mod gpu;
 pub mod interrupt;
 pub mod io;
+pub mod layer_albedo;
 pub mod learning;
 pub mod lights;
 pub mod preview;

@@ -2,18 +2,22 @@
 // KHR_materials_specular factors), reflection only:
 //   f = mix(dielectric, metal, metallic)
 //   metal      = F_schlick(F0 = base colour, v·h) · S
-//   dielectric = specular · F_d(v·h) · S + base / π · (1 − w(n·v)) (1 − w(n·l)) / (1 − w_avg),
-//                F_d = F_schlick(F0 = min(0.04 · specular colour, 1)), w = specular · max(F_d),
-//                w_avg = ∫ w(n·l) cos / π dl = specular · (f0 + (1 − f0) / 21), f0 = max(F0_d)
+//   dielectric = specular · F_d(v·h) · S + base / π · (1 − E(n·v)) (1 − E(n·l)) / (1 − E_avg),
+//                F_d = F_schlick(F0 = min(0.04 · specular colour, 1)),
+//                E(μ) = specular · (f0 M(μ, α) + (1 − f0) S(μ, α)), f0 = max(F0_d): the layer's
+//                directional albedo (M, S tabulated by src/layer_albedo.rs), E_avg its average
 //   S = D_GGX(h) · G2(v, l) / (4 |n·v| |n·l|), α = roughness²
 // ONE DEVIATION from the specification: its dielectric weights the diffuse base by
-// 1 − w(v·h). That is not energy conserving: a white, smooth dielectric seen at cos θ = 0.1
+// 1 − F(v·h). That is not energy conserving: a white, smooth dielectric seen at cos θ = 0.1
 // reflects 1.55× what arrives (tests/bsdf.rs measured 1.55 at roughness 0.05, 1.43 at 0.2,
-// 1.11 at 0.5). We couple the diffuse base to the layer by the Fresnel of both directions
-// instead (Ashikhmin & Shirley 2000's form, normalised as Kulla & Conty 2017): reciprocal,
-// and under a perfectly smooth layer exactly the energy the layer transmits, so a white
-// dielectric reflects at most all of it. Under a rough layer a little less (single scattering).
-// At normal view both give the base 0.96 × base / π (to 0.3 %: F(v·h) < 0.003 there).
+// 1.11 at 0.5). We couple the diffuse base to the layer by the layer's albedo in both
+// directions instead (Kulla & Conty 2017's energy compensation): reciprocal, and the base's
+// albedo is exactly 1 − E(n·v), so a white dielectric reflects all that arrives at every
+// roughness and angle (tests/bsdf.rs: 0.999–1.001). Under a rough layer this is close to
+// the specification (roughness 1: 0.99–1.035×, 0.8: 0.96–1.03×; at 0.5 0.84–1.02×, lower
+// where the specification's form gains energy). Until 2026-12-07 E was the macro normal's
+// Fresnel, exact for a smooth layer only: rough dielectrics rendered at 0.30–0.44× the
+// specification under grazing light and 1.05× under normal light.
 // G2 is the height-correlated Smith form 1 / (1 + Λ(v) + Λ(l)) (as glTF's sample viewer
 // and pbrt-v4; Mitsuba 3 uses the separable G1(v) · G1(l), which differs by Λ(v)Λ(l) in
 // the denominator, see tests/mitsuba.rs). Single scattering: rough metals lose the energy of
@@ -27,7 +31,8 @@
 // exactly Lambertian: p_spec = 0, f = base / π, pdf = cos / π, and the random numbers are
 // used as the Lambert-only path tracer used them.
 //
-// Needs PI, luminance() and GpuMaterial (types.glsl).
+// Needs PI, luminance() and GpuMaterial (types.glsl), and the layer albedo table bound as
+// `vec2 layer_albedo_data[]` (below).
 
 // Below this α the GGX peak 1/(π α²) grows past what float MIS weights handle well; roughness
 // under sqrt(1e-3) ≈ 0.03 renders as 0.03 (no perfect mirrors yet).
@@ -94,6 +99,34 @@ float ggx_lambda(float alpha, float c) {
     return 0.5 * (sqrt(1.0 + alpha * alpha * tan2) - 1.0);
 }
 
+// (M, S) of the dielectric's GGX layer at view cosine mu and roughness r = sqrt(α),
+// bilinear in the table (src/layer_albedo.rs; LayerAlbedo::lookup mirrors it). The
+// including kernel binds the table as `vec2 layer_albedo_data[]`: 32 × 32 pairs, row-major
+// in r, then the 32 rows' averages.
+const int LAYER_N_MU = 32;
+const int LAYER_N_ROUGH = 32;
+
+vec2 layer_albedo(float mu, float r) {
+    float x = clamp(mu, 0.0, 1.0) * float(LAYER_N_MU - 1);
+    float y = clamp(r, 0.0, 1.0) * float(LAYER_N_ROUGH - 1);
+    int i = min(int(x), LAYER_N_MU - 2);
+    int j = min(int(y), LAYER_N_ROUGH - 2);
+    float fx = x - float(i);
+    float fy = y - float(j);
+    int k = j * LAYER_N_MU + i;
+    vec2 lo = mix(layer_albedo_data[k], layer_albedo_data[k + 1], fx);
+    vec2 hi = mix(layer_albedo_data[k + LAYER_N_MU], layer_albedo_data[k + LAYER_N_MU + 1], fx);
+    return mix(lo, hi, fy);
+}
+
+// Their averages 2 ∫ (M, S) μ dμ at roughness r, linear in r (LayerAlbedo::lookup_avg).
+vec2 layer_albedo_avg(float r) {
+    float y = clamp(r, 0.0, 1.0) * float(LAYER_N_ROUGH - 1);
+    int j = min(int(y), LAYER_N_ROUGH - 2);
+    int k = LAYER_N_MU * LAYER_N_ROUGH + j;
+    return mix(layer_albedo_data[k], layer_albedo_data[k + 1], y - float(j));
+}
+
 // f(v, l), without the cosine. Zero unless both directions are above the surface.
 vec3 bsdf_eval(Bsdf b, vec3 n, vec3 v, vec3 l) {
     float cv = dot(n, v);
@@ -106,14 +139,20 @@ vec3 bsdf_eval(Bsdf b, vec3 n, vec3 v, vec3 l) {
             / ((1.0 + ggx_lambda(b.alpha, cv) + ggx_lambda(b.alpha, cl)) * 4.0 * cv * cl);
     vec3 fm = b.base + (1.0 - b.base) * w;
     vec3 fd = b.f0_d + (1.0 - b.f0_d) * w;
+    // The layer's directional albedo E = specular · (F0 M + (1 − F0) S) at both directions
+    // and its average (src/layer_albedo.rs).
     float f0 = max3(b.f0_d);
-    float wv = b.specular * (f0 + (1.0 - f0) * schlick_weight(cv));
-    float wl = b.specular * (f0 + (1.0 - f0) * schlick_weight(cl));
-    float w_avg = b.specular * (f0 + (1.0 - f0) / 21.0);
-    // A full-strength layer of F0 = 1 (specular 1, specularColorFactor ≥ 25) leaves the
-    // base no light: w_avg = 1, and 0/0 made every sample NaN, a black image (an audit,
-    // 2026-12-06). The limit f0 → 1 of the quotient is 0.
-    vec3 diffuse = w_avg < 1.0 ? b.base * ((1.0 - wv) * (1.0 - wl) / (PI * (1.0 - w_avg))) : vec3(0.0);
+    float r = sqrt(b.alpha);
+    vec2 mv = layer_albedo(cv, r);
+    vec2 ml = layer_albedo(cl, r);
+    vec2 ma = layer_albedo_avg(r);
+    float wv = b.specular * (f0 * mv.x + (1.0 - f0) * mv.y);
+    float wl = b.specular * (f0 * ml.x + (1.0 - f0) * ml.y);
+    float w_avg = b.specular * (f0 * ma.x + (1.0 - f0) * ma.y);
+    // A full-strength, smooth layer of F0 = 1 (specular 1, specularColorFactor ≥ 25) leaves
+    // the base no light: w_avg = 1, and 0/0 made every sample NaN, a black image (an audit,
+    // 2026-12-06). The quotient's limit there is 0.
+    vec3 diffuse = w_avg < 1.0 - 1.0e-6 ? b.base * ((1.0 - wv) * (1.0 - wl) / (PI * (1.0 - w_avg))) : vec3(0.0);
     return mix(diffuse + b.specular * fd * s, fm * s, b.metallic);
 }
 

@@ -31,6 +31,8 @@ pub struct GpuScene {
     pub(super) textures: Buffer,
     pub(super) texels: Buffer,
     pub(super) tri_uv: Buffer,
+    /// The dielectric layer's albedo table (src/layer_albedo.rs), for bsdf.glsl.
+    pub(super) layer_albedo: Buffer,
     /// Kept for building cuts: the tree, and the BVH to find which regions the camera sees.
     pub tree: lights::tree::LightTree,
     pub bvh: Bvh,
@@ -227,6 +229,11 @@ impl GpuScene {
             textures: Buffer::from_slice(ctx, "texture table", &table)?,
             texels: Buffer::from_slice(ctx, "texels", &texels)?,
             tri_uv: Buffer::from_slice(ctx, "triangle texture coordinates", &uvs)?,
+            layer_albedo: Buffer::from_slice(
+                ctx,
+                "layer albedo table",
+                &crate::layer_albedo::committed().words(),
+            )?,
             tree,
             bvh: bvh.clone(),
             light_count: gpu_lights.len() as u32,

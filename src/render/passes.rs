@@ -35,6 +35,7 @@ pub const RENDER_BINDINGS: [&[&str]; 3] = [
         "Textures",
         "Texels",
         "TriUv",
+        "LayerAlbedo",
     ],
     &[
         "grid_texels",
@@ -237,7 +238,7 @@ impl PassKernels {
 
     /// Binds the scene's buffers (once).
     pub(super) fn bind_scene(&self, g: &GpuScene) -> Result<()> {
-        let scene: [(&str, &Buffer); 13] = [
+        let scene: [(&str, &Buffer); 14] = [
             ("bvh_node_texels", &g.nodes),
             ("bvh_tri_texels", &g.tris),
             ("TriMaterial", &g.tri_material),
@@ -251,6 +252,7 @@ impl PassKernels {
             ("Textures", &g.textures),
             ("Texels", &g.texels),
             ("TriUv", &g.tri_uv),
+            ("LayerAlbedo", &g.layer_albedo),
         ];
         let set = in_binding_order(&scene, RENDER_BINDINGS[SCENE_SET]);
         self.render.bind_set(SCENE_SET, &set)
