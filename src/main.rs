@@ -314,17 +314,25 @@ fn cmd_animate(a: AnimateArgs) -> Result<()> {
         o.frames.len(),
         o.frames.iter().map(|f| f.render_seconds).sum::<f64>(),
     );
+    let noun = if frames == 1 { "frame" } else { "frames" };
     if o.interrupted {
+        let at = o.frames.last().map_or(0, |f| f.frame);
         bail!(
-            "interrupted (Ctrl-C or a stop signal) after frame {}; wrote {frames} frames{} and animation.json to {}",
-            o.frames.last().map_or(0, |f| f.frame),
+            "interrupted (Ctrl-C or a stop signal) {}; wrote {frames} {noun}{} and animation.json to {}",
+            if o.last_partial {
+                format!("during frame {at}")
+            } else {
+                format!("after frame {at}")
+            },
             if o.last_partial { " (the last one partial)" } else { "" },
             a.out.display()
         );
     }
+    let stats = a.carry == "on" && a.sampler.learned();
     ui.message(&format!(
-        "wrote {frames} frames to {} (frame-NNNN.exr/.png/.json, animation.json{}) in {seconds:.1} s of rendering",
+        "wrote {frames} {noun} to {} (frame-NNNN.exr/.png/.json{}, animation.json{}) in {seconds:.1} s of rendering",
         a.out.display(),
+        if stats { "/.stats" } else { "" },
         if o.video.is_some() { ", animation.mp4" } else { "" }
     ));
     Ok(())

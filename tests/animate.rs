@@ -577,6 +577,102 @@ fn frames_are_deterministic_and_a_frame_alone_equals_its_place_in_the_sequence()
     assert!(!d.join("frame-0001.stats").exists());
 }
 
+/// A user's files under the frames' names are refused unless --force, as `render` refuses
+/// them: a `frame-0000.json`, `.exr` and `animation.json` were replaced, exit 0 (an audit,
+/// 2026-12-07).
+#[test]
+fn a_users_files_in_the_folder_are_refused_unless_forced() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = root().join("scenes/city-cars.glb");
+    let args = ["--frames", "0..0", "--fps", "2", "--spp", "2", "-q"];
+    for (name, text, why) in [
+        (
+            "frame-0000.json",
+            "{\"mine\": 1}",
+            "is not a lightlearn report",
+        ),
+        (
+            "frame-0000.exr",
+            "hello",
+            "has no lightlearn report beside it",
+        ),
+        (
+            "frame-0000.stats",
+            "notes",
+            "is not a lightlearn statistics file",
+        ),
+        (
+            "animation.json",
+            "{\"x\": 1}",
+            "is not an animation summary",
+        ),
+    ] {
+        let out = dir.path().join(name.replace('.', "_"));
+        std::fs::create_dir(&out).unwrap();
+        let user = out.join(name);
+        std::fs::write(&user, text).unwrap();
+        let o = animate_output(&scene, &out, &args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && err.contains(why) && err.contains("--force"),
+            "{name}: {err}"
+        );
+        assert_eq!(
+            std::fs::read_to_string(&user).unwrap(),
+            text,
+            "{name} was touched"
+        );
+        assert!(
+            !out.join("frame-0000.png").exists(),
+            "{name}: a frame was written"
+        );
+        ok(&animate_output(
+            &scene,
+            &out,
+            &[&args[..], &["--force"]].concat(),
+        ));
+        assert_ne!(
+            std::fs::read(&user).unwrap(),
+            text.as_bytes(),
+            "{name}: --force kept it"
+        );
+    }
+    // Its own files are written over without --force (a second run of the same frames).
+    let again = dir.path().join("frame-0000_json");
+    ok(&animate_output(&scene, &again, &args));
+}
+
+/// A folder of another sequence's frames ends up mixed: said (an audit, 2026-12-07).
+#[test]
+fn frames_of_another_sequence_in_the_folder_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("a");
+    let args = ["--fps", "2", "--spp", "2"];
+    animate(
+        &root().join("scenes/city-cars.glb"),
+        &out,
+        &[&args[..], &["--frames", "0..2"]].concat(),
+    );
+    let o = animate_output(
+        &root().join("scenes/rooms-walk.glb"),
+        &out,
+        &[&args[..], &["--frames", "0..0"]].concat(),
+    );
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("holds 2 frame(s) (1..2) of another sequence"),
+        "{err}"
+    );
+    // The same sequence again: no word.
+    let o = animate_output(
+        &root().join("scenes/rooms-walk.glb"),
+        &out,
+        &[&args[..], &["--frames", "0..0"]].concat(),
+    );
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("another sequence"));
+}
+
 /// `--keep-stats last` keeps only the newest whole frame's statistics of its run (the
 /// others' 2.5 MB a frame at 320×240 made 25–30 GB over 10,000 frames), never an earlier
 /// run's, and writes the same bytes as `all`.

@@ -46,11 +46,17 @@ pub struct AnimateArgs {
     /// The statistics of the frame before the first (DIR/frame-NNNN.stats of an earlier run).
     #[arg(long, value_name = "FILE")]
     pub load_stats: Option<PathBuf>,
-    /// Which frames' statistics files (.stats, ~2.5 MB a frame at 320×240) stay: all (each
-    /// frame re-renderable alone with --frame K --load-stats) or last (the newest whole
-    /// frame's, to continue the sequence; this run's earlier ones are removed).
+    /// Which frames' statistics files stay (.stats: 1–3 MB a frame on the committed scenes,
+    /// growing with the regions the camera sees, not the image size): all (each frame
+    /// re-renderable alone with --frame K --load-stats) or last (the newest whole frame's, to
+    /// continue the sequence; this run's earlier ones are removed).
     #[arg(long, default_value = "all", value_parser = ["all", "last"], value_name = "WHICH")]
     pub keep_stats: String,
+    /// Replace files in --out that lightlearn did not write (a frame-NNNN.json that is not a
+    /// report, an image with no report beside it, a .stats that is not statistics, an
+    /// animation.json that is not a summary): refused without it.
+    #[arg(long)]
+    pub force: bool,
     /// Do not encode DIR/animation.mp4 even when ffmpeg is installed.
     #[arg(long)]
     pub no_video: bool,
@@ -119,6 +125,7 @@ impl AnimateArgs {
             learn: self.learn.settings()?,
             load_stats: self.load_stats.clone(),
             keep_all_stats: self.keep_stats == "all",
+            force: self.force,
             video: !self.no_video,
             exposure: self.exposure.factor()?,
             chunk: self.chunk,

@@ -62,6 +62,8 @@ pub struct AnimateRequest {
     /// `--keep-stats`: every frame's `.stats` (true, the default) or only the newest whole
     /// frame's (false): 2.4–2.6 MB a frame at 320×240 made 25–30 GB over 10,000 frames.
     pub keep_all_stats: bool,
+    /// `--force`: replace files in the folder that lightlearn did not write.
+    pub force: bool,
     /// Encode DIR/animation.mp4 with ffmpeg when it is installed.
     pub video: bool,
     /// `--exposure`: the PNGs' (and so the video's) factor (2^EV).
@@ -218,6 +220,89 @@ impl Drop for RunLock {
     }
 }
 
+/// Files of the run's names that lightlearn did not write are refused unless `--force`, as
+/// `render` refuses them: a user's `frame-0000.json`, `.exr` or `animation.json` in --out
+/// were replaced, exit 0 (an audit, 2026-12-07). A frame's JSON is ours when it is a
+/// report, its images when such a report is beside them, its `.stats` when it is a
+/// statistics file; `animation.json` when it is a summary (it names its sequence).
+fn check_not_foreign(
+    req: &AnimateRequest,
+    first: u32,
+    last: u32,
+    existing: &std::collections::HashSet<std::ffi::OsString>,
+) -> Result<()> {
+    if req.force {
+        return Ok(());
+    }
+    let there = |p: &Path| p.file_name().is_some_and(|n| existing.contains(n));
+    let refuse = |p: &Path, why: &str| -> Result<()> {
+        bail!(
+            "'{}' exists and {why}: animate would replace it; give another --out, move the file, or add --force to replace it",
+            p.display()
+        )
+    };
+    let summary = req.out.join("animation.json");
+    if there(&summary) {
+        let ours = crate::io::read_regular(&summary, 1 << 30)
+            .ok()
+            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+            .is_some_and(|v| v.get("sequence").is_some() && v["frames"].is_array());
+        if !ours {
+            refuse(&summary, "is not an animation summary lightlearn wrote")?;
+        }
+    }
+    for k in first..=last {
+        let stem = frame_stem(&req.out, k);
+        let [exr, png, json, stats] =
+            ["exr", "png", "json", "stats"].map(|e| stem.with_extension(e));
+        if ![&exr, &png, &json, &stats].iter().any(|p| there(p)) {
+            continue;
+        }
+        let report = there(&json) && crate::film::is_report(&json);
+        if there(&json) && !report {
+            refuse(&json, "is not a lightlearn report")?;
+        }
+        for img in [&exr, &png] {
+            if there(img) && !report {
+                refuse(img, "has no lightlearn report beside it")?;
+            }
+        }
+        if there(&stats) && !crate::learning::stats_file::is_stats_file(&stats) {
+            refuse(&stats, "is not a lightlearn statistics file")?;
+        }
+    }
+    Ok(())
+}
+
+/// A folder whose summary is another sequence's (another scene or settings) keeps that
+/// sequence's frames beyond this run's range beside this run's, and the new summary lists
+/// only this run's: said, as the folder ends up mixed (an audit, 2026-12-07).
+fn warn_other_sequence(req: &AnimateRequest, key: &str, first: u32, last: u32, ui: &mut dyn Ui) {
+    let Ok(bytes) = crate::io::read_regular(&req.out.join("animation.json"), 1 << 30) else {
+        return;
+    };
+    let Ok(old) = serde_json::from_slice::<serde_json::Value>(&bytes) else {
+        return;
+    };
+    if old["sequence"] == serde_json::json!(key) {
+        return;
+    }
+    let stale: Vec<u64> = (old["frames"].as_array().into_iter().flatten())
+        .filter_map(|f| f["frame"].as_u64())
+        .filter(|&k| k < first as u64 || k > last as u64)
+        .filter(|&k| {
+            u32::try_from(k).is_ok_and(|k| frame_stem(&req.out, k).with_extension("exr").exists())
+        })
+        .collect();
+    if let (Some(a), Some(b)) = (stale.first(), stale.last()) {
+        ui.message(&format!(
+            "warning: '{}' holds {} frame(s) ({a}..{b}) of another sequence (another scene or settings); they stay beside this run's, and animation.json will list only this run's frames",
+            req.out.display(),
+            stale.len()
+        ));
+    }
+}
+
 /// The first frame from 0 to `first` whose pose builds, and its scene; where none does,
 /// frame `first`'s error (the first frame asked for).
 fn topology_frame(
@@ -335,6 +420,10 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         }
     }
     crate::io::check_writable(&req.out.join("animation.json"))?;
+    check_not_foreign(req, first, last, &existing)?;
+    // Read once (it hashes the scene file), not once a frame.
+    let sequence = sequence_key(req);
+    warn_other_sequence(req, &sequence, first, last, ui);
     // One run of a range of frames a folder at a time: two into one folder interleaved
     // their frames (each frame whole, the sequence and its summary mixed, the statistics'
     // chain broken, exit 0: an audit, 2026-12-07). Runs of one frame each (`--frame K`, as
@@ -436,8 +525,6 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
     let mut interrupted = false;
     let mut last_partial = false;
     let mut span = (first, 0u32);
-    // Read once (it hashes the scene file), not once a frame.
-    let sequence = sequence_key(req);
     // A stop asked for between frames (while a frame's scene is built or its files are
     // written) waits for this loop too, as one inside a frame's passes does: it had
     // ended the process at once (exit 130, no word; an audit, 2026-12-06). Only over the
