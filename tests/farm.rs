@@ -113,6 +113,13 @@ fn every_template_passes_openjd_check() {
     assert!(!o.status.success(), "{said}");
     assert!(said.contains("not in allowedValues"), "{said}");
     assert!(!dir.path().join("job0/output").exists());
+    // A seed past u32 passed `openjd check` and failed every task (an audit, 2026-12-07):
+    // refused before any task runs.
+    let o = openjd(&["run", template.to_str().unwrap(), "-p", "Seed=4294967296"]).unwrap();
+    let said = String::from_utf8_lossy(&o.stdout) + String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{said}");
+    assert!(said.contains("must be at most 4294967295"), "{said}");
+    assert!(!dir.path().join("job0/output").exists(), "{said}");
     // Frames that do not carry them take any.
     let open = std::fs::read_to_string(dir.path().join("job1/template.yaml")).unwrap();
     assert!(open.contains("\"uniform\""), "{open}");

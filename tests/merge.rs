@@ -166,6 +166,12 @@ fn parts_that_do_not_belong_together_are_refused() {
         &run(&["merge", "a.exr", "--out", "m.exr"], d),
         "at least two parts",
     );
+    // One file twice was told "they hold the same samples; render the chunks with different
+    // --seed" (an audit, 2026-12-07).
+    refused(
+        &run(&["merge", "a.exr", "./a.exr", "--out", "m.exr"], d),
+        "part './a.exr' is given twice (also as 'a.exr'); give each part once",
+    );
     refused(
         &run(&["merge", "a.exr", "wang.exr", "--out", "a.exr"], d),
         "would replace the part",
@@ -412,7 +418,15 @@ fn a_killed_render_keeps_its_last_checkpoint_and_merges() {
     let exr_sum = lightlearn::film::exr_checksum(&d.join("a.exr")).unwrap();
     assert!(report["exr_fnv1a"].is_string(), "{report}");
     if report["exr_fnv1a"].as_str() == Some(exr_sum.as_str()) {
-        ok(&run(&["merge", "a.exr", "b.exr", "--out", "m.exr"], d));
+        let o = run(&["merge", "a.exr", "b.exr", "--out", "m.exr"], d);
+        ok(&o);
+        // Merged by what it holds, and said (silent before; an audit, 2026-12-07).
+        let said = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            said.contains(&format!("warning: part 'a.exr' is of a render stopped before its count (interrupted, or a checkpoint), at {spp} spp")),
+            "{said}"
+        );
+        assert!(!said.contains("'b.exr' is of a render stopped"), "{said}");
         let merged: serde_json::Value =
             serde_json::from_slice(&std::fs::read(d.join("m.json")).unwrap()).unwrap();
         assert_eq!(merged["spp"].as_u64().unwrap(), spp + 4, "{merged}");

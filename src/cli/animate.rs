@@ -157,6 +157,7 @@ pub struct FarmArgs {
     /// Samples per pixel of each chunk (an image gets chunks × spp).
     #[arg(long, default_value_t = 16)]
     pub spp: u32,
+    /// Frames per second of the animation: frame k shows t0 + k / fps.
     #[arg(long, default_value_t = 24.0)]
     pub fps: f64,
     /// Carry learned statistics from each frame to the next: a frame's chunks start from the
@@ -164,16 +165,23 @@ pub struct FarmArgs {
     /// chunks are independent tasks).
     #[arg(long, default_value = "on", value_parser = ["on", "off"])]
     pub carry: String,
+    /// When lights or geometry move between frames, the carried counts and sums are × G
+    /// (0 < G ≤ 1), as `animate --forget`.
     #[arg(long, default_value_t = 0.5, value_name = "G")]
     pub forget: f32,
+    /// The light sampler (the Sampler job parameter).
     #[arg(long, default_value = "bayes", value_parser = sampler_parser())]
     pub sampler: LightSampler,
+    /// Image width in pixels (the Width job parameter).
     #[arg(long, default_value_t = 320)]
     pub width: u32,
+    /// Image height in pixels (the Height job parameter).
     #[arg(long, default_value_t = 240)]
     pub height: u32,
+    /// Random seed (the Seed job parameter; chunks and frames mix in their index).
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
+    /// Surface vertices of a path, 1 = direct light (the MaxDepth job parameter).
     #[arg(long, default_value_t = 8, value_name = "D")]
     pub max_depth: u32,
     /// The lightlearn executable the workers run [default: this one] (the Lightlearn job

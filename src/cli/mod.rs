@@ -319,8 +319,9 @@ pub struct StudyArgs {
     /// Image height in pixels.
     #[arg(long, default_value_t = 240)]
     pub height: u32,
-    /// Seed of the compared renders; a reference draws from an independent stream derived
-    /// from it.
+    /// Seed: `compare`'s renders use it, and the reference (`compare`'s or `reference`'s)
+    /// draws from an independent stream derived from it, so `reference --seed S` makes the
+    /// reference `compare --seed S` finds.
     #[arg(long, default_value_t = 0)]
     pub seed: u32,
     /// Surface vertices of a path: 1 = direct light by light sampling alone; D ≥ 2 = path

@@ -190,23 +190,22 @@ fn args(v: &[&str]) -> Vec<String> {
 
 /// The options every render task shares, as job parameters where they are ones.
 fn common_args(req: &FarmRequest) -> Vec<String> {
-    let mut a = args(&[
-        "--spp",
-        &param("ChunkSpp"),
-        "--width",
-        &param("Width"),
-        "--height",
-        &param("Height"),
-        "--max-depth",
-        &param("MaxDepth"),
-        "--sampler",
-        &param("Sampler"),
-        "--seed",
-        &param("Seed"),
-        "--chunk",
-        "{{Task.Param.Chunk}}",
-        "-q",
-    ]);
+    // Numbers as one `--flag=value` argument: a value a scheduler let through below its
+    // minValue (openjd-cli does not check them locally) is then clap's one-line "invalid
+    // value '-1' for '--seed'", not its advice to write `-- -1` (an audit, 2026-12-07).
+    let joined = |flag: &str, name: &str| format!("{flag}={}", param(name));
+    let mut a = vec![
+        joined("--spp", "ChunkSpp"),
+        joined("--width", "Width"),
+        joined("--height", "Height"),
+        joined("--max-depth", "MaxDepth"),
+        "--sampler".to_string(),
+        param("Sampler"),
+        joined("--seed", "Seed"),
+        "--chunk".to_string(),
+        "{{Task.Param.Chunk}}".to_string(),
+        "-q".to_string(),
+    ];
     a.extend(req.options.iter().cloned());
     a
 }
@@ -347,10 +346,10 @@ fn write_checked(req: &FarmRequest, warn: &mut dyn FnMut(String)) -> Result<Farm
     let parameters = json!([
         {"name": "SceneFile", "type": "PATH", "objectType": "FILE", "dataFlow": "IN",
          "default": bundled,
-         "description": "The glTF scene to render (a relative path is taken from the template's folder)."},
+         "description": "The glTF scene to render (the default, the bundled copy, is in the template's folder; a relative path given when the job is run or submitted is taken from where that command runs)."},
         {"name": "OutputDir", "type": "PATH", "objectType": "DIRECTORY", "dataFlow": "OUT",
          "default": "output",
-         "description": "Where the chunks and the merged images go (relative: from the template's folder)."},
+         "description": "Where the chunks and the merged images go (the default is inside the job's folder; a relative path given when the job is run or submitted is taken from where that command runs)."},
         {"name": "Lightlearn", "type": "STRING", "minLength": 1,
          "default": path(&req.lightlearn)?,
          "description": "The lightlearn executable on the workers (a path, or `lightlearn` when it is on their PATH)."},
@@ -368,7 +367,8 @@ fn write_checked(req: &FarmRequest, warn: &mut dyn FnMut(String)) -> Result<Farm
          } else {
              "The light sampler."
          }},
-        {"name": "Seed", "type": "INT", "minValue": 0, "default": req.seed},
+        {"name": "Seed", "type": "INT", "minValue": 0, "maxValue": u32::MAX, "default": req.seed,
+         "description": "Random seed, 0 to 4294967295 (chunks and frames mix in their index)."},
     ]);
     let chunk_list = |f: &dyn Fn(u32) -> String| (0..req.chunks).map(f).collect::<Vec<_>>();
     let mut steps = Vec::new();

@@ -60,6 +60,9 @@ pub struct MergeOutcome {
     pub exr: PathBuf,
     pub parts: usize,
     pub spp: u64,
+    /// Parts whose render was stopped before its count (their report says `interrupted`, or
+    /// is a checkpoint's): merged by the samples they hold, and said.
+    pub interrupted: Vec<(PathBuf, u64)>,
 }
 
 /// Averages the parts' images weighted by their spp (their JSON reports, beside each EXR,
@@ -79,6 +82,20 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
                 "--out '{}' would replace the part '{}'; name another file",
                 out.display(),
                 p.display()
+            );
+        }
+    }
+    // One file given twice was told "they hold the same samples; render the chunks with
+    // different --seed" (an audit, 2026-12-07). Each path resolved once (a farm merges
+    // thousands).
+    let mut seen: std::collections::HashMap<PathBuf, &PathBuf> = Default::default();
+    for p in parts {
+        let key = std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
+        if let Some(q) = seen.insert(key, p) {
+            bail!(
+                "part '{}' is given twice (also as '{}'); give each part once",
+                p.display(),
+                q.display()
             );
         }
     }
@@ -181,6 +198,7 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
     let mut sum: Vec<[f64; 3]> = Vec::new();
     let mut total = 0u64;
     let mut listed = Vec::new();
+    let mut interrupted = Vec::new();
     for (p, r) in parts.iter().zip(&reports) {
         // The image read with its report as one set, never across a render's commit (a
         // part being checkpointed was refused as split by a kill in 3 of 60 merges: an
@@ -232,7 +250,14 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
                 crate::render::MAX_PASSES
             );
         }
-        listed.push(json!({"exr": p.display().to_string(), "spp": spp, "seed": r["seed"]}));
+        let mut entry = json!({"exr": p.display().to_string(), "spp": spp, "seed": r["seed"]});
+        // A render stopped before its count (Ctrl-C, a stop signal) or killed after a
+        // checkpoint.
+        if r["interrupted"] == json!(true) || r["checkpoint"] == json!(true) {
+            entry["interrupted"] = json!(true);
+            interrupted.push((p.clone(), spp));
+        }
+        listed.push(entry);
     }
     let image: Vec<[f32; 3]> = sum
         .iter()
@@ -257,6 +282,7 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
         exr: paths.exr,
         parts: parts.len(),
         spp: total,
+        interrupted,
     })
 }
 
