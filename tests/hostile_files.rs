@@ -620,6 +620,19 @@ fn features_rendered_without_are_warned_about() {
         },
         &["KHR_materials_transmission", "does not read"],
     );
+    // The same on an element without extensionsUsed listing it (an invalid file exporters
+    // write): silent before, as a texture transform was (an audit, 2026-12-07).
+    warned(
+        "undeclared.gltf",
+        &|g| {
+            g["materials"][0]["extensions"] =
+                serde_json::json!({"KHR_materials_transmission": {"transmissionFactor": 1.0}});
+        },
+        &[
+            "KHR_materials_transmission without listing it in extensionsUsed",
+            "does not read",
+        ],
+    );
     warned(
         "cutout.gltf",
         &|g| g["materials"][0]["alphaMode"] = "MASK".into(),

@@ -397,9 +397,21 @@ fn smooth_vertex_normals_are_warned_about() {
             && w.contains("faceted")),
         "{smooth:?}"
     );
+    // Normals that agree with the quad but point against its winding: the lean takes |cos|,
+    // so this was silent (an audit, 2026-12-07).
+    let (_, flipped) = common::load_warned(quad([[0.0, -1.0, 0.0]; 4]).as_bytes(), "flipped.gltf");
+    assert!(
+        flipped
+            .iter()
+            .any(|w| w.contains("pointing against their triangles' winding")
+                && w.contains("mesh 0 ('quad') primitive 0")
+                && !w.contains("smooth")),
+        "{flipped:?}"
+    );
     // A flat, sloping 1-cm quad 5 km out: f32 corners tilt the triangle's own normal by
     // more than 1°, which warned of smooth normals (a review, 2026-12-07); the normals agree.
-    let n = glam::Vec3::new(0.7, -1.0, 0.3).normalize().to_array();
+    // (The normals as the winding faces: against it is its own warning, below.)
+    let n = glam::Vec3::new(-0.7, 1.0, -0.3).normalize().to_array();
     let far = quad_at([n; 4], [5000.0, 3000.0, 3000.0], 0.01, [0.7, 0.3]).to_string();
     let (_, far) = common::load_warned(far.as_bytes(), "far.gltf");
     assert!(far.is_empty(), "{far:?}");

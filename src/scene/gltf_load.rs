@@ -85,6 +85,11 @@ pub fn open_bytes(
         for w in super::gltf_warn::unsupported_features(&gltf.document, name)
             .into_iter()
             .chain(super::gltf_warn::matrix_with_trs(gltf.as_json(), name))
+            .chain(super::gltf_warn::undeclared_extensions(
+                bytes,
+                &gltf.document,
+                name,
+            ))
         {
             warn(w);
         }

@@ -223,7 +223,8 @@ fn triangulate(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
 /// which f32 rounding tilts by more than 1° on a 1-cm quad 5 km out (a review). Only a
 /// NORMAL the loader's own checks would pass is read: the loader never reads it, so a
 /// malformed one (a huge sparse count aborted the process, a stride of 4 refused the file:
-/// a review) is skipped here. Returns the warning, naming the first such primitive.
+/// a review) is skipped here. Normals that agree with their triangle but point against its
+/// winding are said too. Returns the warning, naming the first such primitive.
 pub(super) fn smooth_normals_warning(
     doc: &gltf::Document,
     buffers: &[Vec<u8>],
@@ -236,6 +237,8 @@ pub(super) fn smooth_normals_warning(
     const COS_LEAN: f32 = 0.9848;
     let mut first: Option<String> = None;
     let mut count = 0usize;
+    let mut first_reversed: Option<String> = None;
+    let mut reversed = 0usize;
     for mesh in doc.meshes() {
         for prim in mesh.primitives() {
             let (Some(normals), Some(positions)) = (
@@ -276,6 +279,7 @@ pub(super) fn smooth_normals_warning(
                 Some(i) => i.into_u32().collect(),
                 None => (0..n.len() as u32).collect(),
             };
+            let mut flipped = false;
             let smooth = triangulate(prim.mode(), &indices).into_iter().any(|t| {
                 // A strip's joins (a repeated index) are no triangle: the loader drops them,
                 // and their corners' normals belong to two faces (a flat cube as one strip
@@ -299,8 +303,24 @@ pub(super) fn smooth_normals_warning(
                 // normal by a few degrees (a review).
                 let face = (b.1 - a.1).cross(c.1 - a.1).normalize_or_zero().as_vec3();
                 let lean = face != Vec3::ZERO && given.iter().any(|v| v.dot(face).abs() < COS_LEAN);
+                // Normals that agree with the triangle but point against its winding: the
+                // lean above takes |cos|, so a 180° flip was not said (an audit, 2026-12-07).
+                flipped |= face != Vec3::ZERO
+                    && !given.is_empty()
+                    && given.iter().all(|v| v.dot(face) < -COS_LEAN);
                 differ || lean
             });
+            if flipped {
+                reversed += 1;
+                first_reversed.get_or_insert_with(|| {
+                    format!(
+                        "mesh {} ('{}') primitive {}",
+                        mesh.index(),
+                        mesh.name().unwrap_or(""),
+                        prim.index()
+                    )
+                });
+            }
             if smooth {
                 count += 1;
                 first.get_or_insert_with(|| {
@@ -314,5 +334,10 @@ pub(super) fn smooth_normals_warning(
             }
         }
     }
-    first.map(|f| format!("'{name}': {count} primitive(s) have smooth vertex normals (NORMAL), first {f}; lightlearn shades with flat triangle normals, so curved surfaces render faceted"))
+    let smooth = first.map(|f| format!("'{name}': {count} primitive(s) have smooth vertex normals (NORMAL), first {f}; lightlearn shades with flat triangle normals, so curved surfaces render faceted"));
+    let reversed = first_reversed.map(|f| format!("'{name}': {reversed} primitive(s) have vertex normals (NORMAL) pointing against their triangles' winding, first {f}; lightlearn shades both sides by the triangle and emits from the winding's front, so they render as if the normals agreed (a renderer that shades by NORMAL shows them dark): check the export"));
+    match (smooth, reversed) {
+        (Some(a), Some(b)) => Some(format!("{a}; and {b}")),
+        (a, b) => a.or(b),
+    }
 }

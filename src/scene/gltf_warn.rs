@@ -139,3 +139,50 @@ pub fn matrix_with_trs(root: &Root, name: &str) -> Vec<String> {
         })
         .collect()
 }
+
+/// Extensions a file uses on its elements without listing them in `extensionsUsed` (an
+/// invalid file, the validator's UNDECLARED_EXTENSION, which exporters still write) and that
+/// lightlearn does not read: `unsupported_features` reads the list only, so a texture
+/// transform or transmission rendered without them in silence (an audit, 2026-12-07).
+pub fn undeclared_extensions(bytes: &[u8], doc: &gltf::Document, name: &str) -> Option<String> {
+    let glb = if bytes.starts_with(b"glTF") {
+        Some(gltf::binary::Glb::from_slice(bytes).ok()?)
+    } else {
+        None
+    };
+    let json: &[u8] = glb.as_ref().map_or(bytes, |g| &g.json);
+    let root: serde_json::Value = serde_json::from_slice(json).ok()?;
+    let mut found = std::collections::BTreeSet::new();
+    let mut stack = vec![&root];
+    while let Some(v) = stack.pop() {
+        match v {
+            serde_json::Value::Object(m) => {
+                for (k, child) in m {
+                    if k == "extensions" {
+                        if let Some(e) = child.as_object() {
+                            found.extend(e.keys().map(String::as_str));
+                        }
+                    }
+                    stack.push(child);
+                }
+            }
+            serde_json::Value::Array(a) => stack.extend(a),
+            _ => {}
+        }
+    }
+    let listed: Vec<&str> = doc.extensions_used().collect();
+    let unread: Vec<&str> = found
+        .into_iter()
+        .filter(|e| !listed.contains(e) && !SUPPORTED_EXTENSIONS.contains(e))
+        .collect();
+    (!unread.is_empty()).then(|| {
+        format!(
+            "'{name}' uses {} without listing {} in extensionsUsed (an invalid file); lightlearn does not read {} and renders without {} (read: {})",
+            unread.join(", "),
+            if unread.len() > 1 { "them" } else { "it" },
+            if unread.len() > 1 { "them" } else { "it" },
+            if unread.len() > 1 { "them" } else { "it" },
+            SUPPORTED_EXTENSIONS.join(", ")
+        )
+    })
+}
