@@ -814,6 +814,57 @@ fn interrupted_render_writes_the_samples_so_far(signal: &str) {
     );
 }
 
+/// `animate` stopped inside a frame's passes: the summary marks the partial frame and the
+/// line says "during frame K" (it said "after frame K", and the record told it only by its
+/// spp; an audit, 2026-12-07).
+#[test]
+fn animate_stopped_in_a_frame_marks_it_partial() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let walk = scene("rooms-walk.glb");
+    let mut child = Command::new(common::exe())
+        .args([
+            "animate",
+            walk.to_str().unwrap(),
+            "--out",
+            "a",
+            "--frames",
+            "0..1",
+            "--time",
+            "60",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--no-video",
+        ])
+        .current_dir(d)
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = BufReader::new(child.stderr.take().unwrap());
+    let mut line = String::new();
+    err.read_line(&mut line).unwrap();
+    assert!(line.contains("device"), "{line}");
+    std::thread::sleep(Duration::from_millis(3000));
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let status = child.wait().unwrap();
+    let mut rest = String::new();
+    std::io::Read::read_to_string(&mut err, &mut rest).unwrap();
+    assert_eq!(status.code(), Some(1), "{rest}");
+    assert!(
+        rest.contains("during frame 0") && rest.contains("wrote 1 frame (the last one partial)"),
+        "{rest}"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("a/animation.json")).unwrap()).unwrap();
+    assert_eq!(summary["frames"][0]["interrupted"], true, "{summary}");
+}
+
 /// `animate` stopped by a signal between frames (building a frame's scene, writing its
 /// files: with tiny frames most of the time) ends as one stopped in a frame's passes does:
 /// exit 1, one line naming the frames written, each frame's files whole. With the build

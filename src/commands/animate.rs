@@ -95,6 +95,10 @@ pub struct FrameRecord {
     /// The film's own estimate of the image's MSE (per-pixel variance of the mean); None
     /// (null) at 1 spp, where there is no variance.
     pub estimated_mse: Option<f64>,
+    /// A frame stopped before its samples (Ctrl-C, a stop signal): its spp is what it holds
+    /// (only its spp told, before; an audit, 2026-12-07). Absent when whole.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub interrupted: bool,
     /// Written as text even where the path is not UTF-8 (serde's PathBuf refuses it, and
     /// the summary's `json!` panicked on such an output folder).
     #[serde(serialize_with = "lossy_path")]
@@ -698,6 +702,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
             regions_with_cuts: result.regions.regions_with_cuts,
             regions_added: result.regions.regions_added_between_frames,
             estimated_mse: result.known_error().map(|e| e.0),
+            interrupted: result.interrupted,
             exr: paths.exr.clone(),
         });
         span = write_summary(

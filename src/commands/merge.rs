@@ -73,6 +73,14 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
     if parts.len() < 2 {
         bail!("merge needs at least two parts (PART.exr, each with its .json beside it)");
     }
+    // A missing part first: a farm's merge run before its chunks was told that the output
+    // folder does not exist (an audit, 2026-12-07).
+    if let Some(p) = parts.iter().find(|p| !p.exists()) {
+        bail!(
+            "part '{}' does not exist; render it first (in a farm job, its chunk's render task writes it)",
+            p.display()
+        );
+    }
     let paths = OutputPaths::new(out)?;
     for p in parts {
         if paths.all().iter().any(|o| {
