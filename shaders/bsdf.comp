@@ -22,7 +22,9 @@ struct BsdfResult {
 
 layout(std430, set = 0, binding = 0) readonly buffer Queries { BsdfQuery queries[]; };
 layout(std430, set = 0, binding = 1) writeonly buffer Results { BsdfResult results[]; };
-layout(std430, set = 0, binding = 2) readonly buffer LayerAlbedo { vec2 layer_albedo_data[]; };
+#ifndef LAYOUT_ONLY
+layout(set = 0, binding = 2) uniform usamplerBuffer layer_albedo_texels;
+#endif
 
 layout(push_constant) uniform Push { uint query_count; };
 

@@ -132,7 +132,7 @@ layout(std430, set = 0, binding = 10) readonly buffer Textures { GpuTexture text
 layout(std430, set = 0, binding = 11) readonly buffer Texels { uint texels[]; };
 layout(std430, set = 0, binding = 12) readonly buffer TriUv { float tri_uv[]; };
 // The dielectric layer's albedo table (bsdf.glsl, src/layer_albedo.rs).
-layout(std430, set = 0, binding = 13) readonly buffer LayerAlbedo { vec2 layer_albedo_data[]; };
+layout(set = 0, binding = 13) uniform usamplerBuffer layer_albedo_texels;
 
 // Regions without a cut of their own that samples reached, for the host to build cuts for
 // between frames: [0] counts newly set bits, then one bit per region.

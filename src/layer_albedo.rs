@@ -17,8 +17,10 @@
 //! as the kernel's), bilinear in between; the averages come from the interpolant itself, so
 //! that the base's albedo is exactly 1 − E(n·v) as the kernel evaluates E. The kernels read
 //! the committed tables (`src/layer_albedo_data.rs`, which [`rust_source`] writes; a test
-//! checks that the file is its output) from a storage buffer: as GLSL constant arrays
+//! checks that the file is its output) from a texel buffer: as GLSL constant arrays
 //! lavapipe's LLVM 15 spent over ten minutes compiling the kernel (its coroutine frames).
+//! bsdf.glsl adds the layer's multiple scattering (Kulla & Conty's F_ms) to what the layer
+//! keeps from the base.
 
 /// Points over μ = n·v in [0, 1].
 pub const N_MU: usize = 32;
@@ -213,10 +215,18 @@ pub fn committed() -> LayerAlbedo {
 }
 
 impl LayerAlbedo {
-    /// The kernels' buffer (`LayerAlbedo` in render.comp and bsdf.comp): the (M, S) pairs,
-    /// row-major in roughness, then the averages.
-    pub fn words(&self) -> Vec<f32> {
-        self.ms.iter().chain(&self.avg).flatten().copied().collect()
+    /// The kernels' texels (`layer_albedo_texels` in render.comp and bsdf.comp, RGBA32UI):
+    /// the (M, S) pairs as float bits, two a texel, row-major in roughness, then the
+    /// averages (an even count each: N_MU × N_ROUGH and N_ROUGH).
+    pub fn texels(&self) -> Vec<[u32; 4]> {
+        let pairs: Vec<[f32; 2]> = self.ms.iter().chain(&self.avg).copied().collect();
+        pairs
+            .chunks(2)
+            .map(|c| {
+                let b = c.get(1).copied().unwrap_or([0.0; 2]);
+                [c[0][0], c[0][1], b[0], b[1]].map(f32::to_bits)
+            })
+            .collect()
     }
 }
 

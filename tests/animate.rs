@@ -664,13 +664,26 @@ fn frames_of_another_sequence_in_the_folder_are_named() {
         err.contains("holds 2 frame(s) (1..2) of another sequence"),
         "{err}"
     );
-    // The same sequence again: no word.
+    // The same sequence again, with --keep-stats last and --force (which say nothing about
+    // the frames: they made it "another sequence"; a review, 2026-12-07): no word, and the
+    // summary keeps the frame it rendered before.
     let o = animate_output(
         &root().join("scenes/rooms-walk.glb"),
         &out,
-        &[&args[..], &["--frames", "0..0"]].concat(),
+        &[
+            &args[..],
+            &["--frames", "1..1", "--keep-stats", "last", "--force"],
+        ]
+        .concat(),
     );
+    ok(&o);
     assert!(!String::from_utf8_lossy(&o.stderr).contains("another sequence"));
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("animation.json")).unwrap()).unwrap();
+    let listed: Vec<u64> = (summary["frames"].as_array().unwrap().iter())
+        .map(|f| f["frame"].as_u64().unwrap())
+        .collect();
+    assert_eq!(listed, [0, 1]);
 }
 
 /// `--keep-stats last` keeps only the newest whole frame's statistics of its run (the

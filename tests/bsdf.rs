@@ -71,10 +71,10 @@ impl Kernel {
                 * std::mem::size_of::<BsdfResult>() as u64,
         )
         .unwrap();
-        let table = Buffer::from_slice(
+        let table = Buffer::texels(
             &self.ctx,
             "layer albedo table",
-            &layer_albedo::committed().words(),
+            &layer_albedo::committed().texels(),
         )
         .unwrap();
         self.pipeline.bind(&[&qb, &rb, &table]).unwrap();
@@ -157,12 +157,15 @@ fn gltf_brdf(m: &GpuMaterial, n: DVec3, v: DVec3, l: DVec3) -> DVec3 {
     let spec = m.specular as f64;
     let f0m = f0.max_element();
     let t = layer_table();
+    // What the layer keeps: its albedo E and its multiple scattering (bsdf.glsl layer_kept).
+    let (am, as_) = t.lookup_avg(a);
+    let f_avg = spec * (f0m + (1.0 - f0m) / 21.0);
+    let f_ms = f_avg * f_avg * am / (1.0 - f_avg * (1.0 - am)).max(1e-6);
     let wf = |c: f64| {
         let (mm, ss) = t.lookup(c, a);
-        spec * (f0m * mm + (1.0 - f0m) * ss)
+        spec * (f0m * mm + (1.0 - f0m) * ss) + (1.0 - mm) * f_ms
     };
-    let (mm, ss) = t.lookup_avg(a);
-    let w_avg = spec * (f0m * mm + (1.0 - f0m) * ss);
+    let w_avg = spec * (f0m * am + (1.0 - f0m) * as_) + (1.0 - am) * f_ms;
     // The quotient's limit as f0 → 1 under a full-strength, smooth layer is 0 (bsdf.glsl).
     let coupling = if w_avg < 1.0 - 1e-6 {
         (1.0 - wf(nv)) * (1.0 - wf(nl)) / (1.0 - w_avg)
@@ -517,6 +520,22 @@ fn energy_is_conserved() {
                 }
             }
         }
+    }
+    // A layer of F0 = 1 (specularColorFactor 26) over a white base, rough: the layer keeps
+    // everything it reflects, multiple scattering included, so the base gets nothing and
+    // sampling (the layer alone) and uniform directions agree. With the single-scattering
+    // albedo alone the base got 1 − M (69 % of the light at normal view), which BRDF
+    // sampling never drew (p_spec 1): uniform directions saw more than sampling (a review,
+    // 2026-12-07).
+    for cos_v in [1.0, 0.5] {
+        let m = material(Vec3::ONE, 0.0, 1.0, 1.0, Vec3::splat(26.0));
+        let dark = material(Vec3::ZERO, 0.0, 1.0, 1.0, Vec3::splat(26.0));
+        let ((a, sa), (b, sb)) = albedo(&k, m, cos_v, 77);
+        let ((_, _), (c, sc)) = albedo(&k, dark, cos_v, 78);
+        let z = (a - b) / (sa * sa + sb * sb).sqrt();
+        let zb = (b - c) / (sb * sb + sc * sc).sqrt();
+        println!("F0 = 1, roughness 1, cos θ {cos_v}: sampled {a:.4} ± {sa:.4}, uniform {b:.4} ± {sb:.4}, black base {c:.4}");
+        assert!(z.abs() < 4.5 && zb.abs() < 4.5, "F0 = 1 at cos θ {cos_v}: sampled {a} ± {sa}, uniform {b} ± {sb}, with a black base {c} ± {sc}");
     }
     // Lambertian (metallic 0, specularFactor 0): every sample weighs exactly the base colour.
     let base = Vec3::new(0.7, 0.4, 0.2);

@@ -308,6 +308,41 @@ fn a_glb_bundle_holds_the_files_it_names() {
     );
 }
 
+/// A job written over an earlier one says what the earlier left: its bundled scene and its
+/// outputs stayed without a word (an audit, 2026-12-07); neither is removed.
+#[test]
+fn a_job_over_an_earlier_one_names_what_it_left() {
+    let dir = tempfile::tempdir().unwrap();
+    let job = dir.path().join("job");
+    farm(
+        &root().join("scenes/city-cars.glb"),
+        &job,
+        &["--frames", "0..0"],
+    );
+    std::fs::create_dir(job.join("output")).unwrap();
+    std::fs::write(job.join("output/frame-0000.exr"), b"earlier").unwrap();
+    let mut a = vec![
+        "farm",
+        "--out",
+        job.to_str().unwrap(),
+        "--width",
+        "24",
+        "--height",
+        "18",
+    ];
+    let scene = root().join("scenes/rooms-walk.glb");
+    a.insert(1, scene.to_str().unwrap());
+    let o = lightlearn(&a);
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("of an earlier job (city-cars.glb), left as they are"),
+        "{err}"
+    );
+    assert!(err.contains("holds an earlier job's outputs"), "{err}");
+    assert!(job.join("scene/city-cars.glb").exists() && job.join("output/frame-0000.exr").exists());
+}
+
 #[test]
 fn bad_farm_requests_are_refused() {
     let dir = tempfile::tempdir().unwrap();

@@ -633,6 +633,15 @@ fn features_rendered_without_are_warned_about() {
             "does not read",
         ],
     );
+    // An application's own data under `extras` is no extension (a review, 2026-12-07).
+    let o = render_edited(&doc, d, "extras.gltf", &|g| {
+        g["materials"][0]["extras"] = serde_json::json!({"extensions": {"APP_private": {"x": 1}}});
+    });
+    assert!(
+        o.status.success() && !stderr(&o).contains("APP_private"),
+        "{}",
+        stderr(&o)
+    );
     warned(
         "cutout.gltf",
         &|g| g["materials"][0]["alphaMode"] = "MASK".into(),

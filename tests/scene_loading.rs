@@ -408,6 +408,18 @@ fn smooth_vertex_normals_are_warned_about() {
                 && !w.contains("smooth")),
         "{flipped:?}"
     );
+    // Smooth and reversed: the smooth check stops at its first triangle, so the reversal
+    // was tested on that one alone (a review, 2026-12-07); both are said.
+    let down = [0.0, -1.0, 0.0];
+    let (_, both) = common::load_warned(
+        quad([down, down, [0.2, -0.98, 0.0], down]).as_bytes(),
+        "both.gltf",
+    );
+    assert!(
+        both.iter().any(|w| w.contains("smooth vertex normals")
+            && w.contains("pointing against their triangles' winding")),
+        "{both:?}"
+    );
     // A flat, sloping 1-cm quad 5 km out: f32 corners tilt the triangle's own normal by
     // more than 1°, which warned of smooth normals (a review, 2026-12-07); the normals agree.
     // (The normals as the winding faces: against it is its own warning, below.)

@@ -2,19 +2,22 @@
 // KHR_materials_specular factors), reflection only:
 //   f = mix(dielectric, metal, metallic)
 //   metal      = F_schlick(F0 = base colour, v·h) · S
-//   dielectric = specular · F_d(v·h) · S + base / π · (1 − E(n·v)) (1 − E(n·l)) / (1 − E_avg),
+//   dielectric = specular · F_d(v·h) · S + base / π · (1 − K(n·v)) (1 − K(n·l)) / (1 − K_avg),
 //                F_d = F_schlick(F0 = min(0.04 · specular colour, 1)),
 //                E(μ) = specular · (f0 M(μ, α) + (1 − f0) S(μ, α)), f0 = max(F0_d): the layer's
-//                directional albedo (M, S tabulated by src/layer_albedo.rs), E_avg its average
+//                directional albedo (M, S tabulated by src/layer_albedo.rs), K = E + its
+//                multiple scattering (1 − M) F_ms, K_avg its average
 //   S = D_GGX(h) · G2(v, l) / (4 |n·v| |n·l|), α = roughness²
 // ONE DEVIATION from the specification: its dielectric weights the diffuse base by
 // 1 − F(v·h). That is not energy conserving: a white, smooth dielectric seen at cos θ = 0.1
 // reflects 1.55× what arrives (tests/bsdf.rs measured 1.55 at roughness 0.05, 1.43 at 0.2,
 // 1.11 at 0.5). We couple the diffuse base to the layer by the layer's albedo in both
-// directions instead (Kulla & Conty 2017's energy compensation): reciprocal, and the base's
-// albedo is exactly 1 − E(n·v), so a white dielectric reflects all that arrives at every
-// roughness and angle (tests/bsdf.rs: 0.999–1.001). Under a rough layer this is close to
-// the specification (roughness 1: 0.99–1.035×, 0.8: 0.96–1.03×; at 0.5 0.84–1.02×, lower
+// directions instead (Kulla & Conty 2017's energy compensation; what the layer keeps
+// includes its multiple scattering, layer_kept): reciprocal, and the base's albedo is
+// exactly 1 − kept(n·v), so a white dielectric reflects nearly all that arrives
+// (tests/bsdf.rs: 0.997–1.001 at roughness 0.05–1, cos θ 0.1–1; the layer's own multiple
+// scattering is not rendered). Under a rough layer this is close to the specification
+// (roughness 1: 0.99–1.033×, 0.8: 0.96–1.023×; at 0.5 0.84–1.02×, lower
 // where the specification's form gains energy). Until 2026-12-07 E was the macro normal's
 // Fresnel, exact for a smooth layer only: rough dielectrics rendered at 0.30–0.44× the
 // specification under grazing light and 1.05× under normal light.
@@ -32,7 +35,7 @@
 // used as the Lambert-only path tracer used them.
 //
 // Needs PI, luminance() and GpuMaterial (types.glsl), and the layer albedo table bound as
-// `vec2 layer_albedo_data[]` (below).
+// the texel buffer `layer_albedo_texels` (below).
 
 // Below this α the GGX peak 1/(π α²) grows past what float MIS weights handle well; roughness
 // under sqrt(1e-3) ≈ 0.03 renders as 0.03 (no perfect mirrors yet).
@@ -63,6 +66,66 @@ float schlick_weight(float c) {
     return m2 * m2 * m;
 }
 
+// (M, S) of the dielectric's GGX layer at view cosine mu and roughness r = sqrt(α),
+// bilinear in the table (src/layer_albedo.rs; LayerAlbedo::lookup mirrors it). The
+// including kernel binds the table as the texel buffer `layer_albedo_texels` (RGBA32UI, two
+// float pairs a texel): 32 × 32 pairs, row-major in r, then the 32 rows' averages. A texel
+// buffer rather than a storage buffer: render.comp already uses 16 of the latter, the most
+// some devices take in one stage (a review, 2026-12-07).
+const int LAYER_N_MU = 32;
+const int LAYER_N_ROUGH = 32;
+
+#ifdef LAYOUT_ONLY
+// tests/layout.rs compiles bsdf.comp for naga, which takes no texel buffers: the structs'
+// layout is what it checks.
+vec2 layer_pair(int k) { return vec2(0.0); }
+#else
+vec2 layer_pair(int k) {
+    uvec4 t = texelFetch(layer_albedo_texels, k >> 1);
+    return uintBitsToFloat((k & 1) == 0 ? t.xy : t.zw);
+}
+#endif
+
+vec2 layer_albedo(float mu, float r) {
+    float x = clamp(mu, 0.0, 1.0) * float(LAYER_N_MU - 1);
+    float y = clamp(r, 0.0, 1.0) * float(LAYER_N_ROUGH - 1);
+    int i = clamp(int(x), 0, LAYER_N_MU - 2);
+    int j = clamp(int(y), 0, LAYER_N_ROUGH - 2);
+    float fx = x - float(i);
+    float fy = y - float(j);
+    int k = j * LAYER_N_MU + i;
+    vec2 lo = mix(layer_pair(k), layer_pair(k + 1), fx);
+    vec2 hi = mix(layer_pair(k + LAYER_N_MU), layer_pair(k + LAYER_N_MU + 1), fx);
+    return mix(lo, hi, fy);
+}
+
+// Their averages 2 ∫ (M, S) μ dμ at roughness r, linear in r (LayerAlbedo::lookup_avg).
+vec2 layer_albedo_avg(float r) {
+    float y = clamp(r, 0.0, 1.0) * float(LAYER_N_ROUGH - 1);
+    int j = clamp(int(y), 0, LAYER_N_ROUGH - 2);
+    int k = LAYER_N_MU * LAYER_N_ROUGH + j;
+    return mix(layer_pair(k), layer_pair(k + 1), y - float(j));
+}
+
+// What the layer keeps of light arriving at cosine mu (E: its single scattering plus the
+// multiple scattering between its microfacets, Kulla & Conty 2017's F_ms; the base gets the
+// rest), given f0 = max(F0_d), the weight `specular`, α and the layer's average (M̄, S̄).
+// F_ms makes a layer of F0 = 1 keep everything (nothing reaches the base, as a smooth one);
+// at F0 = 0.04 it is below 0.7 % of 1 − M.
+float layer_kept(float mu, float f0, float specular, float r, vec2 avg) {
+    vec2 ms = layer_albedo(mu, r);
+    float f_avg = specular * (f0 + (1.0 - f0) / 21.0);
+    float f_ms = f_avg * f_avg * avg.x / max(1.0 - f_avg * (1.0 - avg.x), 1.0e-6);
+    return specular * (f0 * ms.x + (1.0 - f0) * ms.y) + (1.0 - ms.x) * f_ms;
+}
+
+// Its average 2 ∫ layer_kept μ dμ (linear in the table's terms).
+float layer_kept_avg(float f0, float specular, vec2 avg) {
+    float f_avg = specular * (f0 + (1.0 - f0) / 21.0);
+    float f_ms = f_avg * f_avg * avg.x / max(1.0 - f_avg * (1.0 - avg.x), 1.0e-6);
+    return specular * (f0 * avg.x + (1.0 - f0) * avg.y) + (1.0 - avg.x) * f_ms;
+}
+
 // The BRDF at a shading point of material m with base colour `base`, seen from v (unit, on
 // the side of n).
 Bsdf make_bsdf(GpuMaterial m, vec3 base, vec3 n, vec3 v) {
@@ -77,7 +140,19 @@ Bsdf make_bsdf(GpuMaterial m, vec3 base, vec3 n, vec3 v) {
     float w = schlick_weight(dot(n, v));
     float fd = max3(b.f0_d) + (1.0 - max3(b.f0_d)) * w;
     float ws = b.metallic * luminance(base + (1.0 - base) * w) + (1.0 - b.metallic) * b.specular * fd;
-    float wd = (1.0 - b.metallic) * (1.0 - b.specular * fd) * luminance(base);
+    // The base's share as bsdf_eval weighs it (1 − what the layer keeps): with the macro
+    // normal's Fresnel here a layer of F0 = 1 left p_spec = 1, so the base, which the
+    // layer's albedo lets light reach under a rough layer, was never sampled (a review,
+    // 2026-12-07). A Lambertian material reads no table (E = 0).
+    float kept = 0.0;
+    if (SCENE_GLOSSY && !b.lambert && b.metallic < 1.0) {
+        float r = sqrt(b.alpha);
+        float f0 = max3(b.f0_d);
+        vec2 avg = layer_albedo_avg(r);
+        float kept_avg = layer_kept_avg(f0, b.specular, avg);
+        kept = kept_avg < 1.0 - 1.0e-6 ? layer_kept(max(dot(n, v), 0.0), f0, b.specular, r, avg) : 1.0;
+    }
+    float wd = (1.0 - b.metallic) * (1.0 - kept) * luminance(base);
     b.albedo = ws + wd;
     if (ws <= 0.0) b.p_spec = 0.0;
     else if (wd <= 0.0) b.p_spec = 1.0;
@@ -99,34 +174,6 @@ float ggx_lambda(float alpha, float c) {
     return 0.5 * (sqrt(1.0 + alpha * alpha * tan2) - 1.0);
 }
 
-// (M, S) of the dielectric's GGX layer at view cosine mu and roughness r = sqrt(α),
-// bilinear in the table (src/layer_albedo.rs; LayerAlbedo::lookup mirrors it). The
-// including kernel binds the table as `vec2 layer_albedo_data[]`: 32 × 32 pairs, row-major
-// in r, then the 32 rows' averages.
-const int LAYER_N_MU = 32;
-const int LAYER_N_ROUGH = 32;
-
-vec2 layer_albedo(float mu, float r) {
-    float x = clamp(mu, 0.0, 1.0) * float(LAYER_N_MU - 1);
-    float y = clamp(r, 0.0, 1.0) * float(LAYER_N_ROUGH - 1);
-    int i = min(int(x), LAYER_N_MU - 2);
-    int j = min(int(y), LAYER_N_ROUGH - 2);
-    float fx = x - float(i);
-    float fy = y - float(j);
-    int k = j * LAYER_N_MU + i;
-    vec2 lo = mix(layer_albedo_data[k], layer_albedo_data[k + 1], fx);
-    vec2 hi = mix(layer_albedo_data[k + LAYER_N_MU], layer_albedo_data[k + LAYER_N_MU + 1], fx);
-    return mix(lo, hi, fy);
-}
-
-// Their averages 2 ∫ (M, S) μ dμ at roughness r, linear in r (LayerAlbedo::lookup_avg).
-vec2 layer_albedo_avg(float r) {
-    float y = clamp(r, 0.0, 1.0) * float(LAYER_N_ROUGH - 1);
-    int j = min(int(y), LAYER_N_ROUGH - 2);
-    int k = LAYER_N_MU * LAYER_N_ROUGH + j;
-    return mix(layer_albedo_data[k], layer_albedo_data[k + 1], y - float(j));
-}
-
 // f(v, l), without the cosine. Zero unless both directions are above the surface.
 vec3 bsdf_eval(Bsdf b, vec3 n, vec3 v, vec3 l) {
     float cv = dot(n, v);
@@ -139,18 +186,17 @@ vec3 bsdf_eval(Bsdf b, vec3 n, vec3 v, vec3 l) {
             / ((1.0 + ggx_lambda(b.alpha, cv) + ggx_lambda(b.alpha, cl)) * 4.0 * cv * cl);
     vec3 fm = b.base + (1.0 - b.base) * w;
     vec3 fd = b.f0_d + (1.0 - b.f0_d) * w;
-    // The layer's directional albedo E = specular · (F0 M + (1 − F0) S) at both directions
-    // and its average (src/layer_albedo.rs).
+    // What the layer keeps at both directions and on average (layer_kept: its directional
+    // albedo E = specular · (F0 M + (1 − F0) S) and its multiple scattering; the tables
+    // from src/layer_albedo.rs).
     float f0 = max3(b.f0_d);
     float r = sqrt(b.alpha);
-    vec2 mv = layer_albedo(cv, r);
-    vec2 ml = layer_albedo(cl, r);
-    vec2 ma = layer_albedo_avg(r);
-    float wv = b.specular * (f0 * mv.x + (1.0 - f0) * mv.y);
-    float wl = b.specular * (f0 * ml.x + (1.0 - f0) * ml.y);
-    float w_avg = b.specular * (f0 * ma.x + (1.0 - f0) * ma.y);
-    // A full-strength, smooth layer of F0 = 1 (specular 1, specularColorFactor ≥ 25) leaves
-    // the base no light: w_avg = 1, and 0/0 made every sample NaN, a black image (an audit,
+    vec2 avg = layer_albedo_avg(r);
+    float wv = layer_kept(cv, f0, b.specular, r, avg);
+    float wl = layer_kept(cl, f0, b.specular, r, avg);
+    float w_avg = layer_kept_avg(f0, b.specular, avg);
+    // A full-strength layer of F0 = 1 (specular 1, specularColorFactor ≥ 25) leaves the base
+    // no light: w_avg = 1, and 0/0 made every sample NaN, a black image (an audit,
     // 2026-12-06). The quotient's limit there is 0.
     vec3 diffuse = w_avg < 1.0 - 1.0e-6 ? b.base * ((1.0 - wv) * (1.0 - wl) / (PI * (1.0 - w_avg))) : vec3(0.0);
     return mix(diffuse + b.specular * fd * s, fm * s, b.metallic);

@@ -250,7 +250,8 @@ fn check_not_foreign(
         let ours = crate::io::read_regular(&summary, 1 << 30)
             .ok()
             .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
-            .is_some_and(|v| v.get("sequence").is_some() && v["frames"].is_array());
+            // Summaries from before 2026-12-05 name no sequence; every one names its fps.
+            .is_some_and(|v| v["frames"].is_array() && v.get("fps").is_some());
         if !ours {
             refuse(&summary, "is not an animation summary lightlearn wrote")?;
         }
@@ -424,10 +425,6 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         }
     }
     crate::io::check_writable(&req.out.join("animation.json"))?;
-    check_not_foreign(req, first, last, &existing)?;
-    // Read once (it hashes the scene file), not once a frame.
-    let sequence = sequence_key(req);
-    warn_other_sequence(req, &sequence, first, last, ui);
     // One run of a range of frames a folder at a time: two into one folder interleaved
     // their frames (each frame whole, the sequence and its summary mixed, the statistics'
     // chain broken, exit 0: an audit, 2026-12-07). Runs of one frame each (`--frame K`, as
@@ -461,6 +458,12 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
         others.push(("the --load-stats file", p));
     }
     crate::io::check_outputs_spare_scene(&written, req.scene.as_deref(), &others)?;
+    // After that check, whose message says more (a scene named animation.json in --out was
+    // told to add --force, then refused anyway; a review, 2026-12-07).
+    check_not_foreign(req, first, last, &existing)?;
+    // Read once (it hashes the scene file), not once a frame.
+    let sequence = sequence_key(req);
+    warn_other_sequence(req, &sequence, first, last, ui);
 
     let ctx = Context::new(&req.device)?;
     let mut quiet = |_: String| {};

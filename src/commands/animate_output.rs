@@ -90,6 +90,11 @@ pub(super) fn sequence_key(req: &AnimateRequest) -> String {
     settings.video = false;
     settings.load_stats = None;
     settings.device = Default::default();
+    // Which statistics files stay and whether a user's files may be replaced say nothing
+    // about the frames: a resume with --keep-stats last or --force was "another sequence"
+    // (a review, 2026-12-07).
+    settings.keep_all_stats = true;
+    settings.force = false;
     format!(
         "{scene:016x}-{:016x}",
         fnv1a(format!("{settings:?}").as_bytes())

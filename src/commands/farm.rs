@@ -409,6 +409,10 @@ fn write_checked(req: &FarmRequest, warn: &mut dyn FnMut(String)) -> Result<Farm
                     "--forget",
                     &req.forget.to_string(),
                     "--no-video",
+                    // The chunk's folder is the job's own: a retry after a kill between
+                    // the renames of a frame's image and report (an image with no report)
+                    // would be refused as a user's file for good (a review, 2026-12-07).
+                    "--force",
                     "--out",
                 ]);
                 a.push(out(&format!("{dir}/chunk-{{{{Task.Param.Chunk}}}}")));
@@ -489,6 +493,37 @@ fn write_checked(req: &FarmRequest, warn: &mut dyn FnMut(String)) -> Result<Farm
         plain(&template_path.display().to_string()),
         serde_json::to_string_pretty(&template)?
     );
+    // Written over an earlier job: what it left that this one does not replace is said
+    // (its bundled scene and its outputs stayed without a word; an audit, 2026-12-07).
+    // Neither is removed: the outputs are rendered work, scene/ may hold a user's files.
+    if ours {
+        let mine: Vec<PathBuf> = bundle
+            .iter()
+            .map(|(rel, _)| req.job_dir.join(rel))
+            .collect();
+        let stale: Vec<String> = std::fs::read_dir(req.job_dir.join("scene"))
+            .into_iter()
+            .flatten()
+            .flatten()
+            .filter(|e| e.path().is_file() && !mine.contains(&e.path()))
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        if !stale.is_empty() {
+            warn(format!(
+                "'{}' also holds {} of an earlier job ({}), left as they are",
+                req.job_dir.join("scene").display(),
+                if stale.len() == 1 { "a file" } else { "files" },
+                stale.join(", ")
+            ));
+        }
+        let output = req.job_dir.join("output");
+        if std::fs::read_dir(&output).is_ok_and(|mut d| d.next().is_some()) {
+            warn(format!(
+                "'{}' holds an earlier job's outputs: this job writes over those of its own frames and leaves the rest (move them away to keep the jobs apart)",
+                output.display()
+            ));
+        }
+    }
     // The bundle and the template together: all or none (io::commit_all). The folders
     // made for the bundle go again if that fails (a full disk left an empty scene/ in the
     // job folder; an audit, 2026-12-06).

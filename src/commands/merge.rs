@@ -75,7 +75,9 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
     }
     // A missing part first: a farm's merge run before its chunks was told that the output
     // folder does not exist (an audit, 2026-12-07).
-    if let Some(p) = parts.iter().find(|p| !p.exists()) {
+    // Only a part surely missing: one that cannot be looked at (a folder without search
+    // permission) is named by the read below, with its reason.
+    if let Some(p) = parts.iter().find(|p| p.try_exists().is_ok_and(|e| !e)) {
         bail!(
             "part '{}' does not exist; render it first (in a farm job, its chunk's render task writes it)",
             p.display()

@@ -229,10 +229,10 @@ impl GpuScene {
             textures: Buffer::from_slice(ctx, "texture table", &table)?,
             texels: Buffer::from_slice(ctx, "texels", &texels)?,
             tri_uv: Buffer::from_slice(ctx, "triangle texture coordinates", &uvs)?,
-            layer_albedo: Buffer::from_slice(
+            layer_albedo: Buffer::texels(
                 ctx,
                 "layer albedo table",
-                &crate::layer_albedo::committed().words(),
+                &crate::layer_albedo::committed().texels(),
             )?,
             tree,
             bvh: bvh.clone(),

@@ -35,7 +35,7 @@ pub const RENDER_BINDINGS: [&[&str]; 3] = [
         "Textures",
         "Texels",
         "TriUv",
-        "LayerAlbedo",
+        "layer_albedo_texels",
     ],
     &[
         "grid_texels",
@@ -252,7 +252,7 @@ impl PassKernels {
             ("Textures", &g.textures),
             ("Texels", &g.texels),
             ("TriUv", &g.tri_uv),
-            ("LayerAlbedo", &g.layer_albedo),
+            ("layer_albedo_texels", &g.layer_albedo),
         ];
         let set = in_binding_order(&scene, RENDER_BINDINGS[SCENE_SET]);
         self.render.bind_set(SCENE_SET, &set)

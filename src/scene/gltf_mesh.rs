@@ -279,7 +279,6 @@ pub(super) fn smooth_normals_warning(
                 Some(i) => i.into_u32().collect(),
                 None => (0..n.len() as u32).collect(),
             };
-            let mut flipped = false;
             let smooth = triangulate(prim.mode(), &indices).into_iter().any(|t| {
                 // A strip's joins (a repeated index) are no triangle: the loader drops them,
                 // and their corners' normals belong to two faces (a flat cube as one strip
@@ -303,13 +302,30 @@ pub(super) fn smooth_normals_warning(
                 // normal by a few degrees (a review).
                 let face = (b.1 - a.1).cross(c.1 - a.1).normalize_or_zero().as_vec3();
                 let lean = face != Vec3::ZERO && given.iter().any(|v| v.dot(face).abs() < COS_LEAN);
-                // Normals that agree with the triangle but point against its winding: the
-                // lean above takes |cos|, so a 180° flip was not said (an audit, 2026-12-07).
-                flipped |= face != Vec3::ZERO
-                    && !given.is_empty()
-                    && given.iter().all(|v| v.dot(face) < -COS_LEAN);
                 differ || lean
             });
+            // Normals pointing against their triangles' winding, in most of the primitive's
+            // triangles (their corners' mean against the face): the lean above takes |cos|,
+            // so a 180° flip was not said (an audit, 2026-12-07), and a pass of its own, as
+            // the one above stops at its first smooth triangle (a review).
+            let (mut against, mut with) = (0usize, 0usize);
+            for t in triangulate(prim.mode(), &indices) {
+                let corner = |i: u32| Some((*n.get(i as usize)?, *p.get(i as usize)?));
+                let (Some(a), Some(b), Some(c)) = (corner(t[0]), corner(t[1]), corner(t[2])) else {
+                    continue;
+                };
+                let face = (b.1 - a.1).cross(c.1 - a.1).normalize_or_zero().as_vec3();
+                let d = face.dot(a.0 + b.0 + c.0);
+                if face == Vec3::ZERO || d == 0.0 {
+                    continue;
+                }
+                if d < 0.0 {
+                    against += 1;
+                } else {
+                    with += 1;
+                }
+            }
+            let flipped = against > with;
             if flipped {
                 reversed += 1;
                 first_reversed.get_or_insert_with(|| {
@@ -335,7 +351,7 @@ pub(super) fn smooth_normals_warning(
         }
     }
     let smooth = first.map(|f| format!("'{name}': {count} primitive(s) have smooth vertex normals (NORMAL), first {f}; lightlearn shades with flat triangle normals, so curved surfaces render faceted"));
-    let reversed = first_reversed.map(|f| format!("'{name}': {reversed} primitive(s) have vertex normals (NORMAL) pointing against their triangles' winding, first {f}; lightlearn shades both sides by the triangle and emits from the winding's front, so they render as if the normals agreed (a renderer that shades by NORMAL shows them dark): check the export"));
+    let reversed = first_reversed.map(|f| format!("'{name}': {reversed} primitive(s) have vertex normals (NORMAL) pointing against their triangles' winding, first {f}; lightlearn shades both sides by the triangle (and a one-sided emitter lights from its winding's front), so they render as if the normals agreed, where a renderer that shades by NORMAL shows them dark: check the export"));
     match (smooth, reversed) {
         (Some(a), Some(b)) => Some(format!("{a}; and {b}")),
         (a, b) => a.or(b),

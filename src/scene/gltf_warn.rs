@@ -143,7 +143,10 @@ pub fn matrix_with_trs(root: &Root, name: &str) -> Vec<String> {
 /// Extensions a file uses on its elements without listing them in `extensionsUsed` (an
 /// invalid file, the validator's UNDECLARED_EXTENSION, which exporters still write) and that
 /// lightlearn does not read: `unsupported_features` reads the list only, so a texture
-/// transform or transmission rendered without them in silence (an audit, 2026-12-07).
+/// transform or transmission rendered without them in silence (an audit, 2026-12-07). The
+/// JSON is walked once more as a stream, keeping only the keys of `extensions` objects and
+/// skipping `extras` (an application's own data): a `.gltf` of `data:` buffers is mostly one
+/// long string, which is not copied.
 pub fn undeclared_extensions(bytes: &[u8], doc: &gltf::Document, name: &str) -> Option<String> {
     let glb = if bytes.starts_with(b"glTF") {
         Some(gltf::binary::Glb::from_slice(bytes).ok()?)
@@ -151,38 +154,92 @@ pub fn undeclared_extensions(bytes: &[u8], doc: &gltf::Document, name: &str) -> 
         None
     };
     let json: &[u8] = glb.as_ref().map_or(bytes, |g| &g.json);
-    let root: serde_json::Value = serde_json::from_slice(json).ok()?;
     let mut found = std::collections::BTreeSet::new();
-    let mut stack = vec![&root];
-    while let Some(v) = stack.pop() {
-        match v {
-            serde_json::Value::Object(m) => {
-                for (k, child) in m {
-                    if k == "extensions" {
-                        if let Some(e) = child.as_object() {
-                            found.extend(e.keys().map(String::as_str));
-                        }
-                    }
-                    stack.push(child);
-                }
-            }
-            serde_json::Value::Array(a) => stack.extend(a),
-            _ => {}
-        }
-    }
+    let mut de = serde_json::Deserializer::from_slice(json);
+    serde::de::DeserializeSeed::deserialize(
+        Walk {
+            found: &mut found,
+            keys: false,
+        },
+        &mut de,
+    )
+    .ok()?;
     let listed: Vec<&str> = doc.extensions_used().collect();
-    let unread: Vec<&str> = found
-        .into_iter()
+    let unread: Vec<&str> = (found.iter().map(String::as_str))
         .filter(|e| !listed.contains(e) && !SUPPORTED_EXTENSIONS.contains(e))
         .collect();
+    let them = if unread.len() > 1 { "them" } else { "it" };
     (!unread.is_empty()).then(|| {
         format!(
-            "'{name}' uses {} without listing {} in extensionsUsed (an invalid file); lightlearn does not read {} and renders without {} (read: {})",
+            "'{name}' uses {} without listing {them} in extensionsUsed (an invalid file); lightlearn does not read {them} and renders without {them} (read: {})",
             unread.join(", "),
-            if unread.len() > 1 { "them" } else { "it" },
-            if unread.len() > 1 { "them" } else { "it" },
-            if unread.len() > 1 { "them" } else { "it" },
             SUPPORTED_EXTENSIONS.join(", ")
         )
     })
+}
+
+/// A JSON value walked for the keys of its `extensions` objects (`keys`: this value is one,
+/// so its own keys are extension names).
+struct Walk<'a> {
+    found: &'a mut std::collections::BTreeSet<String>,
+    keys: bool,
+}
+
+impl<'de> serde::de::DeserializeSeed<'de> for Walk<'_> {
+    type Value = ();
+    fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<(), D::Error> {
+        d.deserialize_any(self)
+    }
+}
+
+impl<'de> serde::de::Visitor<'de> for Walk<'_> {
+    type Value = ();
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("JSON")
+    }
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut m: A) -> Result<(), A::Error> {
+        while let Some(k) = m.next_key::<std::borrow::Cow<'de, str>>()? {
+            if self.keys {
+                self.found.insert(k.to_string());
+            }
+            if k == "extras" {
+                m.next_value::<serde::de::IgnoredAny>()?;
+            } else {
+                let keys = k == "extensions";
+                m.next_value_seed(Walk {
+                    found: &mut *self.found,
+                    keys,
+                })?;
+            }
+        }
+        Ok(())
+    }
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut s: A) -> Result<(), A::Error> {
+        while s
+            .next_element_seed(Walk {
+                found: &mut *self.found,
+                keys: false,
+            })?
+            .is_some()
+        {}
+        Ok(())
+    }
+    fn visit_str<E>(self, _: &str) -> Result<(), E> {
+        Ok(())
+    }
+    fn visit_bool<E>(self, _: bool) -> Result<(), E> {
+        Ok(())
+    }
+    fn visit_i64<E>(self, _: i64) -> Result<(), E> {
+        Ok(())
+    }
+    fn visit_u64<E>(self, _: u64) -> Result<(), E> {
+        Ok(())
+    }
+    fn visit_f64<E>(self, _: f64) -> Result<(), E> {
+        Ok(())
+    }
+    fn visit_unit<E>(self) -> Result<(), E> {
+        Ok(())
+    }
 }
