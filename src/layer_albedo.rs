@@ -2,10 +2,12 @@
 //! coupling in `shaders/shared/bsdf.glsl` (Kulla & Conty 2017's energy compensation).
 //!
 //! A dielectric is a GGX layer (F0 = 0.04 × specular colour, weight `specularFactor`) over a
-//! Lambertian base. The base gets what the layer does not reflect, on the way in and out:
-//! `base / π · (1 − E(n·v)) (1 − E(n·l)) / (1 − E_avg)`, with E(μ) the layer's directional
-//! albedo and E_avg = 2 ∫ E(μ) μ dμ. That is reciprocal, and the base's albedo is exactly
-//! 1 − E(n·v), so a white dielectric reflects all that arrives. Until 2026-12-07 E was the
+//! Lambertian base. The base gets what the layer does not keep, on the way in and out:
+//! `base / π · (1 − K(n·v)) (1 − K(n·l)) / (1 − K_avg)`, with K(μ) the layer's directional
+//! albedo E(μ) plus its multiple scattering (bsdf.glsl `layer_kept`) and K_avg = 2 ∫ K(μ) μ dμ.
+//! That is reciprocal, and the base's albedo is exactly 1 − K(n·v), so a white dielectric
+//! reflects all that arrives but the layer's multiple scattering, which is not rendered
+//! (at most 0.35 % at F0 = 0.04). Until 2026-12-07 E was the
 //! Fresnel of the macro normal, exact for a smooth layer only: a rough layer (roughness 1)
 //! reflects little at grazing angles, yet the base was darkened as if it were a mirror, and
 //! rough dielectrics rendered at 0.30–0.44× the specification's value under grazing light
@@ -15,7 +17,7 @@
 //! M(μ, α) = ∫ D G2 / (4 μ μ_l) μ_l dl (the layer's albedo with F = 1) and S(μ, α) the same
 //! weighted by (1 − v·h)^5. Both are tabulated over μ and the roughness r (α = max(r², 1e-3),
 //! as the kernel's), bilinear in between; the averages come from the interpolant itself, so
-//! that the base's albedo is exactly 1 − E(n·v) as the kernel evaluates E. The kernels read
+//! that the base's albedo is exactly 1 − K(n·v) as the kernel evaluates K. The kernels read
 //! the committed tables (`src/layer_albedo_data.rs`, which [`rust_source`] writes; a test
 //! checks that the file is its output) from a texel buffer: as GLSL constant arrays
 //! lavapipe's LLVM 15 spent over ten minutes compiling the kernel (its coroutine frames).

@@ -107,13 +107,13 @@ vec2 layer_albedo_avg(float r) {
     return mix(layer_pair(k), layer_pair(k + 1), y - float(j));
 }
 
-// What the layer keeps of light arriving at cosine mu (E: its single scattering plus the
-// multiple scattering between its microfacets, Kulla & Conty 2017's F_ms; the base gets the
-// rest), given f0 = max(F0_d), the weight `specular`, α and the layer's average (M̄, S̄).
+// What the layer keeps of light arriving at a cosine whose table terms are ms (E: its single
+// scattering plus the multiple scattering between its microfacets, Kulla & Conty 2017's
+// F_ms; the base gets the rest), given f0 = max(F0_d), the weight `specular` and the layer's
+// average (M̄, S̄).
 // F_ms makes a layer of F0 = 1 keep everything (nothing reaches the base, as a smooth one);
 // at F0 = 0.04 it is below 0.7 % of 1 − M.
-float layer_kept(float mu, float f0, float specular, float r, vec2 avg) {
-    vec2 ms = layer_albedo(mu, r);
+float layer_kept(vec2 ms, float f0, float specular, vec2 avg) {
     float f_avg = specular * (f0 + (1.0 - f0) / 21.0);
     float f_ms = f_avg * f_avg * avg.x / max(1.0 - f_avg * (1.0 - avg.x), 1.0e-6);
     return specular * (f0 * ms.x + (1.0 - f0) * ms.y) + (1.0 - ms.x) * f_ms;
@@ -139,19 +139,23 @@ Bsdf make_bsdf(GpuMaterial m, vec3 base, vec3 n, vec3 v) {
     b.lambert = !SCENE_GLOSSY || (m.metallic == 0.0 && m.specular == 0.0);
     float w = schlick_weight(dot(n, v));
     float fd = max3(b.f0_d) + (1.0 - max3(b.f0_d)) * w;
-    float ws = b.metallic * luminance(base + (1.0 - base) * w) + (1.0 - b.metallic) * b.specular * fd;
-    // The base's share as bsdf_eval weighs it (1 − what the layer keeps): with the macro
-    // normal's Fresnel here a layer of F0 = 1 left p_spec = 1, so the base, which the
-    // layer's albedo lets light reach under a rough layer, was never sampled (a review,
-    // 2026-12-07). A Lambertian material reads no table (E = 0).
+    // The lobes' shares as bsdf_eval weighs them: the layer's directional albedo E and the
+    // base's 1 − what the layer keeps, where a dielectric layer reads the table. With the
+    // macro normal's Fresnel for both, a layer of F0 = 1 left p_spec = 1, so the base,
+    // which light reaches under a rough layer, was never sampled, and a rough layer's share
+    // was overstated (0.62 against E = 0.05 at roughness 1, n·v 0.1) (two reviews,
+    // 2026-12-07). A Lambertian material or a metal reads no table.
+    float e_layer = b.specular * fd;
     float kept = 0.0;
-    if (SCENE_GLOSSY && !b.lambert && b.metallic < 1.0) {
+    if (SCENE_GLOSSY && !b.lambert && b.metallic < 1.0 && b.specular > 0.0) {
         float r = sqrt(b.alpha);
         float f0 = max3(b.f0_d);
+        vec2 ms = layer_albedo(max(dot(n, v), 0.0), r);
         vec2 avg = layer_albedo_avg(r);
-        float kept_avg = layer_kept_avg(f0, b.specular, avg);
-        kept = kept_avg < 1.0 - 1.0e-6 ? layer_kept(max(dot(n, v), 0.0), f0, b.specular, r, avg) : 1.0;
+        e_layer = b.specular * (f0 * ms.x + (1.0 - f0) * ms.y);
+        kept = layer_kept_avg(f0, b.specular, avg) < 1.0 - 1.0e-6 ? layer_kept(ms, f0, b.specular, avg) : 1.0;
     }
+    float ws = b.metallic * luminance(base + (1.0 - base) * w) + (1.0 - b.metallic) * e_layer;
     float wd = (1.0 - b.metallic) * (1.0 - kept) * luminance(base);
     b.albedo = ws + wd;
     if (ws <= 0.0) b.p_spec = 0.0;
@@ -189,12 +193,20 @@ vec3 bsdf_eval(Bsdf b, vec3 n, vec3 v, vec3 l) {
     // What the layer keeps at both directions and on average (layer_kept: its directional
     // albedo E = specular · (F0 M + (1 − F0) S) and its multiple scattering; the tables
     // from src/layer_albedo.rs).
-    float f0 = max3(b.f0_d);
-    float r = sqrt(b.alpha);
-    vec2 avg = layer_albedo_avg(r);
-    float wv = layer_kept(cv, f0, b.specular, r, avg);
-    float wl = layer_kept(cl, f0, b.specular, r, avg);
-    float w_avg = layer_kept_avg(f0, b.specular, avg);
+    // A metal's diffuse part is weighed away and a layer of weight 0 keeps nothing: no
+    // table read (10 texel fetches an evaluation on the committed scenes' metals otherwise;
+    // a review, 2026-12-07).
+    float wv = 0.0;
+    float wl = 0.0;
+    float w_avg = 0.0;
+    if (b.metallic < 1.0 && b.specular > 0.0) {
+        float f0 = max3(b.f0_d);
+        float r = sqrt(b.alpha);
+        vec2 avg = layer_albedo_avg(r);
+        wv = layer_kept(layer_albedo(cv, r), f0, b.specular, avg);
+        wl = layer_kept(layer_albedo(cl, r), f0, b.specular, avg);
+        w_avg = layer_kept_avg(f0, b.specular, avg);
+    }
     // A full-strength layer of F0 = 1 (specular 1, specularColorFactor ≥ 25) leaves the base
     // no light: w_avg = 1, and 0/0 made every sample NaN, a black image (an audit,
     // 2026-12-06). The quotient's limit there is 0.

@@ -250,8 +250,15 @@ fn check_not_foreign(
         let ours = crate::io::read_regular(&summary, 1 << 30)
             .ok()
             .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
-            // Summaries from before 2026-12-05 name no sequence; every one names its fps.
-            .is_some_and(|v| v["frames"].is_array() && v.get("fps").is_some());
+            // Summaries from before 2026-12-05 name no sequence; every one names its fps, and
+            // each frame record its frame and EXR.
+            .is_some_and(|v| {
+                v.get("fps").is_some()
+                    && v["frames"].as_array().is_some_and(|f| {
+                        f.iter()
+                            .all(|r| r.get("frame").is_some() && r.get("exr").is_some())
+                    })
+            });
         if !ours {
             refuse(&summary, "is not an animation summary lightlearn wrote")?;
         }
