@@ -47,7 +47,7 @@ fn ok(o: &Output) {
     );
 }
 
-fn farm(scene: &Path, job: &Path, extra: &[&str]) {
+fn farm_output(scene: &Path, job: &Path, extra: &[&str]) -> Output {
     let mut a = vec![
         "farm",
         scene.to_str().unwrap(),
@@ -61,7 +61,11 @@ fn farm(scene: &Path, job: &Path, extra: &[&str]) {
         "1",
     ];
     a.extend_from_slice(extra);
-    ok(&lightlearn(&a));
+    lightlearn(&a)
+}
+
+fn farm(scene: &Path, job: &Path, extra: &[&str]) {
+    ok(&farm_output(scene, job, extra));
 }
 
 fn image(p: &Path) -> Vec<[f32; 3]> {
@@ -321,18 +325,7 @@ fn a_job_over_an_earlier_one_names_what_it_left() {
     );
     std::fs::create_dir(job.join("output")).unwrap();
     std::fs::write(job.join("output/frame-0000.exr"), b"earlier").unwrap();
-    let mut a = vec![
-        "farm",
-        "--out",
-        job.to_str().unwrap(),
-        "--width",
-        "24",
-        "--height",
-        "18",
-    ];
-    let scene = root().join("scenes/rooms-walk.glb");
-    a.insert(1, scene.to_str().unwrap());
-    let o = lightlearn(&a);
+    let o = farm_output(&root().join("scenes/rooms-walk.glb"), &job, &[]);
     ok(&o);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(

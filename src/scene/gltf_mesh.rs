@@ -325,28 +325,21 @@ pub(super) fn smooth_normals_warning(
                     with += 1;
                 }
             }
-            let flipped = against > with;
-            if flipped {
+            let label = || {
+                format!(
+                    "mesh {} ('{}') primitive {}",
+                    mesh.index(),
+                    mesh.name().unwrap_or(""),
+                    prim.index()
+                )
+            };
+            if against > with {
                 reversed += 1;
-                first_reversed.get_or_insert_with(|| {
-                    format!(
-                        "mesh {} ('{}') primitive {}",
-                        mesh.index(),
-                        mesh.name().unwrap_or(""),
-                        prim.index()
-                    )
-                });
+                first_reversed.get_or_insert_with(label);
             }
             if smooth {
                 count += 1;
-                first.get_or_insert_with(|| {
-                    format!(
-                        "mesh {} ('{}') primitive {}",
-                        mesh.index(),
-                        mesh.name().unwrap_or(""),
-                        prim.index()
-                    )
-                });
+                first.get_or_insert_with(label);
             }
         }
     }
