@@ -637,6 +637,38 @@ fn a_users_files_in_the_folder_are_refused_unless_forced() {
             "{name}: --force kept it"
         );
     }
+    // A user's video where no summary says a run made it: animate replaced it, or removed
+    // it where it made none (a review, 2026-12-07); kept with --no-video.
+    let out = dir.path().join("video");
+    std::fs::create_dir(&out).unwrap();
+    std::fs::write(out.join("animation.mp4"), "movie").unwrap();
+    let o = run(&[
+        "animate",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--width",
+        "24",
+        "--height",
+        "18",
+        "--max-depth",
+        "1",
+        "--frames",
+        "0..0",
+        "--spp",
+        "2",
+        "-q",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("has no lightlearn animation.json beside it"),
+        "{err}"
+    );
+    ok(&animate_output(&scene, &out, &args));
+    assert_eq!(
+        std::fs::read_to_string(out.join("animation.mp4")).unwrap(),
+        "movie"
+    );
     // Its own files are written over without --force (a second run of the same frames).
     let again = dir.path().join("frame-0000_json");
     ok(&animate_output(&scene, &again, &args));

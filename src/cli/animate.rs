@@ -54,7 +54,8 @@ pub struct AnimateArgs {
     pub keep_stats: String,
     /// Replace files in --out that lightlearn did not write (a frame-NNNN.json that is not a
     /// report, an image with no report beside it, a .stats that is not statistics, an
-    /// animation.json that is not a summary): refused without it.
+    /// animation.json that is not a summary, an animation.mp4 with no summary beside it):
+    /// refused without it.
     #[arg(long)]
     pub force: bool,
     /// Do not encode DIR/animation.mp4 even when ffmpeg is installed.

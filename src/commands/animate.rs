@@ -246,6 +246,12 @@ fn check_not_foreign(
         )
     };
     let summary = req.out.join("animation.json");
+    // A video is animate's where its summary is beside it; a user's own was replaced by the
+    // new one, or removed where none was made (a review, 2026-12-07). Kept with --no-video.
+    let video = req.out.join("animation.mp4");
+    if req.video && there(&video) && !there(&summary) {
+        refuse(&video, "has no lightlearn animation.json beside it")?;
+    }
     if there(&summary) {
         let ours = crate::io::read_regular(&summary, 1 << 30)
             .ok()
