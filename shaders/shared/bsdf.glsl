@@ -70,8 +70,9 @@ float schlick_weight(float c) {
 // bilinear in the table (src/layer_albedo.rs; LayerAlbedo::lookup mirrors it). The
 // including kernel binds the table as the texel buffer `layer_albedo_texels` (RGBA32UI, two
 // float pairs a texel): 32 × 32 pairs, row-major in r, then the 32 rows' averages. A texel
-// buffer rather than a storage buffer: render.comp already uses 16 of the latter, the most
-// some devices take in one stage (a review, 2026-12-07).
+// buffer rather than a storage buffer: render.comp already uses 16 of the latter, and a
+// device need take no more than 4 a stage (desktop drivers take far more; a review,
+// 2026-12-07, not checked on any device).
 const int LAYER_N_MU = 32;
 const int LAYER_N_ROUGH = 32;
 
