@@ -176,6 +176,13 @@ fn a_video_that_cannot_be_encoded_is_an_error() {
     std::fs::set_permissions(&ffmpeg, std::fs::Permissions::from_mode(0o755)).unwrap();
     std::fs::create_dir(d.join("an")).unwrap();
     std::fs::write(d.join("an/animation.mp4"), b"an earlier run's video").unwrap();
+    // ... and that run's summary beside it: a video with none is a user's, refused before
+    // any frame (a review, 2026-12-07).
+    std::fs::write(
+        d.join("an/animation.json"),
+        br#"{"fps": 24.0, "sequence": "earlier", "frames": []}"#,
+    )
+    .unwrap();
     // What an ffmpeg killed mid-encode an hour ago left (a process id no longer running).
     let stale = d.join("an/.animation.mp4.999999999.tmp");
     let f = std::fs::File::create(&stale).unwrap();
