@@ -490,6 +490,11 @@ fn malformed_animations_are_named() {
 
 /// `animate` of `scene` into `out` on a tiny film, direct light, no video; its output.
 fn animate_output(scene: &Path, out: &Path, extra: &[&str]) -> Output {
+    animate_output_video(scene, out, &[&["--no-video"][..], extra].concat())
+}
+
+/// The same with a video where ffmpeg is installed.
+fn animate_output_video(scene: &Path, out: &Path, extra: &[&str]) -> Output {
     let mut args = vec![
         "animate",
         scene.to_str().unwrap(),
@@ -501,7 +506,6 @@ fn animate_output(scene: &Path, out: &Path, extra: &[&str]) -> Output {
         "18",
         "--max-depth",
         "1",
-        "--no-video",
     ];
     args.extend_from_slice(extra);
     run(&args)
@@ -642,23 +646,7 @@ fn a_users_files_in_the_folder_are_refused_unless_forced() {
     let out = dir.path().join("video");
     std::fs::create_dir(&out).unwrap();
     std::fs::write(out.join("animation.mp4"), "movie").unwrap();
-    let o = run(&[
-        "animate",
-        scene.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--width",
-        "24",
-        "--height",
-        "18",
-        "--max-depth",
-        "1",
-        "--frames",
-        "0..0",
-        "--spp",
-        "2",
-        "-q",
-    ]);
+    let o = animate_output_video(&scene, &out, &args);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
         !o.status.success() && err.contains("has no lightlearn animation.json beside it"),
