@@ -79,16 +79,10 @@ fn main() -> ExitCode {
         Command::BenchRays(a) => cmd_bench_rays(a),
         Command::Profile(a) => a.run(&mut Terminal::new(false)).map(|t| out!("{t}")),
         Command::Variance(a) => a.run(&mut Terminal::new(false)).map(|t| out!("{t}")),
-        Command::Merge(a) => commands::merge::images(&a.parts, &a.out).map(|o| {
-            // A stopped chunk is merged by what it holds (unbiased), but the image has fewer
-            // samples than the job asked: said (merged silently, exit 0; an audit,
-            // 2026-12-07).
-            for (p, spp) in &o.interrupted {
-                say_line(&format!(
-                    "warning: part '{}' is of a render stopped before its count (interrupted, or a checkpoint), at {spp} spp; it counts by the samples it holds: render it again for the full count",
-                    p.display()
-                ));
-            }
+        Command::Merge(a) => commands::merge::images(&a.parts, &a.out, &mut |w| {
+            say_line(&format!("warning: {w}"))
+        })
+        .map(|o| {
             say_line(&format!(
                 "wrote {} (+ .png, .json): {} parts, {} spp",
                 o.exr.display(),

@@ -162,11 +162,9 @@ fn gltf_brdf(m: &GpuMaterial, n: DVec3, v: DVec3, l: DVec3) -> DVec3 {
     let (am, as_) = t.lookup_avg(a);
     let f_avg = spec * (f0m + (1.0 - f0m) / 21.0);
     let f_ms = f_avg * f_avg * am / (1.0 - f_avg * (1.0 - am)).max(1e-6);
-    let wf = |c: f64| {
-        let (mm, ss) = t.lookup(c, a);
-        spec * (f0m * mm + (1.0 - f0m) * ss) + (1.0 - mm) * f_ms
-    };
-    let w_avg = spec * (f0m * am + (1.0 - f0m) * as_) + (1.0 - am) * f_ms;
+    let kept = |(mm, ss): (f64, f64)| spec * (f0m * mm + (1.0 - f0m) * ss) + (1.0 - mm) * f_ms;
+    let wf = |c: f64| kept(t.lookup(c, a));
+    let w_avg = kept((am, as_));
     // The quotient's limit as f0 → 1 under a full-strength, smooth layer is 0 (bsdf.glsl).
     let coupling = if w_avg < 1.0 - 1e-6 {
         (1.0 - wf(nv)) * (1.0 - wf(nl)) / (1.0 - w_avg)

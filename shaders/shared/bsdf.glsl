@@ -120,11 +120,9 @@ float layer_kept(vec2 ms, float f0, float specular, vec2 avg) {
     return specular * (f0 * ms.x + (1.0 - f0) * ms.y) + (1.0 - ms.x) * f_ms;
 }
 
-// Its average 2 ∫ layer_kept μ dμ (linear in the table's terms).
+// Its average 2 ∫ layer_kept μ dμ: the same at the averages (it is linear in M and S).
 float layer_kept_avg(float f0, float specular, vec2 avg) {
-    float f_avg = specular * (f0 + (1.0 - f0) / 21.0);
-    float f_ms = f_avg * f_avg * avg.x / max(1.0 - f_avg * (1.0 - avg.x), 1.0e-6);
-    return specular * (f0 * avg.x + (1.0 - f0) * avg.y) + (1.0 - avg.x) * f_ms;
+    return layer_kept(avg, f0, specular, avg);
 }
 
 // The BRDF at a shading point of material m with base colour `base`, seen from v (unit, on

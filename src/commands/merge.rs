@@ -60,16 +60,15 @@ pub struct MergeOutcome {
     pub exr: PathBuf,
     pub parts: usize,
     pub spp: u64,
-    /// Parts whose render was stopped before its count (their report says `interrupted`, or
-    /// is a checkpoint's): merged by the samples they hold, and said.
-    pub interrupted: Vec<(PathBuf, u64)>,
 }
 
 /// Averages the parts' images weighted by their spp (their JSON reports, beside each EXR,
 /// say how many and how they were made) into `out` (+ .png, .json listing the parts).
 /// Parts of another scene, size, depth or sampler settings, and parts that drew the same
 /// random numbers (same seed and sample range), are refused naming the field.
-pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
+/// A part of a render stopped before its count (its report says `interrupted`, or is a
+/// checkpoint's) is merged by the samples it holds, and said through `warn`.
+pub fn images(parts: &[PathBuf], out: &Path, warn: &mut dyn FnMut(String)) -> Result<MergeOutcome> {
     if parts.len() < 2 {
         bail!("merge needs at least two parts (PART.exr, each with its .json beside it)");
     }
@@ -208,7 +207,6 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
     let mut sum: Vec<[f64; 3]> = Vec::new();
     let mut total = 0u64;
     let mut listed = Vec::new();
-    let mut interrupted = Vec::new();
     for (p, r) in parts.iter().zip(&reports) {
         // The image read with its report as one set, never across a render's commit (a
         // part being checkpointed was refused as split by a kill in 3 of 60 merges: an
@@ -265,7 +263,12 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
         // checkpoint.
         if r["interrupted"] == json!(true) || r["checkpoint"] == json!(true) {
             entry["interrupted"] = json!(true);
-            interrupted.push((p.clone(), spp));
+            // The image has fewer samples than the job asked (merged silently, exit 0; an
+            // audit, 2026-12-07).
+            warn(format!(
+                "part '{}' is of a render stopped before its count (interrupted, or a checkpoint), at {spp} spp; it counts by the samples it holds: render it again for the full count",
+                p.display()
+            ));
         }
         listed.push(entry);
     }
@@ -292,7 +295,6 @@ pub fn images(parts: &[PathBuf], out: &Path) -> Result<MergeOutcome> {
         exr: paths.exr,
         parts: parts.len(),
         spp: total,
-        interrupted,
     })
 }
 

@@ -3,6 +3,7 @@
 //! these requests and prints; anything else (a farm task, a test) can run them the same way.
 
 pub mod animate;
+mod animate_folder;
 mod animate_output;
 pub mod animate_report;
 pub mod compare;
