@@ -63,45 +63,58 @@ fn main() -> ExitCode {
             .request()
             .and_then(|r| lightlearn::preview::run(&r, &mut Terminal::new(false))),
         Command::Farm(a) => a.request().and_then(|r| {
+            let quiet = a.quiet;
             let o = commands::farm::write(&r, &mut |w| say_line(&format!("warning: {w}")))?;
-            say_line(&format!(
-                "wrote {}: {} steps, {} tasks; run it here with `openjd run {}`",
-                o.template.display(),
-                o.steps,
-                o.tasks,
-                shell_word(&o.template)
-            ));
+            if !quiet {
+                say_line(&format!(
+                    "wrote {}: {} steps, {} tasks; run it here with `openjd run {}`",
+                    o.template.display(),
+                    o.steps,
+                    o.tasks,
+                    shell_word(&o.template)
+                ));
+            }
             Ok(())
         }),
         Command::Compare(a) => cmd_compare(a),
         Command::Reference(a) => cmd_reference(a),
         Command::Scene(a) => cmd_scene(a),
         Command::BenchRays(a) => cmd_bench_rays(a),
-        Command::Profile(a) => a.run(&mut Terminal::new(false)).map(|t| out!("{t}")),
-        Command::Variance(a) => a.run(&mut Terminal::new(false)).map(|t| out!("{t}")),
-        Command::Merge(a) => commands::merge::images(&a.parts, &a.out, &mut |w| {
-            say_line(&format!("warning: {w}"))
-        })
-        .map(|o| {
-            say_line(&format!(
-                "wrote {} (+ .png, .json): {} parts, {} spp",
-                o.exr.display(),
-                o.parts,
-                o.spp
-            ))
-        }),
+        Command::Profile(a) => a.run(&mut Terminal::new(a.quiet)).map(|t| out!("{t}")),
+        Command::Variance(a) => a.run(&mut Terminal::new(a.quiet)).map(|t| out!("{t}")),
+        Command::Merge(a) => a
+            .exposure
+            .map(lightlearn::film::exposure_factor)
+            .transpose()
+            .and_then(|exposure| {
+                commands::merge::images(&a.parts, &a.out, exposure, &mut |w| {
+                    say_line(&format!("warning: {w}"))
+                })
+            })
+            .map(|o| {
+                if !a.quiet {
+                    say_line(&format!(
+                        "wrote {} (+ .png, .json): {} parts, {} spp",
+                        o.exr.display(),
+                        o.parts,
+                        o.spp
+                    ))
+                }
+            }),
         Command::MergeStats(a) => {
             commands::merge::stats(&a.parts, a.base.as_deref(), &a.out, a.force, &mut |w| {
                 say_line(&format!("warning: {w}"))
             })
             .map(|m| {
-                say_line(&format!(
-                    "wrote {}: {} files, {} passes learned, {} regions with cuts",
-                    a.out.display(),
-                    a.parts.len(),
-                    m.header.samples_done,
-                    m.index.iter().filter(|&&o| o != 0).count()
-                ))
+                if !a.quiet {
+                    say_line(&format!(
+                        "wrote {}: {} files, {} passes learned, {} regions with cuts",
+                        a.out.display(),
+                        a.parts.len(),
+                        m.header.samples_done,
+                        m.index.iter().filter(|&&o| o != 0).count()
+                    ))
+                }
             })
         }
     };
@@ -389,6 +402,9 @@ fn cmd_compare(a: CompareArgs) -> Result<()> {
 
 fn cmd_scene(a: SceneArgs) -> Result<()> {
     let bytes = commands::scene::run(a.family, &a.params()?, &a.out, a.force)?;
+    if a.quiet {
+        return Ok(());
+    }
     say_line(&format!(
         "wrote {} ({}, {} lights, {bytes} bytes)",
         a.out.display(),

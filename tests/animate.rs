@@ -1462,3 +1462,56 @@ fn loaded_statistics_are_tempered_against_the_pose_they_were_learned_at() {
         "{err}"
     );
 }
+
+/// `animate` takes `render`'s --light-point and --stratify, so a sequence renders as its
+/// stills do: frame 0 (seed mixed with 0: the seed itself) is `render` of the same settings,
+/// bit for bit, and other than the frame without them. Both flags were refused before
+/// 2026-12-07 (animate drew area points and Sobol' numbers, whatever the stills used).
+#[test]
+fn a_frame_takes_the_stills_sampling_options() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = root().join("scenes/cornell.glb");
+    let opts = ["--light-point", "solid-angle", "--stratify", "r2"];
+    let common = ["--spp", "4", "--seed", "3", "--sampler", "bayes", "-q"];
+    let with = dir.path().join("with");
+    ok(&animate_output(
+        &scene,
+        &with,
+        &[&["--frames", "0..0"][..], &common, &opts].concat(),
+    ));
+    let without = dir.path().join("without");
+    ok(&animate_output(
+        &scene,
+        &without,
+        &[&["--frames", "0..0"][..], &common].concat(),
+    ));
+    let still = dir.path().join("still.exr");
+    ok(&run(&[
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "--out",
+            still.to_str().unwrap(),
+            "--width",
+            "24",
+            "--height",
+            "18",
+            "--max-depth",
+            "1",
+        ][..],
+        &common,
+        &opts,
+    ]
+    .concat()));
+    let img = |p: &Path| lightlearn::film::read_exr(p).unwrap().2;
+    let frame = img(&with.join("frame-0000.exr"));
+    assert!(frame == img(&still), "frame 0 differs from the still");
+    assert!(
+        frame != img(&without.join("frame-0000.exr")),
+        "the options changed nothing"
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(with.join("frame-0000.json")).unwrap()).unwrap();
+    assert_eq!(report["light_point"], "solid-angle", "{report}");
+    assert_eq!(report["stratify"], "r2", "{report}");
+}

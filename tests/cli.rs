@@ -750,3 +750,86 @@ fn exposure_scales_the_png_and_nothing_else() {
         assert!(!dir.path().join("bad.exr").exists());
     }
 }
+
+/// `-q` on every command that writes files and says so: `scene`, `farm`, `merge-stats` (and
+/// `merge`, tests/merge.rs) print nothing on success; `profile` and `variance` keep their
+/// table on stdout and no progress on stderr (none took `-q` before 2026-12-07).
+#[test]
+fn quiet_commands_print_nothing_but_their_results() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let quiet = |args: &[&str]| {
+        let o = run(args, d);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        assert!(o.stderr.is_empty(), "{args:?} said: {}", stderr(&o));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    quiet(&["scene", "cornell", "--lights", "2", "--out", "c.glb", "-q"]);
+    quiet(&[
+        "farm", "c.glb", "--out", "job", "--width", "8", "--height", "8", "-q",
+    ]);
+    assert!(d.join("job/template.yaml").exists());
+    for s in ["1", "2"] {
+        quiet(&[
+            "render",
+            "c.glb",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--spp",
+            "2",
+            "--max-depth",
+            "1",
+            "--seed",
+            s,
+            "--out",
+            &format!("{s}.exr"),
+            "--save-stats",
+            &format!("{s}.stats"),
+            "-q",
+        ]);
+    }
+    quiet(&[
+        "merge-stats",
+        "1.stats",
+        "2.stats",
+        "--out",
+        "m.stats",
+        "-q",
+    ]);
+    let table = quiet(&[
+        "profile",
+        "c.glb",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--spp",
+        "2",
+        "--max-depth",
+        "1",
+        "--repeats",
+        "1",
+        "-q",
+    ]);
+    assert!(table.contains('|'), "profile printed no table: {table}");
+    let table = quiet(&[
+        "variance",
+        "c.glb",
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--spp",
+        "4",
+        "--hits",
+        "2",
+        "--area-samples",
+        "2",
+        "--samplers",
+        "wang",
+        "-q",
+    ]);
+    assert!(table.contains('|'), "variance printed no table: {table}");
+}

@@ -162,6 +162,11 @@ fn a_still_in_chunks_merges_into_the_one_machine_render() {
             "lightbvh",
             "--seed",
             "5",
+            "--light-point",
+            "solid-angle",
+            "--stratify",
+            "r2",
+            "--exposure=-1",
         ],
     );
     ok(&openjd(&["run", job.join("template.yaml").to_str().unwrap()]).unwrap());
@@ -181,6 +186,10 @@ fn a_still_in_chunks_merges_into_the_one_machine_render() {
         "lightbvh",
         "--seed",
         "5",
+        "--light-point",
+        "solid-angle",
+        "--stratify",
+        "r2",
         "-q",
         "--out",
         one.to_str().unwrap(),
@@ -198,6 +207,11 @@ fn a_still_in_chunks_merges_into_the_one_machine_render() {
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(job.join("output/render.json")).unwrap()).unwrap();
     assert_eq!(report["spp"], 12);
+    // The job's sampling options and exposure reach its tasks and its merge (the farm took
+    // none of them before 2026-12-07).
+    assert_eq!(report["light_point"], "solid-angle", "{report}");
+    assert_eq!(report["stratify"], "r2", "{report}");
+    assert_eq!(report["png_exposure"], 0.5, "{report}");
 }
 
 #[test]

@@ -548,3 +548,93 @@ fn statistics_too_large_to_hold_are_refused_before_reading() {
     refused(&o, "a merge keeps them all in memory");
     assert!(!dir.path().join("m.stats").exists());
 }
+
+/// The merged PNG keeps the parts' exposure (`render --exposure`, a farm's chunks): it was
+/// written at 0 EV whatever the parts' PNGs showed. `--exposure` chooses another; parts of
+/// other exposures are merged (the EXRs hold the radiance) with a warning; `-q` leaves only
+/// warnings.
+#[test]
+fn the_merged_png_keeps_the_parts_exposure() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    part(d, "a.exr", "1", "4", &["--exposure", "2"]);
+    part(d, "b.exr", "2", "4", &["--exposure", "2"]);
+    part(d, "c.exr", "3", "4", &[]);
+    let report = |n: &str| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(d.join(n)).unwrap()).unwrap()
+    };
+    // The PNG is the merged EXR × the factor, through the sRGB curve.
+    let png_is = |n: &str, factor: f32| {
+        let png = std::fs::File::open(d.join(format!("{n}.png"))).unwrap();
+        let mut reader = png::Decoder::new(std::io::BufReader::new(png))
+            .read_info()
+            .unwrap();
+        let mut bytes = vec![0; reader.output_buffer_size()];
+        let size = reader.next_frame(&mut bytes).unwrap().buffer_size();
+        let radiance = lightlearn::film::read_exr(&d.join(format!("{n}.exr")))
+            .unwrap()
+            .2;
+        let exposed: Vec<[f32; 3]> = radiance.iter().map(|p| p.map(|c| c * factor)).collect();
+        bytes[..size] == lightlearn::film::tonemap_srgb8(&exposed)
+    };
+    let o = run(&["merge", "a.exr", "b.exr", "--out", "m.exr", "-q"], d);
+    ok(&o);
+    assert!(
+        o.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert_eq!(report("m.json")["png_exposure"], 4.0);
+    ok(&run(
+        &[
+            "merge",
+            "a.exr",
+            "b.exr",
+            "--out",
+            "z.exr",
+            "--exposure",
+            "0",
+        ],
+        d,
+    ));
+    assert!(report("z.json")["png_exposure"].is_null());
+    assert!(png_is("m", 4.0), "the merged PNG is not the image × 4");
+    assert!(png_is("z", 1.0), "the PNG at 0 EV is not the image");
+    assert!(!png_is("m", 1.0));
+    ok(&run(
+        &[
+            "merge",
+            "a.exr",
+            "b.exr",
+            "--out",
+            "n.exr",
+            "--exposure=-1.5",
+        ],
+        d,
+    ));
+    assert!((report("n.json")["png_exposure"].as_f64().unwrap() - 2f64.powf(-1.5)).abs() < 1e-6);
+    let o = run(&["merge", "a.exr", "c.exr", "--out", "x.exr"], d);
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("warning: part 'c.exr' was written with another PNG exposure"),
+        "{err}"
+    );
+    assert_eq!(report("x.json")["png_exposure"], 4.0);
+    refused(
+        &run(
+            &[
+                "merge",
+                "a.exr",
+                "b.exr",
+                "--out",
+                "y.exr",
+                "--exposure",
+                "30",
+            ],
+            d,
+        ),
+        "--exposure 30 is out of range",
+    );
+    assert!(!d.join("y.exr").exists());
+}

@@ -274,6 +274,8 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
             "96",
             "--height",
             "72",
+            "--light-point",
+            "solid-angle",
             "--validation",
         ])
         .current_dir(dir.path())
@@ -323,7 +325,8 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
         .run("xdotool", &["windowfocus", "--sync", &window])
         .status
         .success());
-    // P before any move: the same estimator as `render` at that many samples, bit for bit.
+    // P before any move: the same estimator as `render` at that many samples and the same
+    // --light-point, bit for bit.
     // The user's preview-0000.json (no .exr beside it) stays: P takes the next number (it
     // was replaced: an audit, 2026-12-06).
     let notes = dir.path().join("preview-0000.json");
@@ -334,6 +337,8 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
     };
     let (first, report) = shots.take(&x);
     let spp = report["spp"].as_u64().unwrap().to_string();
+    // --light-point as `render` takes it (the preview took none before 2026-12-07).
+    assert_eq!(report["light_point"], "solid-angle", "{report}");
     let rendered = dir.path().join("render.exr");
     let o = Command::new(common::exe())
         .args([
@@ -345,6 +350,8 @@ fn the_window_converges_moves_saves_resizes_and_quits() {
             "72",
             "--max-depth",
             "1",
+            "--light-point",
+            "solid-angle",
             "-q",
             "--spp",
             &spp,

@@ -88,6 +88,8 @@ pub struct AnimateArgs {
     /// Surface vertices of a path (1 = direct light).
     #[arg(long, default_value_t = 8, value_name = "D")]
     pub max_depth: u32,
+    #[command(flatten)]
+    pub sampling: super::SamplingArgs,
     /// No progress bar or summary.
     #[arg(long, short)]
     pub quiet: bool,
@@ -122,6 +124,7 @@ impl AnimateArgs {
             height: self.height,
             seed: self.seed,
             max_depth: self.max_depth,
+            light_point: self.sampling.light_point,
             regions: self.regions.settings()?,
             learn: self.learn.settings()?,
             load_stats: self.load_stats.clone(),
@@ -131,7 +134,7 @@ impl AnimateArgs {
             exposure: self.exposure.factor()?,
             chunk: self.chunk,
             device: self.device.options(),
-            stratify: lightlearn::render::Stratify::Sobol,
+            stratify: self.sampling.stratify,
         })
     }
 }
@@ -185,6 +188,20 @@ pub struct FarmArgs {
     /// Surface vertices of a path, 1 = direct light (the MaxDepth job parameter).
     #[arg(long, default_value_t = 8, value_name = "D")]
     pub max_depth: u32,
+    #[command(flatten)]
+    pub sampling: super::SamplingArgs,
+    /// Exposure of the merged PNGs in stops (each task's and merge's `--exposure`; the EXRs
+    /// hold the radiance either way), −20 to 20.
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        value_name = "EV",
+        allow_hyphen_values = true
+    )]
+    pub exposure: f32,
+    /// No summary line (warnings and errors are still printed).
+    #[arg(long, short)]
+    pub quiet: bool,
     /// The lightlearn executable the workers run [default: this one] (the Lightlearn job
     /// parameter).
     #[arg(long, value_name = "PATH")]
@@ -199,6 +216,7 @@ impl FarmArgs {
     pub fn request(&self) -> Result<FarmRequest> {
         self.regions.settings()?;
         self.learn.settings()?;
+        lightlearn::film::exposure_factor(self.exposure)?;
         // A relative path with a folder in it is the tasks' working folder's, which is
         // OpenJD's session folder (every task failed "not found"; an audit, 2026-12-07): taken
         // from here. A bare name is looked up on the workers' PATH.
@@ -225,7 +243,13 @@ impl FarmArgs {
             seed: self.seed,
             max_depth: self.max_depth,
             lightlearn: exe,
-            options: [self.regions.to_args(), self.learn.to_args()].concat(),
+            options: [
+                self.sampling.to_args(),
+                self.regions.to_args(),
+                self.learn.to_args(),
+            ]
+            .concat(),
+            exposure: self.exposure,
         })
     }
 }

@@ -118,6 +118,14 @@ pub struct MergeArgs {
     /// The merged EXR (the PNG and JSON are written next to it).
     #[arg(long, value_name = "FILE.exr")]
     pub out: PathBuf,
+    /// Exposure of the merged PNG in stops (its pixels × 2^EV before the sRGB curve; the EXR
+    /// holds the radiance either way), −20 to 20 [default: the parts' own, from their
+    /// reports' `png_exposure`, as `render --exposure` gave it].
+    #[arg(long, value_name = "EV", allow_hyphen_values = true)]
+    pub exposure: Option<f32>,
+    /// No summary line (warnings and errors are still printed).
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 #[derive(Args)]
@@ -136,6 +144,9 @@ pub struct MergeStatsArgs {
     /// refused, as `render --save-stats` refuses it).
     #[arg(long)]
     pub force: bool,
+    /// No summary line (warnings and errors are still printed).
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 #[derive(Args)]
@@ -184,9 +195,8 @@ pub struct RenderArgs {
     /// third vertex.
     #[arg(long, default_value_t = 8, value_name = "D")]
     pub max_depth: u32,
-    /// How the light sample draws a point on a triangle light.
-    #[arg(long, value_enum, default_value_t = LightPoint::Area)]
-    pub light_point: LightPoint,
+    #[command(flatten)]
+    pub sampling: SamplingArgs,
     /// Next-event samples (light choice, point on the light, shadow ray) at every path vertex
     /// after the first, averaged; 1 to 16, needs --max-depth 2 or more. A diagnostic: the
     /// variance that falls from 1 to N is the light choice's at the later vertices, what stays
@@ -201,16 +211,6 @@ pub struct RenderArgs {
     /// from N = 4 and 16 (rooms16, direct, 256 spp: 4.5× below `wang`'s variance).
     #[arg(long, default_value_t = 1, value_name = "N")]
     pub first_light_samples: u32,
-    /// sobol (or on): the pixel jitter and the first vertex's light choice, point on the light
-    /// and BSDF direction are dimensions of the Sobol' sequence over the passes, Owen-scrambled
-    /// per pixel (a pixel's samples split between the lights close to their probabilities and
-    /// cover the pixel evenly: rooms16 direct light `wang` 1.8× and `bayes` 1.6× less
-    /// variance than r2); r2: the R2 jitter and R5 numbers of the builds before; off:
-    /// independent numbers, which keeps the learned samplers exactly unbiased
-    /// (docs/method.md §9) at a price where emitters are in view (rooms16: 15.7× r2's
-    /// variance, mostly the jitter at their edges).
-    #[arg(long, value_enum, default_value_t = lightlearn::render::Stratify::Sobol)]
-    pub stratify: lightlearn::render::Stratify,
     /// No progress bar or summary (errors and warnings are still printed).
     #[arg(long, short)]
     pub quiet: bool,
@@ -250,7 +250,41 @@ pub struct RenderArgs {
     pub device: DeviceArgs,
 }
 
-/// `--exposure`, shared by `render` and `animate`.
+/// `--light-point` and `--stratify`, shared by `render`, `animate`, `farm` and `preview`: how
+/// a sample's numbers and a triangle light's point are drawn (`animate`, `farm` and `preview`
+/// took neither before 2026-12-07, so an animation could not be rendered as its stills were).
+#[derive(Args)]
+pub struct SamplingArgs {
+    /// How the light sample draws a point on a triangle light.
+    #[arg(long, value_enum, default_value_t = LightPoint::Area)]
+    pub light_point: LightPoint,
+    /// sobol (or on): the pixel jitter and the first vertex's light choice, point on the light
+    /// and BSDF direction are dimensions of the Sobol' sequence over the passes, Owen-scrambled
+    /// per pixel (a pixel's samples split between the lights close to their probabilities and
+    /// cover the pixel evenly: rooms16 direct light `wang` 1.8× and `bayes` 1.6× less
+    /// variance than r2); r2: the R2 jitter and R5 numbers of the builds before; off:
+    /// independent numbers, which keeps the learned samplers exactly unbiased
+    /// (docs/method.md §9) at a price where emitters are in view (rooms16: 15.7× r2's
+    /// variance, mostly the jitter at their edges).
+    #[arg(long, value_enum, default_value_t = lightlearn::render::Stratify::Sobol)]
+    pub stratify: lightlearn::render::Stratify,
+}
+
+impl SamplingArgs {
+    /// These options as a command line gives them (for the farm's task commands).
+    pub fn to_args(&self) -> Vec<String> {
+        let name = |v: clap::builder::PossibleValue| v.get_name().to_string();
+        use clap::ValueEnum;
+        vec![
+            "--light-point".to_string(),
+            name(self.light_point.to_possible_value().expect("not skipped")),
+            "--stratify".to_string(),
+            self.stratify.name().to_string(),
+        ]
+    }
+}
+
+/// `--exposure`, shared by `render`, `animate`, `farm` and `merge`.
 #[derive(Args)]
 pub struct ExposureArgs {
     /// Exposure of the PNG (animate: of every frame's, and so of the video) in stops: its
@@ -389,6 +423,9 @@ pub struct SceneArgs {
     /// refused otherwise).
     #[arg(long)]
     pub force: bool,
+    /// No summary line (errors are still printed).
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 pub fn parse_grid(s: &str) -> std::result::Result<(usize, usize), String> {
@@ -442,10 +479,10 @@ impl RenderArgs {
             seed: self.seed,
             out: self.out.clone(),
             max_depth: self.max_depth,
-            light_point: self.light_point,
+            light_point: self.sampling.light_point,
             indirect_light_samples: self.indirect_light_samples,
             first_light_samples: self.first_light_samples,
-            stratify: self.stratify,
+            stratify: self.sampling.stratify,
             regions: self.regions.settings()?,
             learn: self.learn.settings()?,
             checkpoint_seconds: self.checkpoint,

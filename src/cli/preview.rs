@@ -25,6 +25,8 @@ pub struct PreviewArgs {
     #[arg(long, default_value_t = 1, value_name = "D")]
     pub max_depth: u32,
     #[command(flatten)]
+    pub sampling: super::SamplingArgs,
+    #[command(flatten)]
     pub regions: RegionArgs,
     #[command(flatten)]
     pub learn: LearnArgs,
@@ -42,6 +44,8 @@ impl PreviewArgs {
             height: self.height,
             seed: self.seed,
             max_depth: self.max_depth,
+            light_point: self.sampling.light_point,
+            stratify: self.sampling.stratify,
             regions: self.regions.settings()?,
             learn: self.learn.settings()?,
             device: self.device.options(),

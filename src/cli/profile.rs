@@ -40,6 +40,9 @@ pub struct ProfileArgs {
     /// between its passes goes.
     #[arg(long)]
     pub timeline: bool,
+    /// No progress (the table on stdout, warnings and errors are still printed).
+    #[arg(long, short)]
+    pub quiet: bool,
     #[command(flatten)]
     pub regions: RegionArgs,
     #[command(flatten)]

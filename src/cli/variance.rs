@@ -53,6 +53,9 @@ pub struct VarianceArgs {
     /// point, footprint, value, and measured: the two-seed estimate of the same variance).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
+    /// No progress (the table on stdout, warnings and errors are still printed).
+    #[arg(long, short)]
+    pub quiet: bool,
     #[command(flatten)]
     pub regions: RegionArgs,
     #[command(flatten)]

@@ -55,6 +55,8 @@ pub struct AnimateRequest {
     pub height: u32,
     pub seed: u32,
     pub max_depth: u32,
+    /// `--light-point`: how a point on a triangle light is drawn.
+    pub light_point: crate::lights::LightPoint,
     pub regions: RegionSettings,
     pub learn: LearnSettings,
     /// The statistics of the frame before the first (`--frame k --load-stats`).
@@ -410,7 +412,7 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
             resume: None,
             stratify: req.stratify,
             max_depth: req.max_depth,
-            light_point: Default::default(),
+            light_point: req.light_point,
             indirect_light_samples: 1,
             first_light_samples: 1,
         };

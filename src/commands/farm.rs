@@ -46,8 +46,20 @@ pub struct FarmRequest {
     pub max_depth: u32,
     /// The executable the tasks run (the Lightlearn parameter's default).
     pub lightlearn: PathBuf,
-    /// Region and learning options, as command-line arguments, given to every render task.
+    /// Sampling, region and learning options, as command-line arguments, given to every
+    /// render task.
     pub options: Vec<String>,
+    /// `--exposure` in stops: the PNGs' of every render task and merge (0: none).
+    pub exposure: f32,
+}
+
+/// `--exposure=EV` where the job asks for one (as one argument: EV may be negative).
+fn exposure_args(req: &FarmRequest) -> Vec<String> {
+    if req.exposure == 0.0 {
+        Vec::new()
+    } else {
+        vec![format!("--exposure={}", req.exposure)]
+    }
 }
 
 pub struct FarmOutcome {
@@ -207,6 +219,7 @@ fn common_args(req: &FarmRequest) -> Vec<String> {
         "-q".to_string(),
     ];
     a.extend(req.options.iter().cloned());
+    a.extend(exposure_args(req));
     a
 }
 
@@ -386,6 +399,7 @@ fn write_checked(req: &FarmRequest, warn: &mut dyn FnMut(String)) -> Result<Farm
             let mut m = vec!["merge".to_string()];
             m.extend(chunk_list(&|k| out(&format!("chunks/chunk-{k}.exr"))));
             m.extend(["--out".to_string(), out("render.exr")]);
+            m.extend(exposure_args(req));
             steps.push(json!({
                 "name": "Merge",
                 "dependencies": [{"dependsOn": "Render"}],
@@ -435,6 +449,7 @@ fn write_checked(req: &FarmRequest, warn: &mut dyn FnMut(String)) -> Result<Farm
                 let mut m = vec!["merge".to_string()];
                 m.extend(chunk_list(&|k| part(k, "exr")));
                 m.extend(["--out".to_string(), out(&format!("frame-{f:04}.exr"))]);
+                m.extend(exposure_args(req));
                 steps.push(json!({
                     "name": format!("Merge frame {f}"),
                     "dependencies": [{"dependsOn": format!("Render frame {f}")}],

@@ -68,7 +68,14 @@ pub struct MergeOutcome {
 /// random numbers (same seed and sample range), are refused naming the field.
 /// A part of a render stopped before its count (its report says `interrupted`, or is a
 /// checkpoint's) is merged by the samples it holds, and said through `warn`.
-pub fn images(parts: &[PathBuf], out: &Path, warn: &mut dyn FnMut(String)) -> Result<MergeOutcome> {
+/// `exposure` is the PNG's factor (`--exposure`); None takes the parts' own (their reports'
+/// `png_exposure`, 1 where absent), and where they differ the first part's, said through `warn`.
+pub fn images(
+    parts: &[PathBuf],
+    out: &Path,
+    exposure: Option<f32>,
+    warn: &mut dyn FnMut(String),
+) -> Result<MergeOutcome> {
     if parts.len() < 2 {
         bail!("merge needs at least two parts (PART.exr, each with its .json beside it)");
     }
@@ -290,7 +297,24 @@ pub fn images(parts: &[PathBuf], out: &Path, warn: &mut dyn FnMut(String)) -> Re
     // left and no output half moved (crate::io::remove_pending, crate::interrupt::Writing):
     // it had left a temporary behind (an audit, 2026-12-07), then printed "finishing the
     // current batch" and exited 0 (a review, 2026-12-07).
-    film::write_outputs(&paths, w, h, &image, &report)?;
+    // The parts' PNG exposure unless one is given: a farm's chunks rendered with --exposure
+    // merged into a PNG at 0 EV (black for a dim scene), though each chunk's PNG showed it.
+    let exposure = match exposure {
+        Some(f) => f,
+        None => {
+            let of = |r: &Value| r["png_exposure"].as_f64().map_or(1.0, |f| f as f32);
+            let own = of(first);
+            if let Some((_, p)) = (reports.iter().zip(parts)).find(|(r, _)| of(r) != own) {
+                warn(format!(
+                    "part '{}' was written with another PNG exposure than '{}'; the merged PNG takes the first part's (give --exposure to choose)",
+                    p.display(),
+                    parts[0].display()
+                ));
+            }
+            own
+        }
+    };
+    film::write_outputs_with(&paths, w, h, &image, &report, &[], exposure)?;
     Ok(MergeOutcome {
         exr: paths.exr,
         parts: parts.len(),

@@ -51,6 +51,10 @@ pub struct PreviewRequest {
     pub height: u32,
     pub seed: u32,
     pub max_depth: u32,
+    /// `--light-point`: how a point on a triangle light is drawn.
+    pub light_point: crate::lights::LightPoint,
+    /// `--stratify`: the passes' numbers.
+    pub stratify: crate::render::Stratify,
     pub regions: RegionSettings,
     pub learn: LearnSettings,
     pub device: ContextOptions,
@@ -232,9 +236,9 @@ impl<'a> App<'a, '_> {
             regions: self.req.regions,
             learn: self.req.learn,
             resume: None,
-            stratify: crate::render::Stratify::Sobol,
+            stratify: self.req.stratify,
             max_depth: self.depth,
-            light_point: Default::default(),
+            light_point: self.req.light_point,
             indirect_light_samples: 1,
             first_light_samples: 1,
         }
