@@ -50,11 +50,14 @@ layout(constant_id = 2) const uint KNOCK_OUT = 0u;
 // The learned samplers' switches (LearnParams.flags), fixed for the pipeline (learning.glsl).
 layout(constant_id = 3) const uint LEARN_FLAGS = 0u;
 // What the scene's materials need (src/render/gpu_scene.rs kernel_flags): 1 a glossy material, 2 a
-// textured one. Code no material needs is compiled out: on lavapipe a branch costs its body
+// textured one, 4 an emissive texture. Code no material needs is compiled out: on lavapipe a branch costs its body
 // even where no lane takes it (`lightlearn profile`).
-layout(constant_id = 4) const uint SCENE_FLAGS = 3u;
+layout(constant_id = 4) const uint SCENE_FLAGS = 7u;
 #define SCENE_GLOSSY ((SCENE_FLAGS & 1u) != 0u)
 const bool SCENE_TEXTURED = (SCENE_FLAGS & 2u) != 0u;
+// 4: an emissive texture (emission = factor × texture at the light sample's point and at an
+// emitter a ray hits).
+const bool SCENE_EMISSIVE_TEXTURED = (SCENE_FLAGS & 4u) != 0u;
 // --max-depth 1 (RenderSettings::max_depth is fixed for a session): direct light alone, the
 // BSDF sampling and MIS code compiled out (lavapipe runs the code after a uniform `break`
 // too). The push constant max_depth stays the loop's bound.
@@ -394,6 +397,12 @@ void next_event(inout Path st, vec3 x, vec3 n, float eps, vec3 wo, Bsdf bsdf, fl
     GpuLight light = light_at(li == NO_LIGHT ? 0u : li);
     float sa_pdf = 0.0;
     vec3 Li = li == NO_LIGHT ? vec3(0.0) : sample_light_point(light, x, u, wi, dist, sa_pdf);
+    // glTF: emission = factor × emissive texture, at the point drawn (before the shadow ray,
+    // so a black texel costs none).
+    if (SCENE_EMISSIVE_TEXTURED && li != NO_LIGHT && (light.kind & LIGHT_TEXTURED) != 0u) {
+        uvec2 tw = light_texture_words(li);
+        Li *= sample_texture(tw.y, triangle_uv(tw.x, x + wi * dist, light.p0, light.p1 - light.p0, light.p2 - light.p0));
+    }
     float cos_x = dot(n, wi);
     if (li != NO_LIGHT && cos_x > 0.0 && any(greaterThan(Li, vec3(0.0)))) {
         // The shadow ray starts just off the surface and aims at the light point itself:
@@ -490,7 +499,11 @@ bool path_vertex(inout Path st, uint depth) {
             float n_light = float(depth >= 2u ? INDIRECT_LIGHT_SAMPLES : FIRST_LIGHT_SAMPLES);
             w = power_heuristic(st.prev_bsdf_pdf, n_light * p_light);
         }
-        st.L += st.beta * m.emission * w;
+        vec3 emitted = m.emission;
+        if (SCENE_EMISSIVE_TEXTURED && m.emissive_texture != NO_TEXTURE) {
+            emitted *= sample_texture(m.emissive_texture, triangle_uv(tri.prim, st.origin + t * st.dir, tri.v0, tri.e1, tri.e2));
+        }
+        st.L += st.beta * emitted * w;
     }
     if (depth == params.max_depth) return false;
 

@@ -57,6 +57,10 @@ pub const LIGHT_SPOT: u32 = 1;
 pub const LIGHT_TRIANGLE: u32 = 2;
 /// Added to `LIGHT_TRIANGLE` when the triangle emits from both faces.
 pub const LIGHT_TWO_SIDED: u32 = 0x100;
+/// Added to `LIGHT_TRIANGLE` when its material has an emissive texture: the light's
+/// `cos_outer` holds the triangle's index and `cos_inner` the texture's, as bits (a triangle
+/// has no cone; render.comp reads those words as integers, never as floats).
+pub const LIGHT_TEXTURED: u32 = 0x200;
 
 /// One light. Point: `p0` position, `radiance` intensity (W/sr). Spot: additionally `p1` the
 /// unit axis and the cone cosines. Triangle: vertices `p0..p2` (CCW front), `radiance`
@@ -269,7 +273,9 @@ pub struct GpuMaterial {
     /// glTF metallicFactor and roughnessFactor (shaders/shared/bsdf.glsl).
     pub metallic: f32,
     pub roughness: f32,
-    pub pad: [f32; 2],
+    /// Index of the emissive texture in the texture table, `u32::MAX` for none.
+    pub emissive_texture: u32,
+    pub pad: f32,
 }
 
 /// One query of `bsdf.comp` (tests): a material seen from `v` at normal `n`, a direction `l`

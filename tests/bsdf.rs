@@ -37,7 +37,8 @@ fn material(
         specular,
         metallic,
         roughness,
-        pad: [0.0; 2],
+        emissive_texture: u32::MAX,
+        pad: 0.0,
     }
 }
 

@@ -211,6 +211,7 @@ fn host_and_shader_structs_match() {
             specular,
             metallic,
             roughness,
+            emissive_texture,
             pad
         }),
         rust_layout!(GpuTexture {
@@ -489,6 +490,7 @@ fn glsl_defines_match_the_rust_constants() {
         ("LIGHT_SPOT".into(), LIGHT_SPOT),
         ("LIGHT_TRIANGLE".into(), LIGHT_TRIANGLE),
         ("LIGHT_TWO_SIDED".into(), LIGHT_TWO_SIDED),
+        ("LIGHT_TEXTURED".into(), LIGHT_TEXTURED),
         ("LIGHT_NODE_TWO_SIDED".into(), LIGHT_NODE_TWO_SIDED),
         ("LIGHT_NODE_AREA".into(), LIGHT_NODE_AREA),
         ("LEARN_REGRESSION".into(), LEARN_REGRESSION),

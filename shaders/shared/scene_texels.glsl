@@ -41,8 +41,16 @@ GpuMaterial material_at(uint i) {
     m.specular = uintBitsToFloat(c.w);
     m.metallic = uintBitsToFloat(d.x);
     m.roughness = uintBitsToFloat(d.y);
-    m.pad = uintBitsToFloat(d.zw);
+    m.emissive_texture = d.z;
+    m.pad = uintBitsToFloat(d.w);
     return m;
+}
+
+// A LIGHT_TEXTURED light's triangle and emissive texture: the words GpuLight keeps in
+// cos_outer and cos_inner, read as the integers they are (never through a float).
+uvec2 light_texture_words(uint i) {
+    int t = int(4u * i);
+    return uvec2(texelFetch(light_texels, t + 1).w, texelFetch(light_texels, t + 2).w);
 }
 
 #endif

@@ -34,6 +34,9 @@ struct BvhTri {
 #define LIGHT_SPOT 1u
 #define LIGHT_TRIANGLE 2u
 #define LIGHT_TWO_SIDED 0x100u
+// A triangle light with an emissive texture: its cos_outer and cos_inner words hold the
+// triangle's and the texture's index (scene_texels.glsl light_texture_words).
+#define LIGHT_TEXTURED 0x200u
 
 struct GpuLight {
     vec3 p0; uint kind;
@@ -125,7 +128,7 @@ struct GpuMaterial {
     vec3 base_color; uint flags;
     vec3 emission; uint texture;
     vec3 specular_color; float specular;
-    float metallic; float roughness; vec2 pad;
+    float metallic; float roughness; uint emissive_texture; float pad;
 };
 
 struct GpuTexture {

@@ -93,13 +93,11 @@ fn check(a: &VarianceRequest) -> Result<()> {
 
 /// The scene's exact terms need a BRDF the CPU evaluates: base colour / π.
 fn check_scene(scene: &Scene) -> Result<()> {
-    if let Some(m) = scene
-        .materials
-        .iter()
-        .find(|m| !m.is_lambertian() || m.base_color_texture.is_some())
-    {
+    if let Some(m) = scene.materials.iter().find(|m| {
+        !m.is_lambertian() || m.base_color_texture.is_some() || m.emissive_texture.is_some()
+    }) {
         bail!(
-            "{}: material '{}' is glossy or textured; `variance` evaluates untextured Lambertian materials only (give it KHR_materials_specular specularFactor 0, metallicFactor 0 and no baseColorTexture)",
+            "{}: material '{}' is glossy or textured; `variance` evaluates untextured Lambertian materials only (give it KHR_materials_specular specularFactor 0, metallicFactor 0 and no baseColorTexture or emissiveTexture)",
             scene.source,
             m.name
         );

@@ -114,6 +114,12 @@ fn hash_content(h: &mut Fnv, scene: &Scene) {
         h.bytes(bytemuck::bytes_of(&m.base_color.to_array()));
         h.bytes(bytemuck::bytes_of(&m.emission.to_array()));
         h.bytes(&[m.double_sided as u8]);
+        // Only where there is one, so scenes without keep their keys (the texture's texels
+        // are hashed below with the others).
+        if let Some(t) = m.emissive_texture {
+            h.bytes(b"emissive");
+            h.bytes(&t.to_le_bytes());
+        }
         // glTF's BRDF parameters only for non-Lambertian materials, so Lambertian scenes keep
         // the keys they had before there were other materials.
         if !m.is_lambertian() {

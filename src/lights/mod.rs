@@ -6,7 +6,9 @@ pub mod grid;
 pub mod regions;
 pub mod tree;
 
-use crate::abi::{AliasEntry, GpuLight, LIGHT_POINT, LIGHT_SPOT, LIGHT_TRIANGLE, LIGHT_TWO_SIDED};
+use crate::abi::{
+    AliasEntry, GpuLight, LIGHT_POINT, LIGHT_SPOT, LIGHT_TEXTURED, LIGHT_TRIANGLE, LIGHT_TWO_SIDED,
+};
 use crate::scene::{Light, Scene};
 
 /// The GPU form of every light, in `Scene::lights` order.
@@ -42,14 +44,22 @@ pub fn gpu_lights(scene: &Scene) -> Vec<GpuLight> {
             Light::Triangle { triangle } => {
                 let [a, b, c] = scene.triangles[triangle as usize];
                 let (emission, two) = scene.triangle_emission(triangle);
+                let m = &scene.materials[scene.triangle_material[triangle as usize] as usize];
+                // The texture only where the triangle has coordinates to read it by.
+                let texture = m
+                    .emissive_texture
+                    .filter(|_| (triangle as usize) < scene.triangle_uv.len());
                 GpuLight {
                     p0: a.to_array(),
-                    kind: LIGHT_TRIANGLE | if two { LIGHT_TWO_SIDED } else { 0 },
+                    kind: LIGHT_TRIANGLE
+                        | if two { LIGHT_TWO_SIDED } else { 0 }
+                        | if texture.is_some() { LIGHT_TEXTURED } else { 0 },
                     p1: b.to_array(),
+                    cos_outer: f32::from_bits(if texture.is_some() { triangle } else { 0 }),
                     p2: c.to_array(),
+                    cos_inner: f32::from_bits(texture.unwrap_or(0)),
                     radiance: emission.to_array(),
                     area: 0.5 * (b - a).cross(c - a).length(),
-                    ..Default::default()
                 }
             }
         })

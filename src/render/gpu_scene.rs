@@ -48,7 +48,7 @@ pub struct GpuScene {
     /// [`stats_file::topology_fingerprint`]).
     pub fingerprint: String,
     /// The kernel code the materials need (`render.comp` SCENE_FLAGS: [`SCENE_GLOSSY`],
-    /// [`SCENE_TEXTURED`]).
+    /// [`SCENE_TEXTURED`], [`SCENE_EMISSIVE_TEXTURED`]).
     pub kernel_flags: u32,
     /// The triangles and lights of the scene uploaded: a session checks its scene against
     /// them.
@@ -162,7 +162,8 @@ impl GpuScene {
                 specular: m.specular,
                 metallic: m.metallic,
                 roughness: m.roughness,
-                pad: [0.0; 2],
+                emissive_texture: m.emissive_texture.unwrap_or(u32::MAX),
+                pad: 0.0,
             })
             .collect();
         // Texture table and texels; one dummy entry each when there are none (a buffer is
@@ -251,6 +252,9 @@ impl GpuScene {
 pub const SCENE_GLOSSY: u32 = 1;
 /// `render.comp` SCENE_FLAGS: a textured material (texture lookups compiled in).
 pub const SCENE_TEXTURED: u32 = 2;
+/// `render.comp` SCENE_FLAGS: an emissive texture (its lookups at light samples and at
+/// emitters a ray hits compiled in).
+pub const SCENE_EMISSIVE_TEXTURED: u32 = 4;
 
 /// What the scene's materials need of `render.comp`, as its SCENE_FLAGS: a scene without
 /// glossy or textured materials gets a kernel without that code, with the same arithmetic
@@ -261,5 +265,8 @@ fn kernel_flags(materials: &[GpuMaterial]) -> u32 {
         .iter()
         .any(|m| !(m.metallic == 0.0 && m.specular == 0.0));
     let textured = materials.iter().any(|m| m.texture != u32::MAX);
-    (glossy as u32 * SCENE_GLOSSY) | (textured as u32 * SCENE_TEXTURED)
+    let emissive = materials.iter().any(|m| m.emissive_texture != u32::MAX);
+    (glossy as u32 * SCENE_GLOSSY)
+        | ((textured || emissive) as u32 * SCENE_TEXTURED)
+        | (emissive as u32 * SCENE_EMISSIVE_TEXTURED)
 }

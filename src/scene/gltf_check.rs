@@ -53,7 +53,10 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
             let uv_set = prim
                 .material
                 .and_then(|m| root.materials.get(m.value()))
-                .and_then(|m| m.pbr_metallic_roughness.base_color_texture.as_ref())
+                .and_then(|m| {
+                    (m.pbr_metallic_roughness.base_color_texture.as_ref())
+                        .or(m.emissive_texture.as_ref())
+                })
                 .map(|t| t.tex_coord);
             let mut used: Vec<(String, usize, bool)> = prim
                 .attributes

@@ -1,5 +1,6 @@
 //! glTF materials → ours: metallic-roughness factors, KHR_materials_specular,
-//! KHR_materials_emissive_strength, the base-colour texture; what is ignored is said once.
+//! KHR_materials_emissive_strength, the base-colour and emissive textures; what is ignored is
+//! said once.
 
 use std::collections::HashMap;
 
@@ -9,7 +10,7 @@ use glam::Vec3;
 use super::gltf_data::Images;
 use super::{Material, Texture};
 
-/// The scene's materials and base-colour textures, each glTF material and texture converted
+/// The scene's materials and their textures, each glTF material and texture converted
 /// once, in the order first used.
 pub(super) struct MaterialTable<'a> {
     pub materials: Vec<Material>,
@@ -120,35 +121,51 @@ impl<'a> MaterialTable<'a> {
                 ));
             }
         }
-        if m.emissive_texture().is_some() {
-            // Not sampled: say so instead of silently rendering a flat colour.
-            warn(format!(
-                "'{file}': {label} has an emissive texture; lightlearn uses emissiveFactor only"
-            ));
-        }
-        let base_color_texture = match m.pbr_metallic_roughness().base_color_texture() {
-            None => None,
-            Some(info) => {
-                let t = info.texture();
-                let key = texture_key(&t);
-                if let Some(&known) = texture_index.get(&key) {
-                    known
+        // One texture, decoded once for every material naming it with the same sampler.
+        let mut load = |info: gltf::texture::Info, what: &str, fallback: &str| {
+            let t = info.texture();
+            let key = texture_key(&t);
+            if let Some(&known) = texture_index.get(&key) {
+                return known;
+            }
+            let words: u64 = textures.iter().map(|t| t.words.len() as u64).sum();
+            let loaded = match images.decode(&t, words) {
+                Ok(tex) => {
+                    textures.push(tex);
+                    Some(textures.len() as u32 - 1)
+                }
+                Err(e) => {
+                    warn(format!(
+                        "'{file}': {label}: {what} texture {}: {e}; using {fallback} alone",
+                        t.index()
+                    ));
+                    None
+                }
+            };
+            texture_index.insert(key, loaded);
+            loaded
+        };
+        let base_info = m.pbr_metallic_roughness().base_color_texture();
+        let base_set = base_info.as_ref().map(|i| i.tex_coord());
+        let base_color_texture =
+            base_info.and_then(|info| load(info, "base-colour", "baseColorFactor"));
+        // Only an emitting material's texture is read (glTF: emission = factor × texture, so
+        // with a zero factor the texture changes nothing). A triangle holds one coordinate set,
+        // so an emissive texture on another set than the base colour's is left out, said.
+        let emissive_texture = match m.emissive_texture() {
+            Some(info) if emission.max_element() > 0.0 => {
+                if base_color_texture.is_some() && base_set != Some(info.tex_coord()) {
+                    warn(format!(
+                        "'{file}': {label}: its emissive texture reads TEXCOORD_{} but its base-colour texture TEXCOORD_{}; lightlearn reads one set a triangle, so it uses emissiveFactor alone (give both textures one set)",
+                        info.tex_coord(),
+                        base_set.unwrap_or(0)
+                    ));
+                    None
                 } else {
-                    let words: u64 = textures.iter().map(|t| t.words.len() as u64).sum();
-                    let loaded = match images.decode(&t, words) {
-                        Ok(tex) => {
-                            textures.push(tex);
-                            Some(textures.len() as u32 - 1)
-                        }
-                        Err(e) => {
-                            warn(format!("'{file}': {label}: base-colour texture {}: {e}; using baseColorFactor alone", t.index()));
-                            None
-                        }
-                    };
-                    texture_index.insert(key, loaded);
-                    loaded
+                    load(info, "emissive", "emissiveFactor")
                 }
             }
+            _ => None,
         };
         let slot = materials.len() as u32;
         materials.push(Material {
@@ -161,6 +178,7 @@ impl<'a> MaterialTable<'a> {
             emission,
             double_sided: m.double_sided(),
             base_color_texture,
+            emissive_texture,
         });
         index.insert(m.index(), slot);
         Ok(slot)

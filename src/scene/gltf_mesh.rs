@@ -73,6 +73,7 @@ impl Meshes {
                 .material()
                 .pbr_metallic_roughness()
                 .base_color_texture()
+                .or_else(|| prim.material().emissive_texture())
                 .map(|info| gltf::Semantic::TexCoords(info.tex_coord()));
             let read = [Some(gltf::Semantic::Positions), uv_set]
                 .into_iter()
@@ -112,20 +113,27 @@ impl Meshes {
             }
             let mat = table.slot(&prim.material(), name, warn)?;
             let emits = table.emits(mat);
-            // Texture coordinates of the set the material's base-colour texture uses.
-            let uvs: Vec<[f32; 2]> = match (
-                table.materials[mat as usize].base_color_texture,
-                prim.material()
+            // Texture coordinates of the set the material's textures use (the base colour's,
+            // else the emissive one's: gltf_material keeps an emissive texture only on the
+            // base colour's set).
+            let material = &table.materials[mat as usize];
+            let set = match (material.base_color_texture, material.emissive_texture) {
+                (Some(_), _) => prim
+                    .material()
                     .pbr_metallic_roughness()
-                    .base_color_texture(),
-            ) {
-                (Some(_), Some(info)) => match reader.read_tex_coords(info.tex_coord()) {
+                    .base_color_texture()
+                    .map(|i| i.tex_coord()),
+                (None, Some(_)) => prim.material().emissive_texture().map(|i| i.tex_coord()),
+                (None, None) => None,
+            };
+            let uvs: Vec<[f32; 2]> = match set {
+                Some(set) => match reader.read_tex_coords(set) {
                     Some(t) => {
                         let uvs: Vec<[f32; 2]> = t.into_f32().collect();
                         // One coordinate a vertex (glTF: every attribute has POSITION's
                         // count); a short one was read as (0, 0) past its end.
                         if uvs.len() != positions.len() {
-                            bail!("'{name}': {mesh_label} has {} TEXCOORD_{} values for {} vertices; an attribute needs one a vertex", uvs.len(), info.tex_coord(), positions.len());
+                            bail!("'{name}': {mesh_label} has {} TEXCOORD_{} values for {} vertices; an attribute needs one a vertex", uvs.len(), set, positions.len());
                         }
                         if let Some(bad) = uvs
                             .iter()
@@ -137,13 +145,13 @@ impl Meshes {
                     }
                     None => {
                         warn(format!(
-                            "'{name}': {mesh_label} has a base-colour texture but no TEXCOORD_{}; it samples the texture at (0, 0)",
-                            info.tex_coord()
+                            "'{name}': {mesh_label} has a texture but no TEXCOORD_{}; it samples the texture at (0, 0)",
+                            set
                         ));
                         Vec::new()
                     }
                 },
-                _ => Vec::new(),
+                None => Vec::new(),
             };
             let uv = |i: u32| uvs.get(i as usize).copied().unwrap_or([0.0, 0.0]);
             for [a, b, c] in tris {

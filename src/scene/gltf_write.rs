@@ -129,6 +129,12 @@ impl GltfBuilder {
             json!({"index": texture});
     }
 
+    /// Gives a material an emissive texture (it multiplies emissiveFactor, so the material's
+    /// emission must not be 0).
+    pub fn set_emissive_texture(&mut self, material: usize, texture: usize) {
+        self.materials[material]["emissiveTexture"] = json!({"index": texture});
+    }
+
     fn push_view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
         while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);

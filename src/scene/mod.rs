@@ -50,6 +50,10 @@ pub struct Material {
     pub double_sided: bool,
     /// Index into `Scene::textures` of the base-colour texture (multiplies `base_color`).
     pub base_color_texture: Option<u32>,
+    /// Index into `Scene::textures` of the emissive texture (multiplies `emission`; glTF
+    /// `emissiveTexture`, sRGB). It reads the triangles' one coordinate set
+    /// (`Scene::triangle_uv`), so it shares the base-colour texture's set where both are given.
+    pub emissive_texture: Option<u32>,
 }
 
 impl Material {
@@ -58,6 +62,10 @@ impl Material {
         self.metallic == 0.0 && self.specular == 0.0
     }
 }
+
+/// [`Scene::emissive_mean`]'s floor: a textured emitter's power is never below this
+/// fraction of the untextured one's.
+pub const EMISSIVE_MEAN_MIN: f32 = 1e-3;
 
 /// How texture coordinates outside [0, 1] wrap (glTF sampler wrapS / wrapT).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -83,6 +91,70 @@ pub struct Texture {
     pub nearest: bool,
     /// wrapS, wrapT.
     pub wrap: [Wrap; 2],
+}
+
+impl Texture {
+    /// The linear colour at texture coordinate `uv`, as shaders/shared/texture.glsl
+    /// `sample_texture` reads it (wrap modes, bilinear or nearest, sRGB decoded).
+    pub fn sample(&self, uv: [f32; 2]) -> Vec3 {
+        let wrap = |i: i64, n: u32, w: Wrap| -> u32 {
+            let m = n as i64;
+            match w {
+                Wrap::ClampToEdge => i.clamp(0, m - 1) as u32,
+                Wrap::MirroredRepeat => {
+                    let p = i.rem_euclid(2 * m);
+                    (if p < m { p } else { 2 * m - 1 - p }) as u32
+                }
+                Wrap::Repeat => i.rem_euclid(m) as u32,
+            }
+        };
+        let decode = |c: f32| {
+            if c <= 0.04045 {
+                c / 12.92
+            } else {
+                ((c + 0.055) / 1.055).powf(2.4)
+            }
+        };
+        let texel = |x: i64, y: i64| -> Vec3 {
+            let i = (wrap(y, self.height, self.wrap[1]) * self.width
+                + wrap(x, self.width, self.wrap[0])) as usize;
+            let c = if self.wide {
+                let (a, b) = (self.words[2 * i], self.words[2 * i + 1]);
+                Vec3::new(
+                    (a & 0xffff) as f32 / 65535.0,
+                    (a >> 16) as f32 / 65535.0,
+                    (b & 0xffff) as f32 / 65535.0,
+                )
+            } else {
+                let w = self.words[i];
+                Vec3::new(
+                    (w & 0xff) as f32 / 255.0,
+                    ((w >> 8) & 0xff) as f32 / 255.0,
+                    ((w >> 16) & 0xff) as f32 / 255.0,
+                )
+            };
+            Vec3::new(decode(c.x), decode(c.y), decode(c.z))
+        };
+        let reduce = |u: f32, w: Wrap| {
+            let u = if w == Wrap::ClampToEdge {
+                u
+            } else {
+                u - 2.0 * (0.5 * u).floor()
+            };
+            u.clamp(-1.0, 3.0)
+        };
+        let (u, v) = (reduce(uv[0], self.wrap[0]), reduce(uv[1], self.wrap[1]));
+        let (w, h) = (self.width as f32, self.height as f32);
+        if self.nearest {
+            return texel((u * w).floor() as i64, (v * h).floor() as i64);
+        }
+        let (px, py) = (u * w - 0.5, v * h - 0.5);
+        let (fx, fy) = (px.floor(), py.floor());
+        let (ax, ay) = (px - fx, py - fy);
+        let (x, y) = (fx as i64, fy as i64);
+        let row = |y: i64| texel(x, y).lerp(texel(x + 1, y), ax);
+        row(y).lerp(row(y + 1), ay)
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -269,7 +341,42 @@ impl Scene {
         self.grid_box.unwrap_or_else(|| self.bounds())
     }
 
-    /// Emitted radiance of a triangle light.
+    /// The luminance of a triangle's emissive texture, averaged over 16 points spread over
+    /// the triangle (its 4 × 4 sub-triangles' centroids), as a fraction of white, at least
+    /// [`EMISSIVE_MEAN_MIN`]; 1 without a texture. Only the lights' power (every sampler's
+    /// pmf) takes it, so an estimate is enough: the floor keeps a triangle whose points
+    /// all fell on black texels samplable, so no light is left to BSDF rays alone.
+    pub fn emissive_mean(&self, triangle: u32) -> f32 {
+        let m = &self.materials[self.triangle_material[triangle as usize] as usize];
+        let (Some(t), Some(uv)) = (
+            m.emissive_texture
+                .and_then(|i| self.textures.get(i as usize)),
+            self.triangle_uv.get(triangle as usize),
+        ) else {
+            return 1.0;
+        };
+        const N: u32 = 4;
+        let (mut sum, mut count) = (0.0f32, 0u32);
+        for i in 0..N {
+            for j in 0..N - i {
+                // Sub-triangles (i, j) pointing up, and down where there is room.
+                let mut points = vec![((i as f32 + 1.0 / 3.0), (j as f32 + 1.0 / 3.0))];
+                if i + j + 1 < N {
+                    points.push((i as f32 + 2.0 / 3.0, j as f32 + 2.0 / 3.0));
+                }
+                for (bi, bj) in points {
+                    let (b1, b2) = (bi / N as f32, bj / N as f32);
+                    let b0 = 1.0 - b1 - b2;
+                    let at = |k: usize| b0 * uv[0][k] + b1 * uv[1][k] + b2 * uv[2][k];
+                    sum += luminance(t.sample([at(0), at(1)]));
+                    count += 1;
+                }
+            }
+        }
+        (sum / count as f32).max(EMISSIVE_MEAN_MIN)
+    }
+
+    /// Emitted radiance of a triangle light (its emissive texture not applied).
     pub fn triangle_emission(&self, triangle: u32) -> (Vec3, bool) {
         let m = &self.materials[self.triangle_material[triangle as usize] as usize];
         (m.emission, m.double_sided)
@@ -343,7 +450,7 @@ impl Scene {
                 let area = 0.5 * (b - a).cross(c - a).length();
                 let (e, two) = self.triangle_emission(triangle);
                 let sides = if two { 2.0 } else { 1.0 };
-                std::f32::consts::PI * area * luminance(e) * sides
+                std::f32::consts::PI * area * luminance(e) * sides * self.emissive_mean(triangle)
             }
         }
     }
