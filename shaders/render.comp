@@ -50,14 +50,17 @@ layout(constant_id = 2) const uint KNOCK_OUT = 0u;
 // The learned samplers' switches (LearnParams.flags), fixed for the pipeline (learning.glsl).
 layout(constant_id = 3) const uint LEARN_FLAGS = 0u;
 // What the scene's materials need (src/render/gpu_scene.rs kernel_flags): 1 a glossy material, 2 a
-// textured one, 4 an emissive texture. Code no material needs is compiled out: on lavapipe a branch costs its body
+// textured one, 4 an emissive texture, bits 8–15 the directional lights. Code no material needs is compiled out: on lavapipe a branch costs its body
 // even where no lane takes it (`lightlearn profile`).
-layout(constant_id = 4) const uint SCENE_FLAGS = 7u;
+layout(constant_id = 4) const uint SCENE_FLAGS = 0x107u;
 #define SCENE_GLOSSY ((SCENE_FLAGS & 1u) != 0u)
 const bool SCENE_TEXTURED = (SCENE_FLAGS & 2u) != 0u;
 // 4: an emissive texture (emission = factor × texture at the light sample's point and at an
 // emitter a ray hits).
 const bool SCENE_EMISSIVE_TEXTURED = (SCENE_FLAGS & 4u) != 0u;
+// Bits 8–15: the directional lights (after params.light_count in the light texels), each
+// sampled at every vertex by sun_light; 0 compiles that out.
+const uint DIRECTIONAL_COUNT = (SCENE_FLAGS >> 8u) & 0xffu;
 // --max-depth 1 (RenderSettings::max_depth is fixed for a session): direct light alone, the
 // BSDF sampling and MIS code compiled out (lavapipe runs the code after a uniform `break`
 // too). The push constant max_depth stays the loop's bound.
@@ -453,6 +456,21 @@ void next_event(inout Path st, vec3 x, vec3 n, float eps, vec3 wo, Bsdf bsdf, fl
     }
 }
 
+// The directional lights at x (glTF's sun): each one's parallel light, a shadow ray towards
+// it, the BSDF. Delta lights: no other strategy finds them, so no MIS weight, and no light
+// sampler chooses them (they add to its estimate, one shadow ray each a vertex).
+void sun_light(inout Path st, vec3 x, vec3 n, float eps, vec3 wo, Bsdf bsdf) {
+    for (uint k = 0u; k < DIRECTIONAL_COUNT; ++k) {
+        GpuLight sun = light_at(params.light_count + k);
+        vec3 wi = -sun.p1;
+        float cos_x = dot(n, wi);
+        float ts;
+        if (cos_x > 0.0 && trace_ray(x + n * eps, wi, 0.0, 3.0e38, true, ts) == NO_HIT) {
+            st.L += st.beta * bsdf_eval(bsdf, n, wo, wi) * sun.radiance * cos_x;
+        }
+    }
+}
+
 // Vertex `depth` of a path: the surface its ray hits (the emitter there, with its MIS
 // weight), then for depth < max_depth one next-event sample and the BSDF ray on. False when
 // the path ends here. Vertices 0 … max_depth − 1 sample a light and the BSDF; the ray after
@@ -528,6 +546,7 @@ bool path_vertex(inout Path st, uint depth) {
     // Next-event samples at this vertex.
     uint n_light = depth >= 1u ? INDIRECT_LIGHT_SAMPLES : FIRST_LIGHT_SAMPLES;
     next_event(st, x, n, eps, wo, bsdf, brdf, depth, 0u, n_light);
+    if (DIRECTIONAL_COUNT > 0u) sun_light(st, x, n, eps, wo, bsdf);
     // Compiled out at 1 (the default): a loop around the one sample cost paths 5-10 %.
     if (MULTI_LIGHT_SAMPLES) {
         uint rep = 1u;

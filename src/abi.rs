@@ -55,6 +55,9 @@ pub struct BvhTri {
 pub const LIGHT_POINT: u32 = 0;
 pub const LIGHT_SPOT: u32 = 1;
 pub const LIGHT_TRIANGLE: u32 = 2;
+/// A directional light (`Scene::directional`), after the sampled lights in the light texels:
+/// `p1` the way it travels, `radiance` its irradiance.
+pub const LIGHT_DIRECTIONAL: u32 = 3;
 /// Added to `LIGHT_TRIANGLE` when the triangle emits from both faces.
 pub const LIGHT_TWO_SIDED: u32 = 0x100;
 /// Added to `LIGHT_TRIANGLE` when its material has an emissive texture: the light's

@@ -491,6 +491,7 @@ fn glsl_defines_match_the_rust_constants() {
         ("LIGHT_TRIANGLE".into(), LIGHT_TRIANGLE),
         ("LIGHT_TWO_SIDED".into(), LIGHT_TWO_SIDED),
         ("LIGHT_TEXTURED".into(), LIGHT_TEXTURED),
+        ("LIGHT_DIRECTIONAL".into(), LIGHT_DIRECTIONAL),
         ("LIGHT_NODE_TWO_SIDED".into(), LIGHT_NODE_TWO_SIDED),
         ("LIGHT_NODE_AREA".into(), LIGHT_NODE_AREA),
         ("LEARN_REGRESSION".into(), LEARN_REGRESSION),

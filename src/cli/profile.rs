@@ -101,10 +101,10 @@ impl ProfileArgs {
             String::new()
         };
         Ok(format!(
-            "{}: {} triangles, {} lights; {} on {}; {}×{}, {} spp, depth {}: {:.3} M paths/s{}\n\n{}{}",
+            "{}: {} triangles, {}; {} on {}; {}×{}, {} spp, depth {}: {:.3} M paths/s{}\n\n{}{}",
             scene.source,
             scene.triangles.len(),
-            scene.lights.len(),
+            scene.lights_summary(),
             self.sampler.name(),
             ctx.describe(),
             self.width,

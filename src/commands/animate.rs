@@ -301,10 +301,10 @@ fn run_checked(req: &AnimateRequest, ui: &mut dyn Ui) -> Result<AnimateOutcome> 
     crate::render::check_fits(&ctx, &scene0)?;
     let topology = LightTree::build(&scene0);
     ui.message(&format!(
-        "{}: {} triangles, {} lights, {} animation channels; frames {first}..{last} at {} fps; device {}",
+        "{}: {} triangles, {}, {} animation channels; frames {first}..{last} at {} fps; device {}",
         scene0.source,
         scene0.triangles.len(),
-        scene0.lights.len(),
+        scene0.lights_summary(),
         anim.doc.animations.channels.len(),
         req.fps,
         ctx.describe()

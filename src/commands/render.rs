@@ -152,10 +152,10 @@ fn run_checked(req: &RenderRequest, ui: &mut dyn Ui) -> Result<RenderOutcome> {
         ui,
     )?;
     ui.message(&format!(
-        "{}: {} triangles, {} lights; device {}",
+        "{}: {} triangles, {}; device {}",
         scene.source,
         scene.triangles.len(),
-        scene.lights.len(),
+        scene.lights_summary(),
         ctx.describe()
     ));
     let mut settings = RenderSettings {

@@ -102,6 +102,13 @@ fn check_scene(scene: &Scene) -> Result<()> {
             m.name
         );
     }
+    if !scene.directional.is_empty() {
+        bail!(
+            "{}: the scene has {} directional lights, which `variance`'s exact sums leave out (no sampler chooses them); remove them to split the other lights' selection",
+            scene.source,
+            scene.directional.len()
+        );
+    }
     if scene.lights.is_empty() {
         bail!(
             "{}: the scene has no lights: there is no light selection to split",

@@ -129,6 +129,12 @@ fn hash_content(h: &mut Fnv, scene: &Scene) {
         }
     }
     h.bytes(bytemuck::cast_slice(&lights::gpu_lights(scene)));
+    // Only where there are any, so scenes without keep their keys.
+    for d in &scene.directional {
+        h.bytes(b"directional");
+        h.bytes(bytemuck::bytes_of(&d.direction.to_array()));
+        h.bytes(bytemuck::bytes_of(&d.irradiance.to_array()));
+    }
     // Textures (only when there are any, so untextured scenes keep their keys).
     for t in &scene.textures {
         h.bytes(&[t.width.to_le_bytes(), t.height.to_le_bytes()].concat());

@@ -116,10 +116,10 @@ pub fn run(req: &PreviewRequest, ui: &mut dyn Ui) -> Result<()> {
     let size = window.inner_size();
     let display = Display::new(&ctx, size.width, size.height)?;
     ui.message(&format!(
-        "{}: {} triangles, {} lights; device {}",
+        "{}: {} triangles, {}; device {}",
         scene.source,
         scene.triangles.len(),
-        scene.lights.len(),
+        scene.lights_summary(),
         ctx.describe()
     ));
     let (lo, hi) = scene.bounds();

@@ -9,7 +9,8 @@ use glam::Vec3;
 
 use crate::accel::Bvh;
 use crate::gpu::layout::{
-    GpuMaterial, GpuTexture, MATERIAL_TWO_SIDED, TEXTURE_16_BIT, TEXTURE_NEAREST,
+    GpuLight, GpuMaterial, GpuTexture, LIGHT_DIRECTIONAL, MATERIAL_TWO_SIDED, TEXTURE_16_BIT,
+    TEXTURE_NEAREST,
 };
 use crate::gpu::{Buffer, Context};
 use crate::learning::stats_file;
@@ -215,7 +216,16 @@ impl GpuScene {
             None => stats_file::scene_fingerprint(&tree),
         };
         let light_tree_seconds = t0.elapsed().as_secs_f64();
-        let kernel_flags = kernel_flags(&materials);
+        let kernel_flags = kernel_flags(&materials) | directional_flags(scene)?;
+        // The directional lights after the sampled ones (render.comp reads them from
+        // light_count on; no sampler sees them).
+        let light_count = gpu_lights.len() as u32;
+        gpu_lights.extend(scene.directional.iter().map(|d| GpuLight {
+            kind: LIGHT_DIRECTIONAL,
+            p1: d.direction.to_array(),
+            radiance: (d.irradiance * emission_scale).to_array(),
+            ..Default::default()
+        }));
         Ok(GpuScene {
             nodes: Buffer::texels(ctx, "bvh nodes", &bvh.nodes)?,
             tris: Buffer::texels(ctx, "bvh triangles", &bvh.tris)?,
@@ -237,7 +247,7 @@ impl GpuScene {
             )?,
             tree,
             bvh: bvh.clone(),
-            light_count: gpu_lights.len() as u32,
+            light_count,
             ray_eps: ray_epsilon(scene),
             radiance_scale: 1.0 / emission_scale,
             light_tree_seconds,
@@ -255,6 +265,23 @@ pub const SCENE_TEXTURED: u32 = 2;
 /// `render.comp` SCENE_FLAGS: an emissive texture (its lookups at light samples and at
 /// emitters a ray hits compiled in).
 pub const SCENE_EMISSIVE_TEXTURED: u32 = 4;
+
+/// The most directional lights a scene may have (render.comp loops over all of them at every
+/// vertex; SCENE_FLAGS holds their count in its bits 8–15).
+pub const MAX_DIRECTIONAL: usize = 255;
+
+/// `render.comp` SCENE_FLAGS' bits 8–15: the scene's directional lights (its loop over them
+/// is compiled out where there are none).
+fn directional_flags(scene: &Scene) -> Result<u32> {
+    let n = scene.directional.len();
+    if n > MAX_DIRECTIONAL {
+        anyhow::bail!(
+            "'{}' has {n} directional lights; lightlearn renders at most {MAX_DIRECTIONAL} (each is sampled at every path vertex): merge the suns",
+            scene.source
+        );
+    }
+    Ok((n as u32) << 8)
+}
 
 /// What the scene's materials need of `render.comp`, as its SCENE_FLAGS: a scene without
 /// glossy or textured materials gets a kernel without that code, with the same arithmetic

@@ -12,7 +12,7 @@ pub fn report_json(
 ) -> serde_json::Value {
     // Null at 1 spp, where there is no variance.
     let (mse, rel) = result.known_error().unzip();
-    serde_json::json!({
+    let mut report = serde_json::json!({
         "lightlearn_version": env!("CARGO_PKG_VERSION"),
         "scene": scene.source,
         "scene_hash": crate::compare::reference::scene_hash(scene),
@@ -69,7 +69,12 @@ pub fn report_json(
         "first_light_samples": settings.first_light_samples,
         "stratify": settings.stratify.name(),
         "camera": camera_json(&scene.camera),
-    })
+    });
+    // Only where there are any, so other scenes' reports stay as they were.
+    if !scene.directional.is_empty() {
+        report["directional_lights"] = scene.directional.len().into();
+    }
+    report
 }
 
 /// The camera an image was rendered from, as its report gives it (the preview's screenshots

@@ -132,7 +132,7 @@ impl Changes {
     pub fn between(a: &Scene, b: &Scene) -> Changes {
         Changes {
             camera: a.camera != b.camera,
-            lights: a.lights != b.lights,
+            lights: a.lights != b.lights || a.directional != b.directional,
             geometry: a.triangles != b.triangles,
         }
     }

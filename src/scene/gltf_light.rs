@@ -1,11 +1,11 @@
-//! A KHR_lights_punctual light of a glTF node: point and spot lights become [`Light`]s;
-//! directional lights, zero intensity and empty cones are skipped with a warning; `range` is
-//! the caller's to count (one warning for the file).
+//! A KHR_lights_punctual light of a glTF node: point and spot lights become [`Light`]s,
+//! directional ones [`Directional`]s; zero intensity and empty cones are skipped with a
+//! warning; `range` is the caller's to count (one warning for the file).
 
 use anyhow::{bail, Result};
 use glam::{DMat4, DVec3, DVec4, Vec3};
 
-use super::Light;
+use super::{Directional, Light};
 
 /// The light `light` on node `node` (its label) with world transform `world` in file `name`: the light (its
 /// position still at the origin: the caller moves it into the scene's frame), its world
@@ -75,10 +75,41 @@ pub fn read_light(
             )))
         }
         gltf::khr_lights_punctual::Kind::Directional => {
-            warn(format!(
-                "'{name}': {label} is directional, which lightlearn does not support yet; skipped (use an emissive quad or point lights)"
-            ));
-            Ok(None)
+            unreachable!("read_directional reads directional lights")
         }
     }
+}
+
+/// Whether `light` is directional (read by [`read_directional`], not [`read_light`]).
+pub fn is_directional(light: &gltf::khr_lights_punctual::Light) -> bool {
+    matches!(light.kind(), gltf::khr_lights_punctual::Kind::Directional)
+}
+
+/// The directional light `light` on node `node` with world transform `world` (its −Z is the
+/// way the light travels; a scale or mirror of the node changes nothing but that direction);
+/// None where its intensity is 0 (with a warning).
+pub fn read_directional(
+    light: &gltf::khr_lights_punctual::Light,
+    world: DMat4,
+    node: &str,
+    name: &str,
+    warn: &mut dyn FnMut(String),
+) -> Result<Option<Directional>> {
+    let label = format!("light {} ('{}')", light.index(), light.name().unwrap_or(""));
+    let irradiance = Vec3::from(light.color()) * light.intensity();
+    if !irradiance.is_finite() || irradiance.min_element() < 0.0 {
+        bail!("'{name}': {label} has a non-finite or negative color × intensity ({irradiance}); use finite values ≥ 0");
+    }
+    if irradiance.max_element() == 0.0 {
+        warn(format!("'{name}': {label} has zero intensity; skipped"));
+        return Ok(None);
+    }
+    let d = (world * DVec4::new(0.0, 0.0, -1.0, 0.0)).truncate();
+    if !(d.length_squared() > 0.0 && d.is_finite()) {
+        bail!("'{name}': {label}, a directional light, sits on {node} whose transform is degenerate (a scale of 0, here or on a parent, at this time for an animation), so it has no direction; give the node a non-zero scale");
+    }
+    Ok(Some(Directional {
+        direction: d.normalize().as_vec3(),
+        irradiance,
+    }))
 }

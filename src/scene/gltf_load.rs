@@ -1,8 +1,8 @@
 //! glTF 2.0 loading (.gltf with external or `data:` buffers, and .glb).
 //!
 //! Conventions (also in the README):
-//! - KHR_lights_punctual `intensity × color` is radiant intensity in W/sr; `range` is ignored
-//!   (physically based falloff only), directional lights are skipped with a warning.
+//! - KHR_lights_punctual `intensity × color` is radiant intensity in W/sr (directional lights:
+//!   irradiance in W/m²); `range` is ignored (physically based falloff only).
 //! - Emission `emissiveFactor × KHR_materials_emissive_strength` is radiance, emitted from the
 //!   counter-clockwise front face, from both faces when the material is `doubleSided`. Every
 //!   triangle with non-zero emission is an area light.
@@ -189,7 +189,12 @@ impl Document {
                         }
                     }
                 }
-                if node.light().is_some() {
+                // A directional light has no place (a sun's node far out would widen the
+                // animation's grid for nothing).
+                if node
+                    .light()
+                    .is_some_and(|l| !super::gltf_light::is_directional(&l))
+                {
                     let p = world.transform_point3(DVec3::ZERO);
                     lo = lo.min(p);
                     hi = hi.max(p);
@@ -283,6 +288,7 @@ impl Document {
             triangle_material: Vec::new(),
             materials: Vec::new(),
             lights: Vec::new(),
+            directional: Vec::new(),
             camera: Camera::framing(Vec3::ZERO, Vec3::ONE),
             textures: Vec::new(),
             triangle_uv: Vec::new(),
@@ -320,7 +326,18 @@ impl Document {
                 }
             }
 
-            if let Some(light) = node.light() {
+            if let Some(light) = node.light().filter(super::gltf_light::is_directional) {
+                // Parallel light: the scene's frame (a shift and a scale) changes neither its
+                // direction nor its irradiance.
+                let sun = super::gltf_light::read_directional(
+                    &light,
+                    world,
+                    &node_label(node),
+                    name,
+                    warn,
+                )?;
+                scene.directional.extend(sun);
+            } else if let Some(light) = node.light() {
                 lights_with_range += light.range().is_some() as usize;
                 if let Some((l, position, label)) =
                     read_light(&light, world, &node_label(node), name, warn)?
@@ -485,6 +502,12 @@ impl Document {
             if hidden_emitters > 0 {
                 bail!(
                     "'{name}' has no lights in this pose: its {hidden_emitters} emitting triangles are scaled to nothing (a node scale of 0, or an animation keyed to one); a render needs one: give those nodes a non-zero scale (at this time, for an animation)"
+                );
+            }
+            if !scene.directional.is_empty() {
+                bail!(
+                    "'{name}' has only directional lights ({}); lightlearn's light samplers need at least one point, spot or emissive light beside them: add one",
+                    scene.directional.len()
                 );
             }
             bail!(

@@ -250,6 +250,19 @@ impl GltfBuilder {
         })));
     }
 
+    /// A directional light (the sun) travelling along `direction`, of irradiance
+    /// `intensity × color` (glTF lux; W/m² to lightlearn).
+    pub fn directional_light(&mut self, name: &str, direction: Vec3, color: Vec3, intensity: f32) {
+        self.lights.push(raw(json!({
+            "name": name, "type": "directional", "color": color.to_array(), "intensity": intensity
+        })));
+        let rot = Quat::from_rotation_arc(Vec3::NEG_Z, direction.normalize());
+        self.nodes.push(raw(json!({
+            "name": name, "rotation": rot.to_array(),
+            "extensions": {"KHR_lights_punctual": {"light": self.lights.len() - 1}}
+        })));
+    }
+
     /// A perspective camera at `position` looking at `target` (world up +Y).
     pub fn camera(&mut self, position: Vec3, target: Vec3, yfov: f32) {
         let rot = look_rotation(position, target);

@@ -173,6 +173,18 @@ pub enum Light {
     Triangle { triangle: u32 },
 }
 
+/// A directional light (glTF KHR_lights_punctual `directional`: the sun): parallel light of
+/// irradiance `irradiance` (W/m² on a surface facing it, rgb: the file's `intensity × color`,
+/// lux read as W/m² as candela are read as W/sr) travelling along `direction`. Not in
+/// [`Scene::lights`]: no light sampler chooses it; every path vertex samples each one with a
+/// shadow ray of its own (render.comp `sun_light`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Directional {
+    /// Unit vector: the way the light travels (the node's −Z).
+    pub direction: Vec3,
+    pub irradiance: Vec3,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     pub position: Vec3,
@@ -237,6 +249,8 @@ pub struct Scene {
     pub triangle_material: Vec<u32>,
     pub materials: Vec<Material>,
     pub lights: Vec<Light>,
+    /// Directional lights (the sun), apart from `lights`: no sampler chooses them.
+    pub directional: Vec<Directional>,
     pub camera: Camera,
     pub textures: Vec<Texture>,
     /// Texture coordinates of each triangle's three corners (same order as `triangles`);
@@ -254,6 +268,14 @@ pub struct Scene {
 }
 
 impl Scene {
+    /// "N lights", and "+ K directional" where there are directional lights, for messages.
+    pub fn lights_summary(&self) -> String {
+        match self.directional.len() {
+            0 => format!("{} lights", self.lights.len()),
+            k => format!("{} lights + {k} directional", self.lights.len()),
+        }
+    }
+
     /// A warning where the film's width ÷ height is not the camera's `aspectRatio` (by more
     /// than 1 %): the vertical field of view is kept, so a 16:9 camera on the default 4:3
     /// film lost a quarter of its width without a word (an audit, 2026-12-07). glTF asks a
