@@ -50,9 +50,9 @@ layout(constant_id = 2) const uint KNOCK_OUT = 0u;
 // The learned samplers' switches (LearnParams.flags), fixed for the pipeline (learning.glsl).
 layout(constant_id = 3) const uint LEARN_FLAGS = 0u;
 // What the scene's materials need (src/render/gpu_scene.rs kernel_flags): 1 a glossy material, 2 a
-// textured one, 4 an emissive texture, bits 8–15 the directional lights. Code no material needs is compiled out: on lavapipe a branch costs its body
+// textured one, 4 an emissive texture, 8 smooth triangles, bits 8–15 the directional lights. Code no material needs is compiled out: on lavapipe a branch costs its body
 // even where no lane takes it (`lightlearn profile`).
-layout(constant_id = 4) const uint SCENE_FLAGS = 0x107u;
+layout(constant_id = 4) const uint SCENE_FLAGS = 0x10fu;
 #define SCENE_GLOSSY ((SCENE_FLAGS & 1u) != 0u)
 const bool SCENE_TEXTURED = (SCENE_FLAGS & 2u) != 0u;
 // 4: an emissive texture (emission = factor × texture at the light sample's point and at an
@@ -61,6 +61,10 @@ const bool SCENE_EMISSIVE_TEXTURED = (SCENE_FLAGS & 4u) != 0u;
 // Bits 8–15: the directional lights (after params.light_count in the light texels), each
 // sampled at every vertex by sun_light; 0 compiles that out.
 const uint DIRECTIONAL_COUNT = (SCENE_FLAGS >> 8u) & 0xffu;
+// 8: smooth triangles, whose corners' normals (in tri_uv after the texture coordinates) are
+// interpolated into the shading normal (texture.glsl shading_normal).
+const bool SCENE_SMOOTH = (SCENE_FLAGS & 8u) != 0u;
+#define TRI_ATTR_STRIDE (SCENE_SMOOTH ? 9u : 6u)
 // --max-depth 1 (RenderSettings::max_depth is fixed for a session): direct light alone, the
 // BSDF sampling and MIS code compiled out (lavapipe runs the code after a uniform `break`
 // too). The push constant max_depth stays the loop's bound.
@@ -136,7 +140,9 @@ layout(std430, set = 0, binding = 9) readonly buffer TriLight { uint tri_light[]
 // Base-colour textures (texture.glsl).
 layout(std430, set = 0, binding = 10) readonly buffer Textures { GpuTexture textures[]; };
 layout(std430, set = 0, binding = 11) readonly buffer Texels { uint texels[]; };
-layout(std430, set = 0, binding = 12) readonly buffer TriUv { float tri_uv[]; };
+// Each triangle's texture coordinates (as float bits) and, in smooth scenes, its corners'
+// normals (texture.glsl, src/render/gpu_scene.rs triangle_attributes).
+layout(std430, set = 0, binding = 12) readonly buffer TriUv { uint tri_uv[]; };
 // The dielectric layer's albedo table (bsdf.glsl, src/layer_albedo.rs).
 layout(set = 0, binding = 13) uniform usamplerBuffer layer_albedo_texels;
 
@@ -362,7 +368,7 @@ void record_side(uint slot, uint side, float y) {
 // wo back along the path, its BSDF): a light chosen by SAMPLER, a point on it, the shadow
 // ray, the contribution weighted against the BSDF ray (MIS) and divided by n_light, and
 // the learned samplers' observation. Sample 0 takes the vertex's own (stratified) numbers.
-void next_event(inout Path st, vec3 x, vec3 n, float eps, vec3 wo, Bsdf bsdf, float brdf, uint depth, uint rep, uint n_light) {
+void next_event(inout Path st, vec3 x, vec3 n, vec3 ng, float eps, vec3 wo, Bsdf bsdf, float brdf, uint depth, uint rep, uint n_light) {
     uint pixel = st.pixel;
     uint s = sample_s;
     uint seed = params.seed;
@@ -407,13 +413,15 @@ void next_event(inout Path st, vec3 x, vec3 n, float eps, vec3 wo, Bsdf bsdf, fl
         Li *= sample_texture(tw.y, triangle_uv(tw.x, x + wi * dist, light.p0, light.p1 - light.p0, light.p2 - light.p0));
     }
     float cos_x = dot(n, wi);
+    // With a shading normal n, a direction must also leave the surface itself (ng).
+    if (SCENE_SMOOTH && dot(ng, wi) <= 0.0) cos_x = 0.0;
     if (li != NO_LIGHT && cos_x > 0.0 && any(greaterThan(Li, vec3(0.0)))) {
         // The shadow ray starts just off the surface and aims at the light point itself:
         // keeping wi and dist from x made a surface parallel to an area light (a floor under
         // a ceiling panel) meet the light's own plane before tmax, i.e. shadow itself
         // (found by the Mitsuba cross-check, tests/mitsuba.rs: floor 48 % too dark).
-        vec3 so = x + n * eps;
-        vec3 to_light = wi * dist - n * eps;
+        vec3 so = x + ng * eps;
+        vec3 to_light = wi * dist - ng * eps;
         float sdist = length(to_light);
         bool area = (light.kind & 0xffu) == LIGHT_TRIANGLE;
         // Stop short of an area light's own surface (by the offset its coordinates need);
@@ -459,13 +467,14 @@ void next_event(inout Path st, vec3 x, vec3 n, float eps, vec3 wo, Bsdf bsdf, fl
 // The directional lights at x (glTF's sun): each one's parallel light, a shadow ray towards
 // it, the BSDF. Delta lights: no other strategy finds them, so no MIS weight, and no light
 // sampler chooses them (they add to its estimate, one shadow ray each a vertex).
-void sun_light(inout Path st, vec3 x, vec3 n, float eps, vec3 wo, Bsdf bsdf) {
+void sun_light(inout Path st, vec3 x, vec3 n, vec3 ng, float eps, vec3 wo, Bsdf bsdf) {
     for (uint k = 0u; k < DIRECTIONAL_COUNT; ++k) {
         GpuLight sun = light_at(params.light_count + k);
         vec3 wi = -sun.p1;
         float cos_x = dot(n, wi);
+        if (SCENE_SMOOTH && dot(ng, wi) <= 0.0) cos_x = 0.0;
         float ts;
-        if (cos_x > 0.0 && trace_ray(x + n * eps, wi, 0.0, 3.0e38, true, ts) == NO_HIT) {
+        if (cos_x > 0.0 && trace_ray(x + ng * eps, wi, 0.0, 3.0e38, true, ts) == NO_HIT) {
             st.L += st.beta * bsdf_eval(bsdf, n, wo, wi) * sun.radiance * cos_x;
         }
     }
@@ -528,6 +537,15 @@ bool path_vertex(inout Path st, uint depth) {
     // Reflection is two-sided: shade the side the ray came from.
     vec3 n = front ? ng : -ng;
     vec3 x = st.origin + t * st.dir;
+    // The surface's own side (rays leave by it); n becomes the shading normal of a smooth
+    // triangle, turned to that side, unless it faces away from the ray (a grazing view of a
+    // strongly bent normal: then the triangle's own shades, as a flat one would).
+    vec3 n_geo = n;
+    if (SCENE_SMOOTH) {
+        vec3 ns = shading_normal(tri.prim, x, tri.v0, tri.e1, tri.e2);
+        ns = dot(ns, n_geo) < 0.0 ? -ns : ns;
+        if (dot(ns, st.dir) < 0.0) n = ns;
+    }
     // How far rays leave x: by x's scale and the rounding of x = origin + t·dir and of the
     // triangle's own intersection test (surface_eps).
     float eps = surface_eps(max_abs(x), max(max(max_abs(st.origin), t), max(max_abs(tri.v0), max(max_abs(tri.v0 + tri.e1), max_abs(tri.v0 + tri.e2)))));
@@ -545,13 +563,13 @@ bool path_vertex(inout Path st, uint depth) {
     float brdf = brdf_aware ? bsdf.albedo / PI : 1.0;
     // Next-event samples at this vertex.
     uint n_light = depth >= 1u ? INDIRECT_LIGHT_SAMPLES : FIRST_LIGHT_SAMPLES;
-    next_event(st, x, n, eps, wo, bsdf, brdf, depth, 0u, n_light);
-    if (DIRECTIONAL_COUNT > 0u) sun_light(st, x, n, eps, wo, bsdf);
+    next_event(st, x, n, n_geo, eps, wo, bsdf, brdf, depth, 0u, n_light);
+    if (DIRECTIONAL_COUNT > 0u) sun_light(st, x, n, n_geo, eps, wo, bsdf);
     // Compiled out at 1 (the default): a loop around the one sample cost paths 5-10 %.
     if (MULTI_LIGHT_SAMPLES) {
         uint rep = 1u;
         while (rep < n_light) {
-            next_event(st, x, n, eps, wo, bsdf, brdf, depth, rep, n_light);
+            next_event(st, x, n, n_geo, eps, wo, bsdf, brdf, depth, rep, n_light);
             ++rep;
         }
     }
@@ -563,6 +581,9 @@ bool path_vertex(inout Path st, uint depth) {
     vec3 wn = bsdf_sample(bsdf, n, wo, ub, bsdf_pdf_o);
     float cos_o = dot(n, wn);
     if (cos_o <= 0.0 || !(bsdf_pdf_o > 0.0)) return false;
+    // Under the surface itself (a shading normal's hemisphere reaches below it): the path
+    // ends, as the light sample above refuses such directions.
+    if (SCENE_SMOOTH && dot(n_geo, wn) <= 0.0) return false;
     // f cos / pdf (the albedo exactly for a Lambertian BRDF sampled by cos θ / π).
     st.beta *= bsdf.lambert ? bsdf.base : bsdf_eval(bsdf, n, wo, wn) * (cos_o / bsdf_pdf_o);
     // The light sample above was drawn at x itself: light_pmf must see the same point.
@@ -575,7 +596,7 @@ bool path_vertex(inout Path st, uint depth) {
     st.prev_cut = sel_cut;
     st.prev_cut_total = sel_total;
     st.prev_cut_lambda = sel_lambda;
-    st.origin = x + n * eps;
+    st.origin = x + n_geo * eps;
     st.dir = wn;
     if (depth + 1u >= 3u) {
         float q = max(0.0, 1.0 - max(st.beta.x, max(st.beta.y, st.beta.z)));

@@ -277,7 +277,10 @@ fn an_animated_sun_turns_with_its_node() {
         let img = lightlearn::film::read_exr(&out.join(format!("frame-{k:04}.exr")))
             .unwrap()
             .2;
-        let cols = img.iter().enumerate().filter(|(i, _)| (12..20).contains(&(i % 32)));
+        let cols = img
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| (12..20).contains(&(i % 32)));
         cols.map(|(_, p)| p[0] as f64).sum::<f64>() / (8 * 32) as f64
     };
     let (m0, m1) = (middle(0), middle(1));
@@ -285,4 +288,50 @@ fn an_animated_sun_turns_with_its_node() {
     let summary: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("animation.json")).unwrap()).unwrap();
     assert_eq!(summary["frames"][1]["moved"]["lights"], true, "{summary}");
+}
+
+/// The kernels' units count the suns: a sun of 1000 beside a point light of 1e-36 W/sr was
+/// scaled by the point light's 2^120 into an EXR of Inf (exit 0), and a sun of 1e10 beside
+/// one of 1e-30 rendered black (an audit, 2026-12-07). Both now render the sun's closed form
+/// (the point light's share is below f32's reach).
+#[test]
+fn a_bright_sun_beside_a_faint_light_renders() {
+    for (point, sun) in [(1e-36f32, 1e3f32), (1e-30, 1e10)] {
+        // The dim light (the builder's first) made faint, and a sun added.
+        let g = scene(None, None);
+        let mut doc: serde_json::Value = serde_json::from_str(&g.to_gltf_embedded()).unwrap();
+        doc["extensions"]["KHR_lights_punctual"]["lights"][0]["intensity"] = point.into();
+        let dir = Vec3::new(-1.0, -1.0, 0.0).normalize();
+        let rot = glam::Quat::from_rotation_arc(Vec3::NEG_Z, dir);
+        let lights = doc["extensions"]["KHR_lights_punctual"]["lights"]
+            .as_array_mut()
+            .unwrap();
+        lights.push(
+            serde_json::json!({"type": "directional", "color": [1.0, 1.0, 1.0], "intensity": sun}),
+        );
+        let n = lights.len() - 1;
+        let nodes = doc["nodes"].as_array_mut().unwrap();
+        nodes.push(
+            serde_json::json!({"name": "sun", "rotation": rot.to_array(),
+            "extensions": {"KHR_lights_punctual": {"light": n}}}),
+        );
+        let k = nodes.len() - 1;
+        doc["scenes"][0]["nodes"]
+            .as_array_mut()
+            .unwrap()
+            .push(k.into());
+        let (s, _) = common::load_warned(doc.to_string().as_bytes(), "faint.gltf");
+        let img = render(&s, LightSampler::Bayes, 1, 2, 1);
+        let want = ALBEDO / std::f32::consts::PI * sun * 0.5f32.sqrt();
+        // A lit pixel (x > 0.55) and a shaded one.
+        let (lit, shade) = (img[28][0], img[16][0]);
+        assert!(
+            (lit - want).abs() <= 1e-4 * want,
+            "point {point}, sun {sun}: lit {lit}, want {want}"
+        );
+        assert!(
+            shade.is_finite() && shade < 1e-6 * want,
+            "point {point}, sun {sun}: shade {shade}"
+        );
+    }
 }

@@ -187,9 +187,9 @@ fn a_two_tone_emitter_lights_as_its_lit_half() {
     }
 }
 
-/// The light's power follows the texture (every sampler's pmf): a quad whose texture is
-/// black on its first triangle's points keeps a floor of 1e-3 of its untextured power, so it
-/// stays samplable; the power of a white texture is the untextured one.
+/// The light's power follows the texture (every sampler's pmf): a black texture keeps a
+/// floor of 1e-3 of the untextured power, so it stays samplable; the power of a white
+/// texture is the untextured one.
 #[test]
 fn an_emitters_power_follows_its_texture() {
     let white = png_rgb(1, 1, &[[255, 255, 255]]);
@@ -204,6 +204,21 @@ fn an_emitters_power_follows_its_texture() {
     let (plain, w, b) = (power(None), power(Some(&white)), power(Some(&black)));
     assert!((w - plain).abs() <= 1e-6 * plain, "{w} vs {plain}");
     assert!((b / plain - 1e-3).abs() < 1e-6, "{b} vs {plain}");
+    // The colour multiplies before the luminance: a blue factor over a blue texture is the
+    // blue factor's power (it was luminance × luminance: 1/14 of it; an audit, 2026-12-07).
+    let blue = |png: Option<&[u8]>| {
+        let s = common::load(
+            &scene(
+                Vec3::new(0.0, 0.0, 2.0),
+                (-1.0, 1.0),
+                png.map(|p| (p, None)),
+            ),
+            "b",
+        );
+        s.light_power(&s.lights[0])
+    };
+    let (plain, tex) = (blue(None), blue(Some(&png_rgb(1, 1, &[[0, 0, 255]]))));
+    assert!((tex - plain).abs() <= 1e-6 * plain, "{tex} vs {plain}");
 }
 
 /// An emissive texture on another coordinate set than the base colour's is left out, said

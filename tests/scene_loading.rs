@@ -336,12 +336,12 @@ fn metallic_roughness_materials_load_with_their_factors() {
     );
 }
 
-/// A quad whose vertex normals are its own (flat) loads without a word; one whose normals
-/// lean (smooth shading, which the renderer does not interpolate) is warned about, naming
-/// the primitive. Before, both rendered the same faceted image with no word (an audit,
-/// 2026-12-07).
+/// A quad whose vertex normals are its own (flat) loads without a word and without shading
+/// normals; one whose normals lean is shaded by them (smooth shading since 2026-12-07: it was
+/// warned about as rendering faceted before, and silently faceted before that). Normals
+/// against the winding are said, naming the primitive.
 #[test]
-fn smooth_vertex_normals_are_warned_about() {
+fn vertex_normals_shade_smooth_and_reversed_ones_are_said() {
     use base64::Engine;
     // A quad of `size` at (x, y, z) = `at`, rising by `slope` along x and z, with these
     // vertex normals, emitting.
@@ -385,21 +385,22 @@ fn smooth_vertex_normals_are_warned_about() {
     let flat_at_0 = |normals| quad_at(normals, [0.0; 3], 1.0, [0.0; 2]);
     let quad = |normals| flat_at_0(normals).to_string();
     let up = [0.0, 1.0, 0.0];
-    let (_, flat) = common::load_warned(quad([up; 4]).as_bytes(), "flat.gltf");
+    let (s, flat) = common::load_warned(quad([up; 4]).as_bytes(), "flat.gltf");
     assert!(flat.is_empty(), "{flat:?}");
-    let (_, smooth) = common::load_warned(
+    assert!(s.triangle_normals.is_empty(), "flat normals kept");
+    let (s, smooth) = common::load_warned(
         quad([up, up, [0.2, 0.98, 0.0], up]).as_bytes(),
         "smooth.gltf",
     );
-    assert!(
-        smooth.iter().any(|w| w.contains("smooth vertex normals")
-            && w.contains("mesh 0 ('quad') primitive 0")
-            && w.contains("faceted")),
-        "{smooth:?}"
-    );
+    assert!(smooth.is_empty(), "{smooth:?}");
+    assert_eq!(s.triangle_normals.len(), 2, "smooth normals dropped");
     // Normals that agree with the quad but point against its winding: the lean takes |cos|,
     // so this was silent (an audit, 2026-12-07).
-    let (_, flipped) = common::load_warned(quad([[0.0, -1.0, 0.0]; 4]).as_bytes(), "flipped.gltf");
+    let (s, flipped) = common::load_warned(quad([[0.0, -1.0, 0.0]; 4]).as_bytes(), "flipped.gltf");
+    assert!(
+        s.triangle_normals.is_empty(),
+        "reversed flat normals are flat"
+    );
     assert!(
         flipped
             .iter()
@@ -408,18 +409,17 @@ fn smooth_vertex_normals_are_warned_about() {
                 && !w.contains("smooth")),
         "{flipped:?}"
     );
-    // Smooth and reversed: the smooth check stops at its first triangle, so the reversal
-    // was tested on that one alone (a review, 2026-12-07); both are said.
+    // Smooth and reversed: shaded smooth, the reversal said.
     let down = [0.0, -1.0, 0.0];
-    let (_, both) = common::load_warned(
+    let (s, both) = common::load_warned(
         quad([down, down, [0.2, -0.98, 0.0], down]).as_bytes(),
         "both.gltf",
     );
     assert!(
-        both.iter().any(|w| w.contains("smooth vertex normals")
-            && w.contains("pointing against their triangles' winding")),
+        both.len() == 1 && both[0].contains("pointing against their triangles' winding"),
         "{both:?}"
     );
+    assert_eq!(s.triangle_normals.len(), 2);
     // A flat, sloping 1-cm quad 5 km out: f32 corners tilt the triangle's own normal by
     // more than 1°, which warned of smooth normals (a review, 2026-12-07); the normals agree.
     // (The normals as the winding faces: against it is its own warning, below.)
@@ -429,11 +429,9 @@ fn smooth_vertex_normals_are_warned_about() {
     assert!(far.is_empty(), "{far:?}");
     // Normals that agree but lean 20° off their flat quad (custom normals on a bevel).
     let t = 20f32.to_radians();
-    let (_, lean) = common::load_warned(quad([[t.sin(), t.cos(), 0.0]; 4]).as_bytes(), "lean.gltf");
-    assert!(
-        lean.iter().any(|w| w.contains("smooth vertex normals")),
-        "{lean:?}"
-    );
+    let (s, lean) = common::load_warned(quad([[t.sin(), t.cos(), 0.0]; 4]).as_bytes(), "lean.gltf");
+    assert!(lean.is_empty(), "{lean:?}");
+    assert_eq!(s.triangle_normals.len(), 2, "leaning normals are shaded by");
     // A NORMAL the loader never reads, malformed: a stride of 4 (the parser's slicing
     // panicked, refusing the file) and a sparse count of 2^40 (an allocation aborted the
     // process). Skipped here, as the loader skips it: both load, silent.

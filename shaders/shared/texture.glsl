@@ -1,8 +1,8 @@
 // Base-colour textures: bilinear lookup (or the nearest texel, TEXTURE_NEAREST) with the glTF
 // wrap modes, sRGB decoded to linear (glTF stores base colour in sRGB). Mirror of src/scene
 // (Texture, Wrap). The including kernel declares `textures` (GpuTexture[]), `texels` (uint[]:
-// packed RGBA8, or RGBA16 in two words with TEXTURE_16_BIT) and `tri_uv` (float[6] per
-// triangle).
+// packed RGBA8, or RGBA16 in two words with TEXTURE_16_BIT) and `tri_uv` (uint[TRI_ATTR_STRIDE]
+// per triangle).
 #ifndef TEXTURE_GLSL
 #define TEXTURE_GLSL
 
@@ -63,9 +63,14 @@ vec3 sample_texture(uint index, vec2 uv) {
                mix(texel(t, x, y + 1), texel(t, x + 1, y + 1), w.x), w.y);
 }
 
-// The texture coordinate at point x of triangle `prim` (v0, edges e1, e2): barycentrics
-// from the point, then the corners' coordinates interpolated.
-vec2 triangle_uv(uint prim, vec3 x, vec3 v0, vec3 e1, vec3 e2) {
+// Words of a triangle's attributes in tri_uv (src/render/gpu_scene.rs triangle_attributes):
+// six texture-coordinate floats as bits, then in a smooth scene three packed normals.
+#ifndef TRI_ATTR_STRIDE
+#define TRI_ATTR_STRIDE 6u
+#endif
+
+// The barycentric weights (b1, b2) of point x in the triangle (v0, edges e1, e2).
+vec2 triangle_bary(vec3 x, vec3 v0, vec3 e1, vec3 e2) {
     vec3 v = x - v0;
     float d00 = dot(e1, e1);
     float d01 = dot(e1, e2);
@@ -75,11 +80,40 @@ vec2 triangle_uv(uint prim, vec3 x, vec3 v0, vec3 e1, vec3 e2) {
     float den = d00 * d11 - d01 * d01;
     float b1 = den > 0.0 ? (d11 * d20 - d01 * d21) / den : 0.0;
     float b2 = den > 0.0 ? (d00 * d21 - d01 * d20) / den : 0.0;
-    uint o = 6u * prim;
-    vec2 t0 = vec2(tri_uv[o], tri_uv[o + 1u]);
-    vec2 t1 = vec2(tri_uv[o + 2u], tri_uv[o + 3u]);
-    vec2 t2 = vec2(tri_uv[o + 4u], tri_uv[o + 5u]);
-    return t0 + b1 * (t1 - t0) + b2 * (t2 - t0);
+    return vec2(b1, b2);
+}
+
+// The texture coordinate at point x of triangle `prim` (v0, edges e1, e2): barycentrics
+// from the point, then the corners' coordinates interpolated.
+vec2 triangle_uv(uint prim, vec3 x, vec3 v0, vec3 e1, vec3 e2) {
+    vec2 b = triangle_bary(x, v0, e1, e2);
+    uint o = TRI_ATTR_STRIDE * prim;
+    vec2 t0 = uintBitsToFloat(uvec2(tri_uv[o], tri_uv[o + 1u]));
+    vec2 t1 = uintBitsToFloat(uvec2(tri_uv[o + 2u], tri_uv[o + 3u]));
+    vec2 t2 = uintBitsToFloat(uvec2(tri_uv[o + 4u], tri_uv[o + 5u]));
+    return t0 + b.x * (t1 - t0) + b.y * (t2 - t0);
+}
+
+// A unit normal from its two 16-bit octahedral coordinates (src/render/gpu_scene.rs
+// pack_normal).
+vec3 unpack_normal(uint w) {
+    vec2 e = unpackSnorm2x16(w);
+    vec3 v = vec3(e, 1.0 - abs(e.x) - abs(e.y));
+    if (v.z < 0.0) {
+        v.xy = (1.0 - abs(v.yx)) * vec2(v.x >= 0.0 ? 1.0 : -1.0, v.y >= 0.0 ? 1.0 : -1.0);
+    }
+    return normalize(v);
+}
+
+// The shading normal at x of smooth triangle `prim`: its corners' normals interpolated
+// (unit); the zero vector for a flat triangle.
+vec3 shading_normal(uint prim, vec3 x, vec3 v0, vec3 e1, vec3 e2) {
+    uint o = TRI_ATTR_STRIDE * prim + 6u;
+    if (tri_uv[o] == 0u) return vec3(0.0);
+    vec2 b = triangle_bary(x, v0, e1, e2);
+    vec3 n = (1.0 - b.x - b.y) * unpack_normal(tri_uv[o]) + b.x * unpack_normal(tri_uv[o + 1u]) + b.y * unpack_normal(tri_uv[o + 2u]);
+    float l = length(n);
+    return l > 0.0 ? n / l : vec3(0.0);
 }
 
 #endif

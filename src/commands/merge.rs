@@ -291,6 +291,10 @@ pub fn images(
     for field in SAME.iter().chain(&["scene"]) {
         report[*field] = first[*field].clone();
     }
+    // Written by render only where the scene has any (so other reports stay as they were).
+    if !first["directional_lights"].is_null() {
+        report["directional_lights"] = first["directional_lights"].clone();
+    }
     report["learning_settings"] = first["learning"]["settings"].clone();
     report["regions"] = region_settings(first);
     // A Ctrl-C during the writes ends the command at once (status 130) with no temporary

@@ -102,9 +102,15 @@ fn check_scene(scene: &Scene) -> Result<()> {
             m.name
         );
     }
+    if !scene.triangle_normals.is_empty() {
+        bail!(
+            "{}: the scene has smooth-shaded triangles (vertex normals), which `variance`'s exact sums do not interpolate; remove the NORMAL attributes to split its selection",
+            scene.source
+        );
+    }
     if !scene.directional.is_empty() {
         bail!(
-            "{}: the scene has {} directional lights, which `variance`'s exact sums leave out (no sampler chooses them); remove them to split the other lights' selection",
+            "{}: the scene has directional lights ({}), which `variance`'s exact sums leave out (no sampler chooses them); remove them to split the other lights' selection",
             scene.source,
             scene.directional.len()
         );

@@ -130,6 +130,14 @@ fn hash_content(h: &mut Fnv, scene: &Scene) {
     }
     h.bytes(bytemuck::cast_slice(&lights::gpu_lights(scene)));
     // Only where there are any, so scenes without keep their keys.
+    if !scene.triangle_normals.is_empty() {
+        h.bytes(b"normals");
+        for t in &scene.triangle_normals {
+            for v in t {
+                h.bytes(bytemuck::bytes_of(&v.to_array()));
+            }
+        }
+    }
     for d in &scene.directional {
         h.bytes(b"directional");
         h.bytes(bytemuck::bytes_of(&d.direction.to_array()));

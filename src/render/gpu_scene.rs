@@ -99,7 +99,7 @@ pub fn check_fits(ctx: &Context, scene: &Scene) -> Result<()> {
     if let Some(largest) = scene.textures.iter().max_by_key(|t| t.words.len()) {
         if words * 4 > storage {
             anyhow::bail!(
-                "'{}': its base-colour textures hold {texels} texels ({} bytes), more than this device's largest buffer ({storage} bytes); the largest is {}×{}: scale it down",
+                "'{}': its textures hold {texels} texels ({} bytes), more than this device's largest buffer ({storage} bytes); the largest is {}×{}: scale it down",
                 scene.source,
                 words * 4,
                 largest.width,
@@ -146,7 +146,15 @@ impl GpuScene {
         scene.check_indices()?;
         check_fits(ctx, scene)?;
         let weights = lights::power_weights(scene);
-        let emission_scale = lights::emission_scale(&weights);
+        // The kernels' units count the suns too (their irradiance over the scene's cross-
+        // section): a sun of 1000 beside a light of 1e-36 W/sr was scaled by 2^120 into an
+        // EXR of Inf with exit 0 (an audit, 2026-12-07).
+        let (lo, hi) = scene.bounds();
+        let cross_section = std::f64::consts::PI * (0.5 * (hi - lo).length() as f64).powi(2);
+        let suns = (scene.directional.iter())
+            .map(|d| crate::scene::luminance(d.irradiance) as f64 * cross_section.max(1e-30));
+        let all: Vec<f64> = weights.iter().copied().chain(suns).collect();
+        let emission_scale = lights::emission_scale(&all);
         let materials: Vec<GpuMaterial> = scene
             .materials
             .iter()
@@ -187,15 +195,7 @@ impl GpuScene {
             table.push(GpuTexture::default());
             texels.push(0);
         }
-        let uvs: Vec<[f32; 6]> = if scene.triangle_uv.is_empty() {
-            vec![[0.0; 6]]
-        } else {
-            scene
-                .triangle_uv
-                .iter()
-                .map(|t| [t[0][0], t[0][1], t[1][0], t[1][1], t[2][0], t[2][1]])
-                .collect()
-        };
+        let uvs = triangle_attributes(scene);
         let mut gpu_lights = lights::gpu_lights(scene);
         for l in &mut gpu_lights {
             l.radiance = l.radiance.map(|c| c * emission_scale);
@@ -216,7 +216,13 @@ impl GpuScene {
             None => stats_file::scene_fingerprint(&tree),
         };
         let light_tree_seconds = t0.elapsed().as_secs_f64();
-        let kernel_flags = kernel_flags(&materials) | directional_flags(scene)?;
+        let kernel_flags = kernel_flags(&materials)
+            | directional_flags(scene)?
+            | if scene.triangle_normals.is_empty() {
+                0
+            } else {
+                SCENE_SMOOTH
+            };
         // The directional lights after the sampled ones (render.comp reads them from
         // light_count on; no sampler sees them).
         let light_count = gpu_lights.len() as u32;
@@ -262,9 +268,74 @@ impl GpuScene {
 pub const SCENE_GLOSSY: u32 = 1;
 /// `render.comp` SCENE_FLAGS: a textured material (texture lookups compiled in).
 pub const SCENE_TEXTURED: u32 = 2;
+/// `render.comp` SCENE_FLAGS: smooth triangles (`Scene::triangle_normals`: shading normals
+/// interpolated, TRI_ATTR_STRIDE 9).
+pub const SCENE_SMOOTH: u32 = 8;
 /// `render.comp` SCENE_FLAGS: an emissive texture (its lookups at light samples and at
 /// emitters a ray hits compiled in).
 pub const SCENE_EMISSIVE_TEXTURED: u32 = 4;
+
+/// Words a triangle's attributes take in `TriUv` (render.comp TRI_ATTR_STRIDE): its
+/// corners' texture coordinates (6 floats, as bits), and in a smooth scene their normals
+/// (3 octahedral words, [`pack_normal`]).
+pub fn tri_attr_stride(scene: &Scene) -> usize {
+    if scene.triangle_normals.is_empty() {
+        6
+    } else {
+        9
+    }
+}
+
+/// `TriUv`: each triangle's [`tri_attr_stride`] words (one triangle of zeros for a scene
+/// with neither).
+fn triangle_attributes(scene: &Scene) -> Vec<u32> {
+    let stride = tri_attr_stride(scene);
+    let n = scene.triangles.len();
+    if scene.triangle_uv.is_empty() && scene.triangle_normals.is_empty() {
+        return vec![0; stride];
+    }
+    let mut out = Vec::with_capacity(n * stride);
+    for i in 0..n {
+        let uv = scene.triangle_uv.get(i).copied().unwrap_or_default();
+        out.extend(uv.iter().flatten().map(|f| f.to_bits()));
+        if let Some(ns) = scene.triangle_normals.get(i) {
+            out.extend(ns.iter().map(|&v| pack_normal(v)));
+        } else if stride == 9 {
+            out.extend([0; 3]);
+        }
+    }
+    out
+}
+
+/// A unit normal as two 16-bit snorm octahedral coordinates (render.comp unpack_normal;
+/// about 1e-4 rad apart at worst); the zero vector (a flat triangle) as 0, which no unit
+/// vector packs to.
+pub fn pack_normal(n: Vec3) -> u32 {
+    if n == Vec3::ZERO {
+        return 0;
+    }
+    let n = n / (n.x.abs() + n.y.abs() + n.z.abs());
+    let (mut x, mut y) = (n.x, n.y);
+    if n.z < 0.0 {
+        (x, y) = (
+            (1.0 - n.y.abs()) * n.x.signum(),
+            (1.0 - n.x.abs()) * n.y.signum(),
+        );
+    }
+    let q = |v: f32| ((v.clamp(-1.0, 1.0) * 32767.0).round() as i16) as u16 as u32;
+    let w = q(x) | (q(y) << 16);
+    // (0, 0) is ±Z's code; keep it distinct from "flat".
+    if w == 0 {
+        if n.z >= 0.0 {
+            // +Z: (0, 0) → the next code up, 3e-5 off.
+            1
+        } else {
+            1 << 16
+        }
+    } else {
+        w
+    }
+}
 
 /// The most directional lights a scene may have (render.comp loops over all of them at every
 /// vertex; SCENE_FLAGS holds their count in its bits 8–15).

@@ -102,7 +102,8 @@ pub fn open_bytes(
             }
         }
         let buffers = load_buffers(&gltf, name, base)?;
-        if let Some(w) = super::gltf_mesh::smooth_normals_warning(&gltf.document, &buffers, name) {
+        if let Some(w) = super::gltf_mesh::reversed_normals_warning(&gltf.document, &buffers, name)
+        {
             warn(w);
         }
         let animations = Animations::read(&gltf.document, &buffers, name, warn)?;
@@ -292,6 +293,7 @@ impl Document {
             camera: Camera::framing(Vec3::ZERO, Vec3::ONE),
             textures: Vec::new(),
             triangle_uv: Vec::new(),
+            triangle_normals: Vec::new(),
             source: name.to_string(),
             grid_box: None,
             camera_aspect: None,
@@ -353,6 +355,7 @@ impl Document {
         let Meshes {
             triangles,
             triangle_uv,
+            triangle_normals,
             triangle_material,
             skipped_primitives,
             lost_to_position,
@@ -408,6 +411,11 @@ impl Document {
         if !uv.is_empty() {
             scene.triangle_uv = (local.kept.iter())
                 .map(|&i| uv.get(i).copied().unwrap_or([[0.0; 2]; 3]))
+                .collect();
+        }
+        if !triangle_normals.is_empty() {
+            scene.triangle_normals = (local.kept.iter())
+                .map(|&i| triangle_normals.get(i).copied().unwrap_or([Vec3::ZERO; 3]))
                 .collect();
         }
         scene.triangle_material = local

@@ -126,6 +126,15 @@ impl<'a> MaterialTable<'a> {
             let t = info.texture();
             let key = texture_key(&t);
             if let Some(&known) = texture_index.get(&key) {
+                // One that could not be used was said for its first role only: an image
+                // both base colour and emission lost its emission in silence (an audit,
+                // 2026-12-07).
+                if known.is_none() {
+                    warn(format!(
+                        "'{file}': {label}: {what} texture {} could not be used (said above); using {fallback} alone",
+                        t.index()
+                    ));
+                }
                 return known;
             }
             let words: u64 = textures.iter().map(|t| t.words.len() as u64).sum();

@@ -19,6 +19,9 @@ pub(super) struct Meshes {
     /// Texture coordinates, kept from the first textured triangle on (earlier ones get
     /// zeros), so untextured scenes never hold them.
     pub triangle_uv: Vec<[[f32; 2]; 3]>,
+    /// Shading normals (world space, unit), kept from the first smooth triangle on (earlier
+    /// ones get zeros: flat), so flat-shaded scenes never hold them.
+    pub triangle_normals: Vec<[Vec3; 3]>,
     pub triangle_material: Vec<u32>,
     /// Point and line primitives, skipped with a warning.
     pub skipped_primitives: usize,
@@ -154,6 +157,11 @@ impl Meshes {
                 None => Vec::new(),
             };
             let uv = |i: u32| uvs.get(i as usize).copied().unwrap_or([0.0, 0.0]);
+            let normals = if regular {
+                world_normals(&prim, &reader, world, positions.len(), buffers)
+            } else {
+                Vec::new()
+            };
             for [a, b, c] in tris {
                 let get = |i: u32| {
                     world_pos.get(i as usize).copied().ok_or_else(|| {
@@ -189,6 +197,14 @@ impl Meshes {
                         [uv(a), uv(b), uv(c)]
                     });
                 }
+                let corners = if flip { [a, c, b] } else { [a, b, c] };
+                if let Some(n) = smooth_corners(&normals, corners, &tri) {
+                    self.triangle_normals
+                        .resize(self.triangles.len() - 1, [Vec3::ZERO; 3]);
+                    self.triangle_normals.push(n);
+                } else if !self.triangle_normals.is_empty() {
+                    self.triangle_normals.push([Vec3::ZERO; 3]);
+                }
                 self.triangle_material.push(mat);
                 if self.triangles.len() > MAX_TRIANGLES {
                     bail!(
@@ -199,6 +215,65 @@ impl Meshes {
         }
         Ok(())
     }
+}
+
+/// A primitive's vertex normals (NORMAL) in world space, unit (the inverse transpose of the
+/// node's transform), where it has plain f32 normals, one a vertex; else none (flat shading;
+/// the normals the warnings below read are the same).
+fn world_normals<'a, 's, F>(
+    prim: &gltf::Primitive,
+    reader: &gltf::mesh::Reader<'a, 's, F>,
+    world: DMat4,
+    vertices: usize,
+    buffers: &[Vec<u8>],
+) -> Vec<DVec3>
+where
+    F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
+{
+    use gltf::accessor::{DataType, Dimensions};
+    let Some(a) = prim.get(&gltf::Semantic::Normals) else {
+        return Vec::new();
+    };
+    if a.dimensions() != Dimensions::Vec3
+        || a.data_type() != DataType::F32
+        || a.normalized()
+        || a.count() != vertices
+        || !readable(&a, buffers)
+    {
+        return Vec::new();
+    }
+    let Some(n) = reader.read_normals() else {
+        return Vec::new();
+    };
+    let m = glam::DMat3::from_mat4(world).inverse().transpose();
+    n.map(|v| (m * Vec3::from(v).as_dvec3()).normalize_or_zero())
+        .collect()
+}
+
+/// Whether the gltf reader can read accessor `a` without panicking or exhausting memory: its
+/// sparse part is sound and its stride is at least an element (a stride of 4 panicked the
+/// parser's slicing; a sparse count of 2^40 aborted an allocation: a review, 2026-12-07).
+fn readable(a: &gltf::Accessor, buffers: &[Vec<u8>]) -> bool {
+    super::gltf_data::check_sparse(a, buffers, "").is_ok()
+        && a.view()
+            .is_none_or(|v| v.stride().is_none_or(|s| s >= a.size()))
+}
+
+/// A triangle's corner normals where it is shaded smooth: every corner's normal is finite and
+/// one leans more than 1° off the triangle's own normal (either side: the kernel turns them
+/// to the side it shades); None where it is flat or a normal is unusable.
+fn smooth_corners(normals: &[DVec3], corners: [u32; 3], tri: &[DVec3; 3]) -> Option<[Vec3; 3]> {
+    // cos 1°: exporters round normals to a few digits.
+    const COS_1: f64 = 0.999_847_7;
+    let n = corners.map(|i| normals.get(i as usize).copied().unwrap_or(DVec3::ZERO));
+    if n.iter().any(|v| !v.is_finite() || v.length_squared() < 0.5) {
+        return None;
+    }
+    let face = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
+    if n.iter().all(|v| v.dot(face).abs() >= COS_1) {
+        return None;
+    }
+    Some(n.map(|v| v.as_vec3()))
 }
 
 /// Triangles of a primitive as index triples.
@@ -221,30 +296,19 @@ fn triangulate(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
     }
 }
 
-/// Vertex normals (NORMAL) that differ across a triangle by more than 1°, or lean more than
-/// 10° off it: smooth or custom shading,
-/// which lightlearn does not interpolate (it shades with flat triangle normals), so the
-/// surface renders faceted. A sphere of smooth normals rendered bit-identical to one
-/// without them, 20 % off Mitsuba 3's smooth image, with no word (an audit, 2026-12-07).
-/// Flat-shaded files (one normal a face, as many exporters write) are not warned about; the
-/// normals are compared with each other, not with the triangle's normal from its corners,
-/// which f32 rounding tilts by more than 1° on a 1-cm quad 5 km out (a review). Only a
-/// NORMAL the loader's own checks would pass is read: the loader never reads it, so a
-/// malformed one (a huge sparse count aborted the process, a stride of 4 refused the file:
-/// a review) is skipped here. Normals that agree with their triangle but point against its
-/// winding are said too. Returns the warning, naming the first such primitive.
-pub(super) fn smooth_normals_warning(
+/// Vertex normals (NORMAL) that point against their triangles' winding in most of a
+/// primitive's triangles: the kernel turns a shading normal to the side it shades, so they
+/// render as if they agreed, where a renderer that shades one side by NORMAL shows them dark
+/// (an audit, 2026-12-07). Only a NORMAL the loader's own checks would pass is read (a
+/// malformed one, a huge sparse count or a stride of 4, aborted or refused the file: a
+/// review). Returns the warning, naming the first such primitive. (Smooth normals were
+/// warned about here until they were interpolated, 2026-12-07.)
+pub(super) fn reversed_normals_warning(
     doc: &gltf::Document,
     buffers: &[Vec<u8>],
     name: &str,
 ) -> Option<String> {
     use gltf::accessor::{DataType, Dimensions};
-    // cos 1°: exporters round normals to a few digits.
-    const COS_LIMIT: f32 = 0.99985;
-    // cos 10°.
-    const COS_LEAN: f32 = 0.9848;
-    let mut first: Option<String> = None;
-    let mut count = 0usize;
     let mut first_reversed: Option<String> = None;
     let mut reversed = 0usize;
     for mesh in doc.meshes() {
@@ -255,11 +319,7 @@ pub(super) fn smooth_normals_warning(
             ) else {
                 continue;
             };
-            let readable = |a: &gltf::Accessor| {
-                super::gltf_data::check_sparse(a, buffers, "").is_ok()
-                    && a.view()
-                        .is_none_or(|v| v.stride().is_none_or(|s| s >= a.size()))
-            };
+            let readable = |a: &gltf::Accessor| readable(a, buffers);
             let plain_vec3 = normals.dimensions() == Dimensions::Vec3
                 && normals.data_type() == DataType::F32
                 && !normals.normalized();
@@ -287,35 +347,8 @@ pub(super) fn smooth_normals_warning(
                 Some(i) => i.into_u32().collect(),
                 None => (0..n.len() as u32).collect(),
             };
-            let smooth = triangulate(prim.mode(), &indices).into_iter().any(|t| {
-                // A strip's joins (a repeated index) are no triangle: the loader drops them,
-                // and their corners' normals belong to two faces (a flat cube as one strip
-                // was warned of: a review).
-                if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-                    return false;
-                }
-                let corner = |i: u32| Some((*n.get(i as usize)?, *p.get(i as usize)?));
-                let (Some(a), Some(b), Some(c)) = (corner(t[0]), corner(t[1]), corner(t[2])) else {
-                    return false;
-                };
-                let given: Vec<Vec3> = [a.0, b.0, c.0]
-                    .into_iter()
-                    .filter(|v| *v != Vec3::ZERO)
-                    .collect();
-                // Normals that differ across the triangle (smooth shading) ...
-                let differ = (0..given.len())
-                    .any(|i| given[i].dot(given[(i + 1) % given.len()]) < COS_LIMIT);
-                // ... or agree but lean off the triangle (weighted or custom normals on a
-                // bevel) by more than 10°: f32 corners far out tilt the triangle's own
-                // normal by a few degrees (a review).
-                let face = (b.1 - a.1).cross(c.1 - a.1).normalize_or_zero().as_vec3();
-                let lean = face != Vec3::ZERO && given.iter().any(|v| v.dot(face).abs() < COS_LEAN);
-                differ || lean
-            });
             // Normals pointing against their triangles' winding, in most of the primitive's
-            // triangles (their corners' mean against the face): the lean above takes |cos|,
-            // so a 180° flip was not said (an audit, 2026-12-07), and a pass of its own, as
-            // the one above stops at its first smooth triangle (a review).
+            // triangles (their corners' mean against the face).
             let (mut against, mut with) = (0usize, 0usize);
             for t in triangulate(prim.mode(), &indices) {
                 let corner = |i: u32| Some((*n.get(i as usize)?, *p.get(i as usize)?));
@@ -345,16 +378,7 @@ pub(super) fn smooth_normals_warning(
                 reversed += 1;
                 first_reversed.get_or_insert_with(label);
             }
-            if smooth {
-                count += 1;
-                first.get_or_insert_with(label);
-            }
         }
     }
-    let smooth = first.map(|f| format!("'{name}': {count} primitive(s) have smooth vertex normals (NORMAL), first {f}; lightlearn shades with flat triangle normals, so curved surfaces render faceted"));
-    let reversed = first_reversed.map(|f| format!("'{name}': {reversed} primitive(s) have vertex normals (NORMAL) pointing against their triangles' winding, first {f}; lightlearn shades both sides by the triangle (and a one-sided emitter lights from its winding's front), so they render as if the normals agreed, where a renderer that shades by NORMAL shows them dark: check the export"));
-    match (smooth, reversed) {
-        (Some(a), Some(b)) => Some(format!("{a}; and {b}")),
-        (a, b) => a.or(b),
-    }
+    first_reversed.map(|f| format!("'{name}': {reversed} primitive(s) have vertex normals (NORMAL) pointing against their triangles' winding, first {f}; lightlearn shades both sides (and a one-sided emitter lights from its winding's front), so they render as if the normals agreed, where a renderer that shades by NORMAL shows them dark: check the export"))
 }

@@ -163,6 +163,19 @@ impl GltfBuilder {
         indices: &[u32],
         material: usize,
     ) {
+        self.mesh_with(name, positions, uvs, None, indices, material);
+    }
+
+    /// [`Self::mesh_uv`] with vertex normals (NORMAL) too: smooth shading.
+    pub fn mesh_with(
+        &mut self,
+        name: &str,
+        positions: &[Vec3],
+        uvs: Option<&[[f32; 2]]>,
+        normals: Option<&[Vec3]>,
+        indices: &[u32],
+        material: usize,
+    ) {
         let mut lo = [f32::INFINITY; 3];
         let mut hi = [f32::NEG_INFINITY; 3];
         for p in positions {
@@ -197,6 +210,17 @@ impl GltfBuilder {
                 "bufferView": v, "componentType": 5126, "count": uvs.len(), "type": "VEC2"
             }));
             attributes["TEXCOORD_0"] = json!(self.accessors.len() - 1);
+        }
+        if let Some(normals) = normals {
+            let bytes: Vec<u8> = (normals.iter())
+                .flat_map(|n| n.to_array())
+                .flat_map(f32::to_le_bytes)
+                .collect();
+            let v = self.push_view(&bytes, Some(34962));
+            self.accessors.push(json!({
+                "bufferView": v, "componentType": 5126, "count": normals.len(), "type": "VEC3"
+            }));
+            attributes["NORMAL"] = json!(self.accessors.len() - 1);
         }
         self.triangles += indices.len() / 3;
         self.meshes.push(json!({

@@ -63,7 +63,7 @@ impl Material {
     }
 }
 
-/// [`Scene::emissive_mean`]'s floor: a textured emitter's power is never below this
+/// [`Scene::emitted_luminance`]'s floor: a textured emitter's power is never below this
 /// fraction of the untextured one's.
 pub const EMISSIVE_MEAN_MIN: f32 = 1e-3;
 
@@ -256,6 +256,10 @@ pub struct Scene {
     /// Texture coordinates of each triangle's three corners (same order as `triangles`);
     /// empty when no material has a texture.
     pub triangle_uv: Vec<[[f32; 2]; 3]>,
+    /// Shading normals of each triangle's three corners (glTF NORMAL, unit, world space; same
+    /// order as `triangles`), interpolated across it where they differ from the triangle's own
+    /// (smooth shading); zeros for a flat triangle. Empty when no triangle is smooth.
+    pub triangle_normals: Vec<[Vec3; 3]>,
     /// Where the scene came from (file path or generator), for reports.
     pub source: String,
     /// The box the region grid covers when it is not the scene's own bounds: an animation's
@@ -323,18 +327,33 @@ impl Scene {
             }
         }
         for (i, m) in self.materials.iter().enumerate() {
-            if let Some(t) = m
-                .base_color_texture
-                .filter(|&t| t as usize >= self.textures.len())
+            for t in [m.base_color_texture, m.emissive_texture]
+                .into_iter()
+                .flatten()
             {
-                anyhow::bail!(
-                    "material {i} has texture {t}, but the scene has {} textures",
-                    self.textures.len()
-                );
+                if t as usize >= self.textures.len() {
+                    anyhow::bail!(
+                        "material {i} has texture {t}, but the scene has {} textures",
+                        self.textures.len()
+                    );
+                }
+                if self.triangle_uv.is_empty() {
+                    anyhow::bail!("material {i} has a texture, but the scene's triangles have no texture coordinates");
+                }
             }
-            if m.base_color_texture.is_some() && self.triangle_uv.is_empty() {
-                anyhow::bail!("material {i} has a texture, but the scene's triangles have no texture coordinates");
-            }
+        }
+        if !(self.triangle_normals.is_empty() || self.triangle_normals.len() == n) {
+            anyhow::bail!(
+                "the scene has {n} triangles but {} triangle normals; give one a triangle (flat: zeros), or none",
+                self.triangle_normals.len()
+            );
+        }
+        if let Some(t) =
+            (self.triangle_normals.iter()).position(|c| c.iter().any(|v| !v.is_finite()))
+        {
+            anyhow::bail!(
+                "triangle {t} has a non-finite normal; give unit normals (or zeros: flat)"
+            );
         }
         Ok(())
     }
@@ -363,19 +382,21 @@ impl Scene {
         self.grid_box.unwrap_or_else(|| self.bounds())
     }
 
-    /// The luminance of a triangle's emissive texture, averaged over 16 points spread over
-    /// the triangle (its 4 × 4 sub-triangles' centroids), as a fraction of white, at least
-    /// [`EMISSIVE_MEAN_MIN`]; 1 without a texture. Only the lights' power (every sampler's
-    /// pmf) takes it, so an estimate is enough: the floor keeps a triangle whose points
-    /// all fell on black texels samplable, so no light is left to BSDF rays alone.
-    pub fn emissive_mean(&self, triangle: u32) -> f32 {
+    /// The luminance a triangle emits (`e`, its material's emission) times its emissive
+    /// texture, averaged over 16 points spread over the triangle (its 4 × 4 sub-triangles'
+    /// centroids), at least [`EMISSIVE_MEAN_MIN`] of `e`'s luminance; `e`'s luminance without
+    /// a texture. Only the lights' power (every sampler's pmf) takes it, so an estimate is
+    /// enough: the floor keeps a triangle whose points all fell on black texels samplable, so
+    /// no light is left to BSDF rays alone. The colour is multiplied before the luminance
+    /// (a blue factor over a blue texture had 1/14 of its power: an audit, 2026-12-07).
+    pub fn emitted_luminance(&self, triangle: u32, e: Vec3) -> f32 {
         let m = &self.materials[self.triangle_material[triangle as usize] as usize];
         let (Some(t), Some(uv)) = (
             m.emissive_texture
                 .and_then(|i| self.textures.get(i as usize)),
             self.triangle_uv.get(triangle as usize),
         ) else {
-            return 1.0;
+            return luminance(e);
         };
         const N: u32 = 4;
         let (mut sum, mut count) = (0.0f32, 0u32);
@@ -390,12 +411,12 @@ impl Scene {
                     let (b1, b2) = (bi / N as f32, bj / N as f32);
                     let b0 = 1.0 - b1 - b2;
                     let at = |k: usize| b0 * uv[0][k] + b1 * uv[1][k] + b2 * uv[2][k];
-                    sum += luminance(t.sample([at(0), at(1)]));
+                    sum += luminance(e * t.sample([at(0), at(1)]));
                     count += 1;
                 }
             }
         }
-        (sum / count as f32).max(EMISSIVE_MEAN_MIN)
+        (sum / count as f32).max(EMISSIVE_MEAN_MIN * luminance(e))
     }
 
     /// Emitted radiance of a triangle light (its emissive texture not applied).
@@ -472,7 +493,7 @@ impl Scene {
                 let area = 0.5 * (b - a).cross(c - a).length();
                 let (e, two) = self.triangle_emission(triangle);
                 let sides = if two { 2.0 } else { 1.0 };
-                std::f32::consts::PI * area * luminance(e) * sides * self.emissive_mean(triangle)
+                std::f32::consts::PI * area * self.emitted_luminance(triangle, e) * sides
             }
         }
     }
