@@ -1515,3 +1515,43 @@ fn a_frame_takes_the_stills_sampling_options() {
     assert_eq!(report["light_point"], "solid-angle", "{report}");
     assert_eq!(report["stratify"], "r2", "{report}");
 }
+
+/// A folder an earlier build rendered stays the same sequence: the key the build of 8c1c688
+/// (2026-12-07, before `--light-point` reached `animate`) wrote for this run. A new request
+/// field changed every key, so resuming such a folder warned "another sequence" and dropped
+/// its frames from the summary (a review, 2026-12-07). A field added later must keep this
+/// key where it is at its default.
+#[test]
+fn the_sequence_key_of_an_earlier_build_holds() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = root().join("scenes/city-cars.glb");
+    let out = dir.path().join("f");
+    ok(&animate_output(
+        &scene,
+        &out,
+        &["--frames", "0..0", "--fps", "2", "--spp", "2", "-q"],
+    ));
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("animation.json")).unwrap()).unwrap();
+    assert_eq!(summary["sequence"], "1908ff3f3844159c-0e6878a84f512ee8");
+    // A non-default setting is another sequence.
+    let other = dir.path().join("g");
+    ok(&animate_output(
+        &scene,
+        &other,
+        &[
+            "--frames",
+            "0..0",
+            "--fps",
+            "2",
+            "--spp",
+            "2",
+            "-q",
+            "--light-point",
+            "solid-angle",
+        ],
+    ));
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(other.join("animation.json")).unwrap()).unwrap();
+    assert_ne!(summary["sequence"], "1908ff3f3844159c-0e6878a84f512ee8");
+}

@@ -169,6 +169,12 @@ fn a_still_in_chunks_merges_into_the_one_machine_render() {
             "--exposure=-1",
         ],
     );
+    // The merge is told the exposure (it would also take the chunks' own).
+    let template = std::fs::read_to_string(job.join("template.yaml")).unwrap();
+    assert!(
+        template.contains("merge") && template.matches("--exposure=-1").count() >= 2,
+        "the render and merge steps are not given --exposure: {template}"
+    );
     ok(&openjd(&["run", job.join("template.yaml").to_str().unwrap()]).unwrap());
     let one = dir.path().join("one.exr");
     ok(&lightlearn(&[

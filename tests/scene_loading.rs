@@ -425,8 +425,12 @@ fn vertex_normals_shade_smooth_and_reversed_ones_are_said() {
     // (The normals as the winding faces: against it is its own warning, below.)
     let n = glam::Vec3::new(-0.7, 1.0, -0.3).normalize().to_array();
     let far = quad_at([n; 4], [5000.0, 3000.0, 3000.0], 0.01, [0.7, 0.3]).to_string();
-    let (_, far) = common::load_warned(far.as_bytes(), "far.gltf");
+    let (s, far) = common::load_warned(far.as_bytes(), "far.gltf");
     assert!(far.is_empty(), "{far:?}");
+    assert!(
+        s.triangle_normals.is_empty(),
+        "a flat quad far out rendered smooth"
+    );
     // Normals that agree but lean 20° off their flat quad (custom normals on a bevel).
     let t = 20f32.to_radians();
     let (s, lean) = common::load_warned(quad([[t.sin(), t.cos(), 0.0]; 4]).as_bytes(), "lean.gltf");

@@ -271,20 +271,25 @@ pub struct SamplingArgs {
 }
 
 impl SamplingArgs {
-    /// These options as a command line gives them (for the farm's task commands).
+    /// These options as a command line gives them (for the farm's task commands), only where
+    /// they are not the defaults: a template stays what it was without them, and workers of
+    /// a build before the options take it.
     pub fn to_args(&self) -> Vec<String> {
-        let name = |v: clap::builder::PossibleValue| v.get_name().to_string();
         use clap::ValueEnum;
-        vec![
-            "--light-point".to_string(),
-            name(self.light_point.to_possible_value().expect("not skipped")),
-            "--stratify".to_string(),
-            self.stratify.name().to_string(),
-        ]
+        let mut a = Vec::new();
+        if self.light_point != LightPoint::default() {
+            let v = self.light_point.to_possible_value().expect("not skipped");
+            a.extend(["--light-point".to_string(), v.get_name().to_string()]);
+        }
+        if self.stratify != lightlearn::render::Stratify::default() {
+            a.extend(["--stratify".to_string(), self.stratify.name().to_string()]);
+        }
+        a
     }
 }
 
-/// `--exposure`, shared by `render`, `animate`, `farm` and `merge`.
+/// `--exposure`, shared by `render` and `animate` (`farm` and `merge` have their own: a
+/// merge's default is its parts').
 #[derive(Args)]
 pub struct ExposureArgs {
     /// Exposure of the PNG (animate: of every frame's, and so of the video) in stops: its

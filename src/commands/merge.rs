@@ -308,6 +308,15 @@ pub fn images(
         None => {
             let of = |r: &Value| r["png_exposure"].as_f64().map_or(1.0, |f| f as f32);
             let own = of(first);
+            // A report's factor as render writes it (2^−20 … 2^20): an edited 1e300 or −1
+            // gave a black PNG in silence (a review, 2026-12-07).
+            if !(own.is_finite() && (2f32.powi(-20)..=2f32.powi(20)).contains(&own)) {
+                bail!(
+                    "the report of part '{}' gives png_exposure {}, which no render writes; give --exposure, or render it again",
+                    parts[0].display(),
+                    first["png_exposure"]
+                );
+            }
             if let Some((_, p)) = (reports.iter().zip(parts)).find(|(r, _)| of(r) != own) {
                 warn(format!(
                     "part '{}' was written with another PNG exposure than '{}'; the merged PNG takes the first part's (give --exposure to choose)",

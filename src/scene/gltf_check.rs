@@ -54,8 +54,11 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
                 .material
                 .and_then(|m| root.materials.get(m.value()))
                 .and_then(|m| {
+                    // As gltf_mesh::coordinate_set: an emissive texture's set only where the
+                    // material emits (a texture under a zero factor is never read).
+                    let emits = m.emissive_factor.0.iter().any(|&c| c > 0.0);
                     (m.pbr_metallic_roughness.base_color_texture.as_ref())
-                        .or(m.emissive_texture.as_ref())
+                        .or(m.emissive_texture.as_ref().filter(|_| emits))
                 })
                 .map(|t| t.tex_coord);
             let mut used: Vec<(String, usize, bool)> = prim

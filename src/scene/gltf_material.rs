@@ -155,6 +155,8 @@ impl<'a> MaterialTable<'a> {
             loaded
         };
         let base_info = m.pbr_metallic_roughness().base_color_texture();
+        // The set the file's base-colour texture names, loaded or not: the mesh reads (and the
+        // loader checks) that set whenever there is one.
         let base_set = base_info.as_ref().map(|i| i.tex_coord());
         let base_color_texture =
             base_info.and_then(|info| load(info, "base-colour", "baseColorFactor"));
@@ -163,7 +165,7 @@ impl<'a> MaterialTable<'a> {
         // so an emissive texture on another set than the base colour's is left out, said.
         let emissive_texture = match m.emissive_texture() {
             Some(info) if emission.max_element() > 0.0 => {
-                if base_color_texture.is_some() && base_set != Some(info.tex_coord()) {
+                if base_set.is_some_and(|b| b != info.tex_coord()) {
                     warn(format!(
                         "'{file}': {label}: its emissive texture reads TEXCOORD_{} but its base-colour texture TEXCOORD_{}; lightlearn reads one set a triangle, so it uses emissiveFactor alone (give both textures one set)",
                         info.tex_coord(),

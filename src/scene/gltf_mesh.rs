@@ -71,13 +71,8 @@ impl Meshes {
                 continue;
             }
             // The accessors read below: positions, indices and the texture-coordinate
-            // set of the material's base-colour texture (gltf_check reads the same).
-            let uv_set = prim
-                .material()
-                .pbr_metallic_roughness()
-                .base_color_texture()
-                .or_else(|| prim.material().emissive_texture())
-                .map(|info| gltf::Semantic::TexCoords(info.tex_coord()));
+            // set the material's textures read (gltf_check checks the same).
+            let uv_set = coordinate_set(&prim.material()).map(gltf::Semantic::TexCoords);
             let read = [Some(gltf::Semantic::Positions), uv_set]
                 .into_iter()
                 .flatten()
@@ -116,19 +111,14 @@ impl Meshes {
             }
             let mat = table.slot(&prim.material(), name, warn)?;
             let emits = table.emits(mat);
-            // Texture coordinates of the set the material's textures use (the base colour's,
-            // else the emissive one's: gltf_material keeps an emissive texture only on the
-            // base colour's set).
+            // Texture coordinates of the set the material's textures use, where one of them
+            // loaded (gltf_material keeps an emissive texture only on the set of the
+            // base-colour texture the file names, so this is the set checked above).
             let material = &table.materials[mat as usize];
-            let set = match (material.base_color_texture, material.emissive_texture) {
-                (Some(_), _) => prim
-                    .material()
-                    .pbr_metallic_roughness()
-                    .base_color_texture()
-                    .map(|i| i.tex_coord()),
-                (None, Some(_)) => prim.material().emissive_texture().map(|i| i.tex_coord()),
-                (None, None) => None,
-            };
+            let set = (material.base_color_texture.is_some()
+                || material.emissive_texture.is_some())
+            .then(|| coordinate_set(&prim.material()))
+            .flatten();
             let uvs: Vec<[f32; 2]> = match set {
                 Some(set) => match reader.read_tex_coords(set) {
                     Some(t) => {
@@ -250,6 +240,15 @@ where
         .collect()
 }
 
+/// The TEXCOORD set a material's textures read: its base-colour texture's, else (an emitting
+/// material's) its emissive texture's.
+pub(super) fn coordinate_set(m: &gltf::Material) -> Option<u32> {
+    let emits = m.emissive_factor().iter().any(|&c| c > 0.0);
+    (m.pbr_metallic_roughness().base_color_texture())
+        .or_else(|| m.emissive_texture().filter(|_| emits))
+        .map(|info| info.tex_coord())
+}
+
 /// Whether the gltf reader can read accessor `a` without panicking or exhausting memory: its
 /// sparse part is sound and its stride is at least an element (a stride of 4 panicked the
 /// parser's slicing; a sparse count of 2^40 aborted an allocation: a review, 2026-12-07).
@@ -259,21 +258,24 @@ fn readable(a: &gltf::Accessor, buffers: &[Vec<u8>]) -> bool {
             .is_none_or(|v| v.stride().is_none_or(|s| s >= a.size()))
 }
 
-/// A triangle's corner normals where it is shaded smooth: every corner's normal is finite and
-/// one leans more than 1° off the triangle's own normal (either side: the kernel turns them
-/// to the side it shades); None where it is flat or a normal is unusable.
+/// A triangle's corner normals where it is shaded smooth: every corner's normal is finite,
+/// and they differ from each other by more than 1° or lean more than 10° off the triangle's
+/// own normal (either side: the kernel turns them to the side it shades); None where it is
+/// flat or a normal is unusable. The normals are compared with each other first, as f32
+/// corners far out tilt the triangle's own normal by degrees (a flat 1-cm quad 5 km out
+/// would otherwise render smooth: a review, 2026-12-07).
 fn smooth_corners(normals: &[DVec3], corners: [u32; 3], tri: &[DVec3; 3]) -> Option<[Vec3; 3]> {
-    // cos 1°: exporters round normals to a few digits.
+    // cos 1°: exporters round normals to a few digits; cos 10°.
     const COS_1: f64 = 0.999_847_7;
+    const COS_10: f64 = 0.984_807_8;
     let n = corners.map(|i| normals.get(i as usize).copied().unwrap_or(DVec3::ZERO));
     if n.iter().any(|v| !v.is_finite() || v.length_squared() < 0.5) {
         return None;
     }
+    let differ = (0..3).any(|i| n[i].dot(n[(i + 1) % 3]) < COS_1);
     let face = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
-    if n.iter().all(|v| v.dot(face).abs() >= COS_1) {
-        return None;
-    }
-    Some(n.map(|v| v.as_vec3()))
+    let lean = face != DVec3::ZERO && n.iter().any(|v| v.dot(face).abs() < COS_10);
+    (differ || lean).then(|| n.map(|v| v.as_vec3()))
 }
 
 /// Triangles of a primitive as index triples.

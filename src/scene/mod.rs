@@ -348,11 +348,16 @@ impl Scene {
                 self.triangle_normals.len()
             );
         }
-        if let Some(t) =
-            (self.triangle_normals.iter()).position(|c| c.iter().any(|v| !v.is_finite()))
-        {
+        // All three unit, or all three zero (flat): the kernel tests the first corner alone.
+        let usable = |c: &[Vec3; 3]| {
+            c.iter().all(|v| *v == Vec3::ZERO)
+                || c.iter()
+                    .all(|v| v.is_finite() && (v.length() - 1.0).abs() < 1e-3)
+        };
+        if let Some(t) = self.triangle_normals.iter().position(|c| !usable(c)) {
             anyhow::bail!(
-                "triangle {t} has a non-finite normal; give unit normals (or zeros: flat)"
+                "triangle {t} has normals {:?}; give three unit normals (or three zeros: flat)",
+                self.triangle_normals[t]
             );
         }
         Ok(())
