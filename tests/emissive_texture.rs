@@ -247,3 +247,40 @@ fn an_emissive_texture_on_another_set_is_named() {
     let s = common::load(&g, "dark");
     assert_eq!(s.materials[0].emissive_texture, None);
 }
+
+/// An emissive texture on a mesh without TEXCOORD_0 renders (sampled at (0, 0), said),
+/// also where no triangle of the scene has coordinates: the loader keeps zeros for them.
+#[test]
+fn an_emissive_texture_without_coordinates_renders() {
+    let png = png_rgb(1, 1, &[[255, 128, 64]]);
+    let mut g = GltfBuilder::new();
+    let grey = g.material("grey", Vec3::splat(0.5), Vec3::ZERO, false);
+    g.quad(
+        "floor",
+        [
+            Vec3::new(-3.0, 0.0, 3.0),
+            Vec3::new(3.0, 0.0, 3.0),
+            Vec3::new(3.0, 0.0, -3.0),
+            Vec3::new(-3.0, 0.0, -3.0),
+        ],
+        grey,
+    );
+    let lamp = g.material("lamp", Vec3::ZERO, Vec3::splat(2.0), false);
+    let t = g.texture_png(&png, [10497, 10497]);
+    g.set_emissive_texture(lamp, t);
+    g.quad(
+        "lamp",
+        [
+            Vec3::new(-1.0, 1.5, -1.0),
+            Vec3::new(1.0, 1.5, -1.0),
+            Vec3::new(1.0, 1.5, 1.0),
+            Vec3::new(-1.0, 1.5, 1.0),
+        ],
+        lamp,
+    );
+    g.camera(Vec3::new(0.0, 1.0, 5.0), Vec3::new(0.0, 0.8, 0.0), 1.3);
+    let (s, w) = common::load_warned(&g.to_glb(), "no-uv");
+    assert!(w.iter().any(|w| w.contains("no TEXCOORD_0")), "{w:?}");
+    let img = render(&s, LightSampler::Bayes, 2, 2, 1);
+    assert!(mean(&img) > 0.0);
+}

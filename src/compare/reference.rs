@@ -132,9 +132,11 @@ fn hash_content(h: &mut Fnv, scene: &Scene) {
     // Only where there are any, so scenes without keep their keys.
     if !scene.triangle_normals.is_empty() {
         h.bytes(b"normals");
+        // As the kernels read them (packed): normals that pack the same render the same
+        // (×3 of the same normals took a new reference: an audit, 2026-12-07).
         for t in &scene.triangle_normals {
             for v in t {
-                h.bytes(bytemuck::bytes_of(&v.to_array()));
+                h.bytes(&crate::render::pack_normal(*v).to_le_bytes());
             }
         }
     }

@@ -148,7 +148,15 @@ impl Meshes {
             };
             let uv = |i: u32| uvs.get(i as usize).copied().unwrap_or([0.0, 0.0]);
             let normals = if regular {
-                world_normals(&prim, &reader, world, positions.len(), buffers)
+                match world_normals(&prim, &reader, world, positions.len(), buffers) {
+                    Ok(n) => n,
+                    // Said, as the smooth-normals warning before interpolation said them (an
+                    // audit, 2026-12-07: such a mesh rendered flat without a word).
+                    Err(why) => {
+                        warn(format!("'{name}': {mesh_label} has vertex normals (NORMAL) lightlearn cannot read ({why}); it is shaded flat"));
+                        Vec::new()
+                    }
+                }
             } else {
                 Vec::new()
             };
@@ -216,28 +224,36 @@ fn world_normals<'a, 's, F>(
     world: DMat4,
     vertices: usize,
     buffers: &[Vec<u8>],
-) -> Vec<DVec3>
+) -> std::result::Result<Vec<DVec3>, String>
 where
     F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
 {
     use gltf::accessor::{DataType, Dimensions};
     let Some(a) = prim.get(&gltf::Semantic::Normals) else {
-        return Vec::new();
+        return Ok(Vec::new());
     };
-    if a.dimensions() != Dimensions::Vec3
-        || a.data_type() != DataType::F32
-        || a.normalized()
-        || a.count() != vertices
-        || !readable(&a, buffers)
-    {
-        return Vec::new();
+    if a.dimensions() != Dimensions::Vec3 || a.data_type() != DataType::F32 || a.normalized() {
+        return Err(format!(
+            "{:?} {:?}{}, not float VEC3",
+            a.data_type(),
+            a.dimensions(),
+            if a.normalized() { " normalized" } else { "" }
+        ));
+    }
+    if a.count() != vertices {
+        return Err(format!("{} normals for {vertices} vertices", a.count()));
+    }
+    if !readable(&a, buffers) {
+        return Err("its accessor's stride or sparse part is malformed".to_string());
     }
     let Some(n) = reader.read_normals() else {
-        return Vec::new();
+        return Err("its buffer view lies outside the buffer".to_string());
     };
     let m = glam::DMat3::from_mat4(world).inverse().transpose();
-    n.map(|v| (m * Vec3::from(v).as_dvec3()).normalize_or_zero())
-        .collect()
+    Ok(
+        n.map(|v| (m * Vec3::from(v).as_dvec3()).normalize_or_zero())
+            .collect(),
+    )
 }
 
 /// The TEXCOORD set a material's textures read: its base-colour texture's, else (an emitting
