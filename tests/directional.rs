@@ -6,8 +6,7 @@
 mod common;
 
 use glam::Vec3;
-use lightlearn::accel::Bvh;
-use lightlearn::render::{self, Budget, GpuScene, LightSampler, RenderSettings, Stratify};
+use lightlearn::render::LightSampler;
 use lightlearn::scene::gltf_write::GltfBuilder;
 use lightlearn::scene::Scene;
 
@@ -59,17 +58,7 @@ fn scene(sun: Option<f32>, far: Option<f32>) -> GltfBuilder {
 }
 
 fn render(scene: &Scene, sampler: LightSampler, depth: u32, spp: u32, seed: u32) -> Vec<[f32; 3]> {
-    let ctx = common::ctx();
-    let gpu = GpuScene::upload(&ctx, scene, &Bvh::build(&scene.triangles)).unwrap();
-    let settings = RenderSettings {
-        budget: Budget::Samples(spp),
-        seed,
-        stratify: Stratify::Off,
-        ..RenderSettings::new(sampler, 32, 32, depth)
-    };
-    render::render(&ctx, scene, &gpu, &settings, &mut |_, _| {})
-        .unwrap()
-        .mean()
+    common::render_mean(scene, sampler, (32, 32), depth, spp, seed)
 }
 
 /// Direct light: a sun adds exactly albedo/π · E · cos 45° to every lit floor pixel and

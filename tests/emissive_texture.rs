@@ -7,22 +7,9 @@
 mod common;
 
 use glam::Vec3;
-use lightlearn::accel::Bvh;
-use lightlearn::render::{self, Budget, GpuScene, LightSampler, RenderSettings, Stratify};
+use lightlearn::render::LightSampler;
 use lightlearn::scene::gltf_write::GltfBuilder;
 use lightlearn::scene::Scene;
-
-fn png_rgb(w: u32, h: u32, rgb: &[[u8; 3]]) -> Vec<u8> {
-    let mut out = Vec::new();
-    let mut e = png::Encoder::new(&mut out, w, h);
-    e.set_color(png::ColorType::Rgb);
-    e.set_depth(png::BitDepth::Eight);
-    let mut wr = e.write_header().unwrap();
-    wr.write_image_data(&rgb.iter().flatten().copied().collect::<Vec<u8>>())
-        .unwrap();
-    wr.finish().unwrap();
-    out
-}
 
 fn srgb_to_linear(c: f32) -> f32 {
     if c <= 0.04045 {
@@ -78,17 +65,7 @@ fn scene(emission: Vec3, x: (f32, f32), texture: Option<(&[u8], Option<u32>)>) -
 }
 
 fn render(scene: &Scene, sampler: LightSampler, depth: u32, spp: u32, seed: u32) -> Vec<[f32; 3]> {
-    let ctx = common::ctx();
-    let gpu = GpuScene::upload(&ctx, scene, &Bvh::build(&scene.triangles)).unwrap();
-    let settings = RenderSettings {
-        budget: Budget::Samples(spp),
-        seed,
-        stratify: Stratify::Off,
-        ..RenderSettings::new(sampler, 32, 24, depth)
-    };
-    render::render(&ctx, scene, &gpu, &settings, &mut |_, _| {})
-        .unwrap()
-        .mean()
+    common::render_mean(scene, sampler, (32, 24), depth, spp, seed)
 }
 
 fn mean(img: &[[f32; 3]]) -> f64 {
@@ -102,7 +79,7 @@ fn mean(img: &[[f32; 3]]) -> f64 {
 fn a_uniform_emissive_texture_is_its_colour() {
     let c = [255u8, 128, 64];
     let lin = Vec3::from_array(c.map(|v| srgb_to_linear(v as f32 / 255.0)));
-    let png = png_rgb(1, 1, &[c]);
+    let png = common::png_rgb(1, 1, &[c]);
     let textured = common::load(
         &scene(Vec3::splat(3.0), (-1.0, 1.0), Some((&png, None))),
         "t",
@@ -140,7 +117,7 @@ fn a_uniform_emissive_texture_is_its_colour() {
 /// mirrored in u would light the left). Each triangle of the quad spans both colours.
 #[test]
 fn a_two_tone_emitter_lights_as_its_lit_half() {
-    let png = png_rgb(2, 1, &[[0, 0, 0], [255, 255, 255]]);
+    let png = common::png_rgb(2, 1, &[[0, 0, 0], [255, 255, 255]]);
     let textured = common::load(
         &scene(Vec3::splat(4.0), (-1.0, 1.0), Some((&png, Some(9728)))),
         "two-tone",
@@ -192,8 +169,8 @@ fn a_two_tone_emitter_lights_as_its_lit_half() {
 /// texture is the untextured one.
 #[test]
 fn an_emitters_power_follows_its_texture() {
-    let white = png_rgb(1, 1, &[[255, 255, 255]]);
-    let black = png_rgb(1, 1, &[[0, 0, 0]]);
+    let white = common::png_rgb(1, 1, &[[255, 255, 255]]);
+    let black = common::png_rgb(1, 1, &[[0, 0, 0]]);
     let power = |png: Option<&[u8]>| {
         let s = common::load(
             &scene(Vec3::splat(2.0), (-1.0, 1.0), png.map(|p| (p, None))),
@@ -217,7 +194,10 @@ fn an_emitters_power_follows_its_texture() {
         );
         s.light_power(&s.lights[0])
     };
-    let (plain, tex) = (blue(None), blue(Some(&png_rgb(1, 1, &[[0, 0, 255]]))));
+    let (plain, tex) = (
+        blue(None),
+        blue(Some(&common::png_rgb(1, 1, &[[0, 0, 255]]))),
+    );
     assert!((tex - plain).abs() <= 1e-6 * plain, "{tex} vs {plain}");
 }
 
@@ -226,7 +206,7 @@ fn an_emitters_power_follows_its_texture() {
 /// nothing and is not read.
 #[test]
 fn an_emissive_texture_on_another_set_is_named() {
-    let png = png_rgb(1, 1, &[[255, 0, 0]]);
+    let png = common::png_rgb(1, 1, &[[255, 0, 0]]);
     let mut g = scene(Vec3::splat(2.0), (-1.0, 1.0), Some((&png, None)));
     let t = g.texture_png(&png, [10497, 10497]);
     g.set_base_color_texture(1, t);
@@ -252,7 +232,7 @@ fn an_emissive_texture_on_another_set_is_named() {
 /// also where no triangle of the scene has coordinates: the loader keeps zeros for them.
 #[test]
 fn an_emissive_texture_without_coordinates_renders() {
-    let png = png_rgb(1, 1, &[[255, 128, 64]]);
+    let png = common::png_rgb(1, 1, &[[255, 128, 64]]);
     let mut g = GltfBuilder::new();
     let grey = g.material("grey", Vec3::splat(0.5), Vec3::ZERO, false);
     g.quad(

@@ -7,8 +7,7 @@
 mod common;
 
 use glam::Vec3;
-use lightlearn::accel::Bvh;
-use lightlearn::render::{self, Budget, GpuScene, LightSampler, RenderSettings, Stratify};
+use lightlearn::render::LightSampler;
 use lightlearn::scene::gltf_write::GltfBuilder;
 use lightlearn::scene::Scene;
 
@@ -73,17 +72,7 @@ fn scene(normals: Option<[Vec3; 4]>, sun: Option<f32>, panel: bool) -> GltfBuild
 }
 
 fn render(scene: &Scene, sampler: LightSampler, depth: u32, spp: u32, seed: u32) -> Vec<[f32; 3]> {
-    let ctx = common::ctx();
-    let gpu = GpuScene::upload(&ctx, scene, &Bvh::build(&scene.triangles)).unwrap();
-    let settings = RenderSettings {
-        budget: Budget::Samples(spp),
-        seed,
-        stratify: Stratify::Off,
-        ..RenderSettings::new(sampler, 32, 32, depth)
-    };
-    render::render(&ctx, scene, &gpu, &settings, &mut |_, _| {})
-        .unwrap()
-        .mean()
+    common::render_mean(scene, sampler, (32, 32), depth, spp, seed)
 }
 
 fn tilted(deg: f32) -> Vec3 {

@@ -255,3 +255,45 @@ pub fn fold_pipeline(
         .unwrap();
     fold
 }
+
+/// An 8-bit RGB PNG of `w`×`h` texels, row by row.
+pub fn png_rgb(w: u32, h: u32, rgb: &[[u8; 3]]) -> Vec<u8> {
+    let mut out = Vec::new();
+    let mut e = png::Encoder::new(&mut out, w, h);
+    e.set_color(png::ColorType::Rgb);
+    e.set_depth(png::BitDepth::Eight);
+    let mut wr = e.write_header().unwrap();
+    wr.write_image_data(&rgb.iter().flatten().copied().collect::<Vec<u8>>())
+        .unwrap();
+    wr.finish().unwrap();
+    out
+}
+
+/// The mean image of `sampler` on a `size` film at `depth`, `spp` samples of independent
+/// numbers (`--stratify off`, so seeds' differences measure the noise), seed `seed`.
+pub fn render_mean(
+    scene: &Scene,
+    sampler: lightlearn::render::LightSampler,
+    size: (u32, u32),
+    depth: u32,
+    spp: u32,
+    seed: u32,
+) -> Vec<[f32; 3]> {
+    use lightlearn::render::{self, Budget, GpuScene, RenderSettings, Stratify};
+    let ctx = ctx();
+    let gpu = GpuScene::upload(
+        &ctx,
+        scene,
+        &lightlearn::accel::Bvh::build(&scene.triangles),
+    )
+    .unwrap();
+    let settings = RenderSettings {
+        budget: Budget::Samples(spp),
+        seed,
+        stratify: Stratify::Off,
+        ..RenderSettings::new(sampler, size.0, size.1, depth)
+    };
+    render::render(&ctx, scene, &gpu, &settings, &mut |_, _| {})
+        .unwrap()
+        .mean()
+}
