@@ -571,15 +571,7 @@ fn far_away_objects_do_not_move_the_rays_of_near_ones() {
 
 /// A PNG of `w`×`h` RGB8 texels (row 0 first).
 fn png_rgb(w: u32, h: u32, rgb: &[[u8; 3]]) -> Vec<u8> {
-    let mut out = Vec::new();
-    let mut e = png::Encoder::new(&mut out, w, h);
-    e.set_color(png::ColorType::Rgb);
-    e.set_depth(png::BitDepth::Eight);
-    let mut wr = e.write_header().unwrap();
-    wr.write_image_data(&rgb.iter().flatten().copied().collect::<Vec<u8>>())
-        .unwrap();
-    wr.finish().unwrap();
-    out
+    common::png_rgb(w, h, rgb)
 }
 
 /// A floor seen from straight above at depth 1 by the uniform sampler (so that two renders
