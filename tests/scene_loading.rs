@@ -509,3 +509,90 @@ fn underscore_attributes_load_as_unread() {
     let tagged = load_text(&doc.to_string(), dir.path()).unwrap();
     assert_eq!(tagged.triangles, plain.triangles);
 }
+
+/// KHR_texture_transform maps a texture's coordinates (offset, rotation, scale, and a texCoord
+/// that overrides the textureInfo's) as the extension's T · R · S: the loaded coordinates are
+/// the mapped ones. It was not read before 2026-12-07 (a warning; the texture rendered
+/// untransformed). An emissive texture with another transform than the base colour's is
+/// left out with a warning (a triangle's coordinates are mapped once).
+#[test]
+fn texture_transforms_map_the_coordinates() {
+    let png = common::png_rgb(2, 1, &[[0, 0, 0], [255, 255, 255]]);
+    let build = |transform: serde_json::Value, emissive: Option<serde_json::Value>| {
+        let mut g = GltfBuilder::new();
+        let m = g.material("floor", Vec3::ONE, Vec3::ZERO, false);
+        let t = g.texture_png(&png, [10497, 10497]);
+        g.set_base_color_texture(m, t);
+        let c = [
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(-1.0, 0.0, 1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+        ];
+        g.mesh_uv(
+            "tri",
+            &c,
+            Some(&[[0.0, 0.0], [0.0, 1.0], [1.0, 0.5]]),
+            &[0, 1, 2],
+            m,
+        );
+        let lamp = g.material("lamp", Vec3::ZERO, Vec3::ONE, false);
+        g.quad(
+            "lamp",
+            [
+                Vec3::new(-1.0, 2.0, -1.0),
+                Vec3::new(1.0, 2.0, -1.0),
+                Vec3::new(1.0, 2.0, 1.0),
+                Vec3::new(-1.0, 2.0, 1.0),
+            ],
+            lamp,
+        );
+        let mut doc: serde_json::Value = serde_json::from_str(&g.to_gltf_embedded()).unwrap();
+        doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"] =
+            serde_json::json!({ "KHR_texture_transform": transform });
+        if let Some(e) = emissive {
+            doc["materials"][0]["emissiveFactor"] = serde_json::json!([1.0, 1.0, 1.0]);
+            doc["materials"][0]["emissiveTexture"] = serde_json::json!({"index": 0,
+                "extensions": {"KHR_texture_transform": e}});
+        }
+        doc["extensionsUsed"]
+            .as_array_mut()
+            .unwrap()
+            .push("KHR_texture_transform".into());
+        common::load_warned(doc.to_string().as_bytes(), "transform.gltf")
+    };
+    let (s, w) = build(
+        serde_json::json!({"offset": [0.5, -0.25], "rotation": std::f32::consts::FRAC_PI_2, "scale": [2.0, 3.0]}),
+        None,
+    );
+    assert!(w.is_empty(), "{w:?}");
+    // u' = cos·2u + sin·3v + 0.5, v' = −sin·2u + cos·3v − 0.25 at r = π/2.
+    let (sin, cos) = std::f32::consts::FRAC_PI_2.sin_cos();
+    for (got, [u, v]) in s.triangle_uv[0]
+        .iter()
+        .zip([[0.0f32, 0.0], [0.0, 1.0], [1.0, 0.5]])
+    {
+        let want = [
+            cos * 2.0 * u + sin * 3.0 * v + 0.5,
+            -sin * 2.0 * u + cos * 3.0 * v - 0.25,
+        ];
+        assert!(
+            (got[0] - want[0]).abs() < 1e-6 && (got[1] - want[1]).abs() < 1e-6,
+            "{got:?} against {want:?}"
+        );
+    }
+    // The same transform on the emissive texture is kept; another is left out, said.
+    let t = serde_json::json!({"offset": [0.5, 0.0]});
+    let (s, w) = build(t.clone(), Some(t.clone()));
+    assert!(w.is_empty(), "{w:?}");
+    assert_eq!(
+        s.materials[0].emissive_texture,
+        s.materials[0].base_color_texture
+    );
+    let (s, w) = build(t, Some(serde_json::json!({"offset": [0.0, 0.5]})));
+    assert_eq!(s.materials[0].emissive_texture, None);
+    assert!(
+        w.iter()
+            .any(|w| w.contains("KHR_texture_transform differs")),
+        "{w:?}"
+    );
+}

@@ -60,7 +60,13 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
                     (m.pbr_metallic_roughness.base_color_texture.as_ref())
                         .or(m.emissive_texture.as_ref().filter(|_| emits))
                 })
-                .map(|t| t.tex_coord);
+                // KHR_texture_transform's texCoord overrides the textureInfo's.
+                .map(|t| {
+                    (t.extensions.as_ref())
+                        .and_then(|e| e.texture_transform.as_ref())
+                        .and_then(|tt| tt.tex_coord)
+                        .unwrap_or(t.tex_coord)
+                });
             let mut used: Vec<(String, usize, bool)> = prim
                 .attributes
                 .iter()
@@ -476,10 +482,11 @@ pub fn rotation_length(r: [f32; 4]) -> f32 {
 }
 
 /// The glTF extensions the loader reads; every other one a file uses is ignored.
-pub const SUPPORTED_EXTENSIONS: [&str; 3] = [
+pub const SUPPORTED_EXTENSIONS: [&str; 4] = [
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
     "KHR_materials_specular",
+    "KHR_texture_transform",
 ];
 
 /// The gltf crate indexes with unwrap in a few places; gltf_check catches the cases we know,

@@ -157,7 +157,7 @@ impl<'a> MaterialTable<'a> {
         let base_info = m.pbr_metallic_roughness().base_color_texture();
         // The set the file's base-colour texture names, loaded or not: the mesh reads (and the
         // loader checks) that set whenever there is one.
-        let base_set = base_info.as_ref().map(|i| i.tex_coord());
+        let base_map = base_info.as_ref().map(super::gltf_mesh::UvMap::of);
         let base_color_texture =
             base_info.and_then(|info| load(info, "base-colour", "baseColorFactor"));
         // Only an emitting material's texture is read (glTF: emission = factor × texture, so
@@ -165,11 +165,16 @@ impl<'a> MaterialTable<'a> {
         // so an emissive texture on another set than the base colour's is left out, said.
         let emissive_texture = match m.emissive_texture() {
             Some(info) if emission.max_element() > 0.0 => {
-                if base_set.is_some_and(|b| b != info.tex_coord()) {
+                let map = super::gltf_mesh::UvMap::of(&info);
+                if let Some(b) = base_map.filter(|b| b.set != map.set) {
                     warn(format!(
                         "'{file}': {label}: its emissive texture reads TEXCOORD_{} but its base-colour texture TEXCOORD_{}; lightlearn reads one set a triangle, so it uses emissiveFactor alone (give both textures one set)",
-                        info.tex_coord(),
-                        base_set.unwrap_or(0)
+                        map.set, b.set
+                    ));
+                    None
+                } else if base_map.is_some_and(|b| b != map) {
+                    warn(format!(
+                        "'{file}': {label}: its emissive texture's KHR_texture_transform differs from its base-colour texture's; lightlearn maps a triangle's coordinates once, so it uses emissiveFactor alone (give both textures one transform)"
                     ));
                     None
                 } else {

@@ -72,7 +72,7 @@ impl Meshes {
             }
             // The accessors read below: positions, indices and the texture-coordinate
             // set the material's textures read (gltf_check checks the same).
-            let uv_set = coordinate_set(&prim.material()).map(gltf::Semantic::TexCoords);
+            let uv_set = coordinate_map(&prim.material()).map(|u| gltf::Semantic::TexCoords(u.set));
             let read = [Some(gltf::Semantic::Positions), uv_set]
                 .into_iter()
                 .flatten()
@@ -115,14 +115,16 @@ impl Meshes {
             // loaded (gltf_material keeps an emissive texture only on the set of the
             // base-colour texture the file names, so this is the set checked above).
             let material = &table.materials[mat as usize];
-            let set = (material.base_color_texture.is_some()
+            let map = (material.base_color_texture.is_some()
                 || material.emissive_texture.is_some())
-            .then(|| coordinate_set(&prim.material()))
+            .then(|| coordinate_map(&prim.material()))
             .flatten();
-            let uvs: Vec<[f32; 2]> = match set {
-                Some(set) => match reader.read_tex_coords(set) {
+            let uvs: Vec<[f32; 2]> = match map {
+                Some(UvMap { set, .. }) => match reader.read_tex_coords(set) {
                     Some(t) => {
-                        let uvs: Vec<[f32; 2]> = t.into_f32().collect();
+                        // As KHR_texture_transform maps them (once here, not per lookup).
+                        let map = map.expect("matched");
+                        let uvs: Vec<[f32; 2]> = t.into_f32().map(|c| map.apply(c)).collect();
                         // One coordinate a vertex (glTF: every attribute has POSITION's
                         // count); a short one was read as (0, 0) past its end.
                         if uvs.len() != positions.len() {
@@ -132,7 +134,7 @@ impl Meshes {
                             .iter()
                             .position(|t| !(t[0].is_finite() && t[1].is_finite()))
                         {
-                            bail!("'{name}': {mesh_label} vertex {bad} has a non-finite texture coordinate (NaN or Inf); fix the mesh data");
+                            bail!("'{name}': {mesh_label} vertex {bad} has a non-finite texture coordinate (NaN or Inf, in the file or after its KHR_texture_transform); fix the mesh data");
                         }
                         uvs
                     }
@@ -256,13 +258,46 @@ where
     )
 }
 
-/// The TEXCOORD set a material's textures read: its base-colour texture's, else (an emitting
-/// material's) its emissive texture's.
-pub(super) fn coordinate_set(m: &gltf::Material) -> Option<u32> {
+/// How a texture reads a triangle's coordinates: the TEXCOORD set (KHR_texture_transform's
+/// `texCoord` overrides the textureInfo's) and the affine map the extension applies to them,
+/// u' = m0 u + m1 v + m2, v' = m3 u + m4 v + m5 (its offset, rotation and scale; the identity
+/// without the extension).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct UvMap {
+    pub set: u32,
+    pub m: [f32; 6],
+}
+
+impl UvMap {
+    pub fn of(info: &gltf::texture::Info) -> UvMap {
+        let Some(t) = info.texture_transform() else {
+            return UvMap {
+                set: info.tex_coord(),
+                m: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+            };
+        };
+        // KHR_texture_transform: T · R · S with R rotating counter-clockwise by `rotation`.
+        let ([ox, oy], r, [sx, sy]) = (t.offset(), t.rotation(), t.scale());
+        let (sin, cos) = r.sin_cos();
+        UvMap {
+            set: t.tex_coord().unwrap_or(info.tex_coord()),
+            m: [cos * sx, sin * sy, ox, -sin * sx, cos * sy, oy],
+        }
+    }
+
+    fn apply(&self, [u, v]: [f32; 2]) -> [f32; 2] {
+        let m = self.m;
+        [m[0] * u + m[1] * v + m[2], m[3] * u + m[4] * v + m[5]]
+    }
+}
+
+/// The coordinate mapping a material's textures read: its base-colour texture's, else (an
+/// emitting material's) its emissive texture's.
+pub(super) fn coordinate_map(m: &gltf::Material) -> Option<UvMap> {
     let emits = m.emissive_factor().iter().any(|&c| c > 0.0);
     (m.pbr_metallic_roughness().base_color_texture())
         .or_else(|| m.emissive_texture().filter(|_| emits))
-        .map(|info| info.tex_coord())
+        .map(|info| UvMap::of(&info))
 }
 
 /// Whether the gltf reader can read accessor `a` without panicking or exhausting memory: its
