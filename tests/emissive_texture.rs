@@ -264,3 +264,27 @@ fn an_emissive_texture_without_coordinates_renders() {
     let img = render(&s, LightSampler::Bayes, 2, 2, 1);
     assert!(mean(&img) > 0.0);
 }
+
+/// A negative emissiveFactor times a negative emissiveStrength is refused, not rendered as
+/// the positive product (it passed the product's check: a review, 2026-12-07).
+#[test]
+fn negative_emission_factors_are_refused() {
+    let g = scene(Vec3::splat(1.0), (-1.0, 1.0), None);
+    let mut doc: serde_json::Value = serde_json::from_str(&g.to_gltf_embedded()).unwrap();
+    let lamp = &mut doc["materials"][1];
+    lamp["emissiveFactor"] = serde_json::json!([-1.0, -1.0, -1.0]);
+    lamp["extensions"]["KHR_materials_emissive_strength"] =
+        serde_json::json!({"emissiveStrength": -2.0});
+    let err = lightlearn::scene::gltf_load::load_bytes(
+        doc.to_string().as_bytes(),
+        "negative.gltf",
+        std::path::Path::new("."),
+        &mut |_| {},
+    )
+    .map(|_| ())
+    .expect_err("refused");
+    assert!(
+        format!("{err:#}").contains("negative emissiveFactor"),
+        "{err:#}"
+    );
+}

@@ -56,7 +56,10 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
                 .and_then(|m| {
                     // As gltf_mesh::coordinate_set: an emissive texture's set only where the
                     // material emits (a texture under a zero factor is never read).
-                    let emits = m.emissive_factor.0.iter().any(|&c| c > 0.0);
+                    let strength = (m.extensions.as_ref())
+                        .and_then(|e| e.emissive_strength.as_ref())
+                        .map_or(1.0, |s| s.emissive_strength.0);
+                    let emits = m.emissive_factor.0.iter().any(|&c| c * strength > 0.0);
                     (m.pbr_metallic_roughness.base_color_texture.as_ref())
                         .or(m.emissive_texture.as_ref().filter(|_| emits))
                 })

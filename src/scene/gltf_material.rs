@@ -63,7 +63,13 @@ impl<'a> MaterialTable<'a> {
         };
         let base = m.pbr_metallic_roughness().base_color_factor();
         let strength = m.emissive_strength().unwrap_or(1.0);
-        let emission = Vec3::from(m.emissive_factor()) * strength;
+        // Each on its own (a negative factor times a negative strength passed as a positive
+        // emission: a review, 2026-12-07).
+        let factor = Vec3::from(m.emissive_factor());
+        if !(strength >= 0.0 && factor.min_element() >= 0.0) {
+            bail!("'{file}': {label} has a negative emissiveFactor ({factor}) or emissiveStrength ({strength}); use values ≥ 0");
+        }
+        let emission = factor * strength;
         let base_color = Vec3::new(base[0], base[1], base[2]);
         if !emission.is_finite() || emission.min_element() < 0.0 {
             bail!("'{file}': {label} has a non-finite or negative emission (emissiveFactor × emissiveStrength = {emission}); use finite values ≥ 0");

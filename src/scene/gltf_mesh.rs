@@ -276,7 +276,10 @@ impl UvMap {
                 m: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
             };
         };
-        // KHR_texture_transform: T · R · S with R rotating counter-clockwise by `rotation`.
+        // KHR_texture_transform: T · R · S (scale, then rotation, then offset), the rotation
+        // in the sense three.js's `setUvTransform` turns (u' = cos·u + sin·v), which the
+        // extension README's GLSL listing, read column-major, turns the other way; not
+        // checked here against the TextureTransformTest model.
         let ([ox, oy], r, [sx, sy]) = (t.offset(), t.rotation(), t.scale());
         let (sin, cos) = r.sin_cos();
         UvMap {
@@ -294,7 +297,10 @@ impl UvMap {
 /// The coordinate mapping a material's textures read: its base-colour texture's, else (an
 /// emitting material's) its emissive texture's.
 pub(super) fn coordinate_map(m: &gltf::Material) -> Option<UvMap> {
-    let emits = m.emissive_factor().iter().any(|&c| c > 0.0);
+    // As gltf_material decides it: emissiveFactor × emissiveStrength (both refused when
+    // negative).
+    let strength = m.emissive_strength().unwrap_or(1.0);
+    let emits = m.emissive_factor().iter().any(|&c| c * strength > 0.0);
     (m.pbr_metallic_roughness().base_color_texture())
         .or_else(|| m.emissive_texture().filter(|_| emits))
         .map(|info| UvMap::of(&info))
