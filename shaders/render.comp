@@ -474,7 +474,8 @@ void sun_light(inout Path st, vec3 x, vec3 n, vec3 ng, float eps, vec3 wo, Bsdf 
         float cos_x = dot(n, wi);
         if (SCENE_SMOOTH && dot(ng, wi) <= 0.0) cos_x = 0.0;
         float ts;
-        if (cos_x > 0.0 && trace_ray(x + ng * eps, wi, 0.0, 3.0e38, true, ts) == NO_HIT) {
+        // `profile`'s shadow-ray knock-out leaves these out too.
+        if (cos_x > 0.0 && ((KNOCK_OUT & KNOCK_SHADOW) != 0u || trace_ray(x + ng * eps, wi, 0.0, 3.0e38, true, ts) == NO_HIT)) {
             st.L += st.beta * bsdf_eval(bsdf, n, wo, wi) * sun.radiance * cos_x;
         }
     }
