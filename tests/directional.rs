@@ -1,6 +1,6 @@
 //! glTF directional lights (KHR_lights_punctual `directional`, the sun): parallel light of
 //! irradiance `intensity × color` along the node's −Z, sampled at every path vertex with a
-//! shadow ray of its own (render.comp `sun_light`), beside the light samplers' choice. They
+//! shadow ray of its own (shaders/shared/next_event.glsl `sun_light`), beside the light samplers' choice. They
 //! were skipped with a warning before 2026-12-07.
 
 mod common;

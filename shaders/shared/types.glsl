@@ -33,7 +33,7 @@ struct BvhTri {
 #define LIGHT_POINT 0u
 #define LIGHT_SPOT 1u
 #define LIGHT_TRIANGLE 2u
-// A directional light, after the sampled lights (render.comp sun_light).
+// A directional light, after the sampled lights (next_event.glsl sun_light).
 #define LIGHT_DIRECTIONAL 3u
 #define LIGHT_TWO_SIDED 0x100u
 // A triangle light with an emissive texture: its cos_outer and cos_inner words hold the

@@ -177,7 +177,7 @@ pub enum Light {
 /// irradiance `irradiance` (W/m² on a surface facing it, rgb: the file's `intensity × color`,
 /// lux read as W/m² as candela are read as W/sr) travelling along `direction`. Not in
 /// [`Scene::lights`]: no light sampler chooses it; every path vertex samples each one with a
-/// shadow ray of its own (render.comp `sun_light`).
+/// shadow ray of its own (shaders/shared/next_event.glsl `sun_light`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Directional {
     /// Unit vector: the way the light travels (the node's −Z).
