@@ -149,12 +149,16 @@ impl GpuScene {
         // The kernels' units count the suns too (their irradiance over the scene's cross-
         // section): a sun of 1000 beside a light of 1e-36 W/sr was scaled by 2^120 into an
         // EXR of Inf with exit 0 (an audit, 2026-12-07).
-        let (lo, hi) = scene.bounds();
-        let cross_section = std::f64::consts::PI * (0.5 * (hi - lo).length() as f64).powi(2);
-        let suns = (scene.directional.iter())
-            .map(|d| crate::scene::luminance(d.irradiance) as f64 * cross_section.max(1e-30));
-        let all: Vec<f64> = weights.iter().copied().chain(suns).collect();
-        let emission_scale = lights::emission_scale(&all);
+        // (The scene's bounds, a pass over every triangle, only where there are suns.)
+        let emission_scale = if scene.directional.is_empty() {
+            lights::emission_scale(&weights)
+        } else {
+            let (lo, hi) = scene.bounds();
+            let cross_section = std::f64::consts::PI * (0.5 * (hi - lo).length() as f64).powi(2);
+            let suns = (scene.directional.iter())
+                .map(|d| crate::scene::luminance(d.irradiance) as f64 * cross_section.max(1e-30));
+            lights::emission_scale(&weights.iter().copied().chain(suns).collect::<Vec<_>>())
+        };
         let materials: Vec<GpuMaterial> = scene
             .materials
             .iter()

@@ -17,19 +17,13 @@ pub fn read_light(
     name: &str,
     warn: &mut dyn FnMut(String),
 ) -> Result<Option<(Light, DVec3, String)>> {
-    let label = format!("light {} ('{}')", light.index(), light.name().unwrap_or(""));
-    let intensity = Vec3::from(light.color()) * light.intensity();
-    if !intensity.is_finite() || intensity.min_element() < 0.0 {
-        bail!("'{name}': {label} has a non-finite or negative color × intensity ({intensity}); use finite values ≥ 0");
-    }
+    let Some((label, intensity)) = label_and_intensity(light, name, warn)? else {
+        return Ok(None);
+    };
     let position = world.transform_point3(DVec3::ZERO);
     let direction = (world * DVec4::new(0.0, 0.0, -1.0, 0.0))
         .truncate()
         .as_vec3();
-    if intensity.max_element() == 0.0 {
-        warn(format!("'{name}': {label} has zero intensity; skipped"));
-        return Ok(None);
-    }
     match light.kind() {
         gltf::khr_lights_punctual::Kind::Point => Ok(Some((
             Light::Point {
@@ -80,6 +74,25 @@ pub fn read_light(
     }
 }
 
+/// A light's label ("light K ('name')") and `color × intensity`, checked finite and ≥ 0;
+/// None where it is 0 (skipped, said): what every kind of punctual light reads first.
+fn label_and_intensity(
+    light: &gltf::khr_lights_punctual::Light,
+    name: &str,
+    warn: &mut dyn FnMut(String),
+) -> Result<Option<(String, Vec3)>> {
+    let label = format!("light {} ('{}')", light.index(), light.name().unwrap_or(""));
+    let intensity = Vec3::from(light.color()) * light.intensity();
+    if !intensity.is_finite() || intensity.min_element() < 0.0 {
+        bail!("'{name}': {label} has a non-finite or negative color × intensity ({intensity}); use finite values ≥ 0");
+    }
+    if intensity.max_element() == 0.0 {
+        warn(format!("'{name}': {label} has zero intensity; skipped"));
+        return Ok(None);
+    }
+    Ok(Some((label, intensity)))
+}
+
 /// Whether `light` is directional (read by [`read_directional`], not [`read_light`]).
 pub fn is_directional(light: &gltf::khr_lights_punctual::Light) -> bool {
     matches!(light.kind(), gltf::khr_lights_punctual::Kind::Directional)
@@ -95,15 +108,9 @@ pub fn read_directional(
     name: &str,
     warn: &mut dyn FnMut(String),
 ) -> Result<Option<Directional>> {
-    let label = format!("light {} ('{}')", light.index(), light.name().unwrap_or(""));
-    let irradiance = Vec3::from(light.color()) * light.intensity();
-    if !irradiance.is_finite() || irradiance.min_element() < 0.0 {
-        bail!("'{name}': {label} has a non-finite or negative color × intensity ({irradiance}); use finite values ≥ 0");
-    }
-    if irradiance.max_element() == 0.0 {
-        warn(format!("'{name}': {label} has zero intensity; skipped"));
+    let Some((label, irradiance)) = label_and_intensity(light, name, warn)? else {
         return Ok(None);
-    }
+    };
     let d = (world * DVec4::new(0.0, 0.0, -1.0, 0.0)).truncate();
     if !(d.length_squared() > 0.0 && d.is_finite()) {
         bail!("'{name}': {label}, a directional light, sits on {node} whose transform is degenerate (a scale of 0, here or on a parent, at this time for an animation), so it has no direction; give the node a non-zero scale");
