@@ -476,11 +476,25 @@ impl ApplicationHandler for App<'_, '_> {
             }
             WindowEvent::Resized(size) => self.display.resize(size.width, size.height),
             WindowEvent::RedrawRequested => self.frame(),
-            WindowEvent::KeyboardInput { event, .. } => {
+            WindowEvent::KeyboardInput {
+                event,
+                is_synthetic,
+                ..
+            } => {
                 let PhysicalKey::Code(code) = event.physical_key else {
                     return;
                 };
                 match event.state {
+                    // A synthetic press is winit's note, as the window gains focus, of a key
+                    // down at that moment: held (W keeps flying), not pressed again. Acted
+                    // on, it repeated a press whose real event was still queued (P just
+                    // after a focus change saved two screenshots; tests/preview.rs saw the
+                    // second one's report in place of the next P's, once in ~10 runs) and
+                    // acted on keys pressed outside the window.
+                    ElementState::Pressed if is_synthetic => {
+                        self.held.insert(code);
+                        Ok(())
+                    }
                     ElementState::Pressed => {
                         self.held.insert(code);
                         self.tapped.insert(code);
