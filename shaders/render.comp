@@ -424,9 +424,16 @@ bool path_vertex(inout Path st, uint depth) {
     // triangle's own intersection test (surface_eps).
     float eps = surface_eps(max_abs(x), max(max(max_abs(st.origin), t), max(max_abs(tri.v0), max(max_abs(tri.v0 + tri.e1), max_abs(tri.v0 + tri.e2)))));
     uint dim0 = depth * DIMS_PER_VERTEX;
-    // glTF: base colour = factor × texture.
-    if (SCENE_TEXTURED && m.texture != NO_TEXTURE) {
-        m.base_color *= sample_texture(m.texture, triangle_uv(tri.prim, x, tri.v0, tri.e1, tri.e2));
+    // glTF: base colour = factor × texture; roughness and metallic = factors × the
+    // metallic-roughness texture's green and blue.
+    if (SCENE_TEXTURED && (m.texture != NO_TEXTURE || m.metallic_roughness_texture != NO_TEXTURE)) {
+        vec2 uv = triangle_uv(tri.prim, x, tri.v0, tri.e1, tri.e2);
+        if (m.texture != NO_TEXTURE) m.base_color *= sample_texture(m.texture, uv);
+        if (m.metallic_roughness_texture != NO_TEXTURE) {
+            vec3 mr = sample_texture(m.metallic_roughness_texture, uv);
+            m.roughness *= mr.g;
+            m.metallic *= mr.b;
+        }
     }
     vec3 wo = -st.dir;
     Bsdf bsdf = make_bsdf(m, m.base_color, n, wo);

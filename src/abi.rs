@@ -278,7 +278,9 @@ pub struct GpuMaterial {
     pub roughness: f32,
     /// Index of the emissive texture in the texture table, `u32::MAX` for none.
     pub emissive_texture: u32,
-    pub pad: f32,
+    /// Index of the metallic-roughness texture (linear; green × roughness, blue × metallic),
+    /// `u32::MAX` for none.
+    pub metallic_roughness_texture: u32,
 }
 
 /// One query of `bsdf.comp` (tests): a material seen from `v` at normal `n`, a direction `l`
@@ -309,7 +311,7 @@ pub struct BsdfResult {
 }
 
 /// One texture of the texture table: where its texels start in the texel buffer (packed
-/// sRGB RGBA8, or RGBA16 in two words with `TEXTURE_16_BIT`), its size, and its wrap modes
+/// RGBA8, sRGB unless `TEXTURE_LINEAR`, or RGBA16 in two words with `TEXTURE_16_BIT`), its size, and its wrap modes
 /// (wrapS | wrapT << 8, `scene::Wrap` codes) with the flags below.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -324,6 +326,8 @@ pub struct GpuTexture {
 pub const TEXTURE_NEAREST: u32 = 1 << 16;
 /// `GpuTexture::wrap` flag: 16 bits a channel, two words a texel (R | G << 16, B | A << 16).
 pub const TEXTURE_16_BIT: u32 = 1 << 17;
+/// `GpuTexture::wrap` flag: data, read as stored (no sRGB decoding: `scene::Texture::linear`).
+pub const TEXTURE_LINEAR: u32 = 1 << 18;
 
 /// Push constants of `render.comp` (96 of the 128 bytes every device guarantees).
 #[repr(C)]

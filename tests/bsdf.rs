@@ -38,7 +38,7 @@ fn material(
         metallic,
         roughness,
         emissive_texture: u32::MAX,
-        pad: 0.0,
+        metallic_roughness_texture: u32::MAX,
     }
 }
 

@@ -212,7 +212,7 @@ fn host_and_shader_structs_match() {
             metallic,
             roughness,
             emissive_texture,
-            pad
+            metallic_roughness_texture
         }),
         rust_layout!(GpuTexture {
             offset,

@@ -42,7 +42,7 @@ GpuMaterial material_at(uint i) {
     m.metallic = uintBitsToFloat(d.x);
     m.roughness = uintBitsToFloat(d.y);
     m.emissive_texture = d.z;
-    m.pad = uintBitsToFloat(d.w);
+    m.metallic_roughness_texture = d.w;
     return m;
 }
 

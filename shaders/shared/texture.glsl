@@ -1,5 +1,6 @@
-// Base-colour textures: bilinear lookup (or the nearest texel, TEXTURE_NEAREST) with the glTF
-// wrap modes, sRGB decoded to linear (glTF stores base colour in sRGB). Mirror of src/scene
+// Textures: bilinear lookup (or the nearest texel, TEXTURE_NEAREST) with the glTF wrap modes,
+// sRGB decoded to linear (glTF stores base and emissive colour in sRGB) unless TEXTURE_LINEAR
+// (metallic-roughness: data). Mirror of src/scene
 // (Texture, Wrap). The including kernel declares `textures` (GpuTexture[]), `texels` (uint[]:
 // packed RGBA8, or RGBA16 in two words with TEXTURE_16_BIT) and `tri_uv` (uint[TRI_ATTR_STRIDE]
 // per triangle).
@@ -39,6 +40,7 @@ vec3 texel(GpuTexture t, int x, int y) {
     } else {
         c = unpackUnorm4x8(texels[t.offset + i]).rgb;
     }
+    if ((t.wrap & TEXTURE_LINEAR) != 0u) return c;
     return vec3(srgb_to_linear(c.r), srgb_to_linear(c.g), srgb_to_linear(c.b));
 }
 

@@ -130,7 +130,7 @@ struct GpuMaterial {
     vec3 base_color; uint flags;
     vec3 emission; uint texture;
     vec3 specular_color; float specular;
-    float metallic; float roughness; uint emissive_texture; float pad;
+    float metallic; float roughness; uint emissive_texture; uint metallic_roughness_texture;
 };
 
 struct GpuTexture {
@@ -139,6 +139,7 @@ struct GpuTexture {
 // GpuTexture.wrap flags above wrapS (bits 0-7) and wrapT (bits 8-15).
 #define TEXTURE_NEAREST 65536u
 #define TEXTURE_16_BIT 131072u
+#define TEXTURE_LINEAR 262144u
 
 // RenderParams.stratified: independent numbers, R2/R5 (rng.glsl) or Owen-scrambled Sobol'.
 #define STRATIFY_OFF 0u

@@ -10,7 +10,7 @@ use glam::Vec3;
 use crate::accel::Bvh;
 use crate::gpu::layout::{
     GpuLight, GpuMaterial, GpuTexture, LIGHT_DIRECTIONAL, MATERIAL_TWO_SIDED, TEXTURE_16_BIT,
-    TEXTURE_NEAREST,
+    TEXTURE_LINEAR, TEXTURE_NEAREST,
 };
 use crate::gpu::{Buffer, Context};
 use crate::learning::stats_file;
@@ -176,7 +176,7 @@ impl GpuScene {
                 metallic: m.metallic,
                 roughness: m.roughness,
                 emissive_texture: m.emissive_texture.unwrap_or(u32::MAX),
-                pad: 0.0,
+                metallic_roughness_texture: m.metallic_roughness_texture.unwrap_or(u32::MAX),
             })
             .collect();
         // Texture table and texels; one dummy entry each when there are none (a buffer is
@@ -191,7 +191,8 @@ impl GpuScene {
                 wrap: t.wrap[0] as u32
                     | (t.wrap[1] as u32) << 8
                     | if t.nearest { TEXTURE_NEAREST } else { 0 }
-                    | if t.wide { TEXTURE_16_BIT } else { 0 },
+                    | if t.wide { TEXTURE_16_BIT } else { 0 }
+                    | if t.linear { TEXTURE_LINEAR } else { 0 },
             });
             texels.extend_from_slice(&t.words);
         }
@@ -270,7 +271,8 @@ impl GpuScene {
 
 /// `render.comp` SCENE_FLAGS: a glossy material (GGX code compiled in).
 pub const SCENE_GLOSSY: u32 = 1;
-/// `render.comp` SCENE_FLAGS: a textured material (texture lookups compiled in).
+/// `render.comp` SCENE_FLAGS: a base-colour or metallic-roughness texture (texture lookups at
+/// the surfaces rays hit compiled in).
 pub const SCENE_TEXTURED: u32 = 2;
 /// `render.comp` SCENE_FLAGS: smooth triangles (`Scene::triangle_normals`: shading normals
 /// interpolated, TRI_ATTR_STRIDE 9).
@@ -366,7 +368,9 @@ fn kernel_flags(materials: &[GpuMaterial]) -> u32 {
     let glossy = materials
         .iter()
         .any(|m| !(m.metallic == 0.0 && m.specular == 0.0));
-    let textured = materials.iter().any(|m| m.texture != u32::MAX);
+    let textured = materials
+        .iter()
+        .any(|m| m.texture != u32::MAX || m.metallic_roughness_texture != u32::MAX);
     let emissive = materials.iter().any(|m| m.emissive_texture != u32::MAX);
     (glossy as u32 * SCENE_GLOSSY)
         | ((textured || emissive) as u32 * SCENE_TEXTURED)

@@ -54,14 +54,21 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
                 .material
                 .and_then(|m| root.materials.get(m.value()))
                 .and_then(|m| {
-                    // As gltf_mesh::coordinate_set: an emissive texture's set only where the
-                    // material emits (a texture under a zero factor is never read).
+                    // As gltf_mesh::coordinate_map: an emissive texture's set only where the
+                    // material emits (a texture under a zero factor is never read), a
+                    // metallic-roughness texture's only under a GGX layer.
                     let strength = (m.extensions.as_ref())
                         .and_then(|e| e.emissive_strength.as_ref())
                         .map_or(1.0, |s| s.emissive_strength.0);
                     let emits = m.emissive_factor.0.iter().any(|&c| c * strength > 0.0);
-                    (m.pbr_metallic_roughness.base_color_texture.as_ref())
+                    let pbr = &m.pbr_metallic_roughness;
+                    let specular = (m.extensions.as_ref())
+                        .and_then(|e| e.specular.as_ref())
+                        .map_or(1.0, |s| s.specular_factor.0);
+                    let glossy = !(pbr.metallic_factor.0 == 0.0 && specular == 0.0);
+                    (pbr.base_color_texture.as_ref())
                         .or(m.emissive_texture.as_ref().filter(|_| emits))
+                        .or(pbr.metallic_roughness_texture.as_ref().filter(|_| glossy))
                 })
                 // KHR_texture_transform's texCoord overrides the textureInfo's.
                 .map(|t| {

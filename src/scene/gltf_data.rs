@@ -19,7 +19,13 @@ impl Images<'_> {
     /// The texture's image decoded (PNG or JPEG; the error says why it cannot be used), when
     /// its words and the `words_before` of the textures already decoded stay within
     /// [`MAX_SCENE_TEXEL_WORDS`] (checked from the PNG's header, before decoding).
-    pub(super) fn decode(&self, t: &gltf::Texture, words_before: u64) -> Result<Texture> {
+    /// `linear`: data, not colour ([`Texture::linear`]).
+    pub(super) fn decode(
+        &self,
+        t: &gltf::Texture,
+        words_before: u64,
+        linear: bool,
+    ) -> Result<Texture> {
         let image = t.source();
         let bytes: Vec<u8> = match image.source() {
             gltf::image::Source::View { view, .. } => {
@@ -83,6 +89,7 @@ impl Images<'_> {
             wide,
             nearest: s.mag_filter() == Some(gltf::texture::MagFilter::Nearest),
             wrap: [wrap(s.wrap_s()), wrap(s.wrap_t())],
+            linear,
         })
     }
 }
@@ -450,9 +457,13 @@ mod tests {
         };
         let tex = gltf.document.textures().next().unwrap();
         // 2×2 texels at 16 bits: 8 words.
-        let ok = images.decode(&tex, MAX_SCENE_TEXEL_WORDS - 8).unwrap();
+        let ok = images
+            .decode(&tex, MAX_SCENE_TEXEL_WORDS - 8, false)
+            .unwrap();
         assert!(ok.wide && ok.words.len() == 8);
-        let err = images.decode(&tex, MAX_SCENE_TEXEL_WORDS - 7).unwrap_err();
+        let err = images
+            .decode(&tex, MAX_SCENE_TEXEL_WORDS - 7, false)
+            .unwrap_err();
         assert!(err.to_string().contains("1024 MiB"), "{err}");
         // The same PNG cut inside its data: decoding fails, but over the budget it is the
         // budget that is named, so the check comes before the decoder reads the texels.
@@ -467,9 +478,11 @@ mod tests {
             ..images
         };
         let tex = gltf.document.textures().next().unwrap();
-        let err = images.decode(&tex, 0).unwrap_err();
+        let err = images.decode(&tex, 0, false).unwrap_err();
         assert!(!err.to_string().contains("MiB"), "{err}");
-        let err = images.decode(&tex, MAX_SCENE_TEXEL_WORDS - 7).unwrap_err();
+        let err = images
+            .decode(&tex, MAX_SCENE_TEXEL_WORDS - 7, false)
+            .unwrap_err();
         assert!(err.to_string().contains("1024 MiB"), "{err}");
     }
 }

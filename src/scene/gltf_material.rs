@@ -1,6 +1,6 @@
 //! glTF materials → ours: metallic-roughness factors, KHR_materials_specular,
-//! KHR_materials_emissive_strength, the base-colour and emissive textures; what is ignored is
-//! said once.
+//! KHR_materials_emissive_strength, the base-colour, emissive and metallic-roughness textures;
+//! what is ignored is said once.
 
 use std::collections::HashMap;
 
@@ -17,10 +17,10 @@ pub(super) struct MaterialTable<'a> {
     pub textures: Vec<Texture>,
     /// glTF material index (None: the default material) → ours.
     index: HashMap<Option<usize>, u32>,
-    /// glTF image and sampler (the image's index, wrapS, wrapT, magFilter) → ours (None: could
-    /// not be used, already warned about): textures that name one image with the same
-    /// sampler share its texels.
-    texture_index: HashMap<TextureKey, Option<u32>>,
+    /// glTF image and sampler (the image's index, wrapS, wrapT, magFilter) and whether it is
+    /// read as data ([`Texture::linear`]) → ours (None: could not be used, already warned
+    /// about): textures that name one image with the same sampler share its texels.
+    texture_index: HashMap<(TextureKey, bool), Option<u32>>,
     images: Images<'a>,
 }
 
@@ -108,10 +108,6 @@ impl<'a> MaterialTable<'a> {
             );
         }
         let ignored = [
-            (
-                pbr.metallic_roughness_texture().is_some(),
-                "a metallicRoughnessTexture",
-            ),
             (m.normal_texture().is_some(), "a normal texture"),
             (
                 m.specular().is_some_and(|sp| {
@@ -127,10 +123,33 @@ impl<'a> MaterialTable<'a> {
                 ));
             }
         }
-        // One texture, decoded once for every material naming it with the same sampler.
-        let mut load = |info: gltf::texture::Info, what: &str, fallback: &str| {
+        // glTF: roughness = roughnessFactor × the texture's green, metallic = metallicFactor ×
+        // its blue, both linear. Read only where the BRDF has a GGX layer (a Lambertian
+        // material's is never looked at), and on the triangles' one coordinate mapping.
+        let lambertian = metallic == 0.0 && specular == 0.0;
+        let metallic_roughness_info = match pbr.metallic_roughness_texture() {
+            Some(info) if !lambertian => {
+                let map = super::gltf_mesh::UvMap::of(&info);
+                if super::gltf_mesh::coordinate_map(m).is_some_and(|c| c != map) {
+                    warn(format!(
+                        "'{file}': {label}: its metallicRoughnessTexture reads another texture coordinate set or KHR_texture_transform than its base-colour (or emissive) texture; lightlearn maps a triangle's coordinates once, so it uses metallicFactor and roughnessFactor alone (give the textures one set and transform)"
+                    ));
+                    None
+                } else {
+                    Some(info)
+                }
+            }
+            _ => None,
+        };
+        // One texture, decoded once for every material naming it with the same sampler and
+        // as the same kind (colour or data).
+        let mut load = |warn: &mut dyn FnMut(String),
+                        info: gltf::texture::Info,
+                        what: &str,
+                        fallback: &str,
+                        linear: bool| {
             let t = info.texture();
-            let key = texture_key(&t);
+            let key = (texture_key(&t), linear);
             if let Some(&known) = texture_index.get(&key) {
                 // One that could not be used was said for its first role only: an image
                 // both base colour and emission lost its emission in silence (an audit,
@@ -144,7 +163,7 @@ impl<'a> MaterialTable<'a> {
                 return known;
             }
             let words: u64 = textures.iter().map(|t| t.words.len() as u64).sum();
-            let loaded = match images.decode(&t, words) {
+            let loaded = match images.decode(&t, words, linear) {
                 Ok(tex) => {
                     textures.push(tex);
                     Some(textures.len() as u32 - 1)
@@ -165,7 +184,7 @@ impl<'a> MaterialTable<'a> {
         // loader checks) that set whenever there is one.
         let base_map = base_info.as_ref().map(super::gltf_mesh::UvMap::of);
         let base_color_texture =
-            base_info.and_then(|info| load(info, "base-colour", "baseColorFactor"));
+            base_info.and_then(|info| load(warn, info, "base-colour", "baseColorFactor", false));
         // Only an emitting material's texture is read (glTF: emission = factor × texture, so
         // with a zero factor the texture changes nothing). A triangle holds one coordinate set,
         // so an emissive texture on another set than the base colour's is left out, said.
@@ -184,11 +203,20 @@ impl<'a> MaterialTable<'a> {
                     ));
                     None
                 } else {
-                    load(info, "emissive", "emissiveFactor")
+                    load(warn, info, "emissive", "emissiveFactor", false)
                 }
             }
             _ => None,
         };
+        let metallic_roughness_texture = metallic_roughness_info.and_then(|info| {
+            load(
+                warn,
+                info,
+                "metallic-roughness",
+                "metallicFactor and roughnessFactor",
+                true,
+            )
+        });
         let slot = materials.len() as u32;
         materials.push(Material {
             name: m.name().unwrap_or("").to_string(),
@@ -201,6 +229,7 @@ impl<'a> MaterialTable<'a> {
             double_sided: m.double_sided(),
             base_color_texture,
             emissive_texture,
+            metallic_roughness_texture,
         });
         index.insert(m.index(), slot);
         Ok(slot)

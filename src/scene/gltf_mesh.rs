@@ -112,11 +112,12 @@ impl Meshes {
             let mat = table.slot(&prim.material(), name, warn)?;
             let emits = table.emits(mat);
             // Texture coordinates of the set the material's textures use, where one of them
-            // loaded (gltf_material keeps an emissive texture only on the set of the
-            // base-colour texture the file names, so this is the set checked above).
+            // loaded (gltf_material keeps an emissive or metallic-roughness texture only on
+            // the mapping coordinate_map picks, so this is the set checked above).
             let material = &table.materials[mat as usize];
             let map = (material.base_color_texture.is_some()
-                || material.emissive_texture.is_some())
+                || material.emissive_texture.is_some()
+                || material.metallic_roughness_texture.is_some())
             .then(|| coordinate_map(&prim.material()))
             .flatten();
             let uvs: Vec<[f32; 2]> = match map {
@@ -295,14 +296,19 @@ impl UvMap {
 }
 
 /// The coordinate mapping a material's textures read: its base-colour texture's, else (an
-/// emitting material's) its emissive texture's.
+/// emitting material's) its emissive texture's, else (a material with a GGX layer) its
+/// metallic-roughness texture's.
 pub(super) fn coordinate_map(m: &gltf::Material) -> Option<UvMap> {
     // As gltf_material decides it: emissiveFactor × emissiveStrength (both refused when
-    // negative).
+    // negative); a GGX layer unless metallicFactor and specularFactor are both 0.
     let strength = m.emissive_strength().unwrap_or(1.0);
     let emits = m.emissive_factor().iter().any(|&c| c * strength > 0.0);
-    (m.pbr_metallic_roughness().base_color_texture())
+    let pbr = m.pbr_metallic_roughness();
+    let specular = m.specular().map_or(1.0, |s| s.specular_factor());
+    let glossy = !(pbr.metallic_factor() == 0.0 && specular == 0.0);
+    (pbr.base_color_texture())
         .or_else(|| m.emissive_texture().filter(|_| emits))
+        .or_else(|| pbr.metallic_roughness_texture().filter(|_| glossy))
         .map(|info| UvMap::of(&info))
 }
 

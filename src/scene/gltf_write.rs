@@ -135,6 +135,13 @@ impl GltfBuilder {
         self.materials[material]["emissiveTexture"] = json!({"index": texture});
     }
 
+    /// Gives a material a metallic-roughness texture (linear; its green multiplies
+    /// roughnessFactor, its blue metallicFactor).
+    pub fn set_metallic_roughness_texture(&mut self, material: usize, texture: usize) {
+        self.materials[material]["pbrMetallicRoughness"]["metallicRoughnessTexture"] =
+            json!({"index": texture});
+    }
+
     fn push_view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
         while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);

@@ -54,6 +54,10 @@ pub struct Material {
     /// `emissiveTexture`, sRGB). It reads the triangles' one coordinate set
     /// (`Scene::triangle_uv`), so it shares the base-colour texture's set where both are given.
     pub emissive_texture: Option<u32>,
+    /// Index into `Scene::textures` of the metallic-roughness texture (glTF
+    /// `metallicRoughnessTexture`, linear: its green channel multiplies `roughness`, its blue
+    /// `metallic`). It reads the triangles' one coordinate set, as the emissive texture does.
+    pub metallic_roughness_texture: Option<u32>,
 }
 
 impl Material {
@@ -75,8 +79,9 @@ pub enum Wrap {
     MirroredRepeat = 2,
 }
 
-/// A decoded base-colour texture: sRGB-encoded RGBA8 texels, row by row from the top (the
-/// row of texture coordinate v = 0), sampled bilinearly and decoded to linear in the kernel.
+/// A decoded texture: RGBA8 texels, row by row from the top (the row of texture coordinate
+/// v = 0), sampled bilinearly; colour (base colour, emission) sRGB-coded and decoded to linear
+/// in the kernel, data (metallic-roughness) `linear` and read as stored.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Texture {
     pub width: u32,
@@ -91,11 +96,14 @@ pub struct Texture {
     pub nearest: bool,
     /// wrapS, wrapT.
     pub wrap: [Wrap; 2],
+    /// The texels are data, not colour: no sRGB decoding (glTF's metallicRoughnessTexture).
+    pub linear: bool,
 }
 
 impl Texture {
-    /// The linear colour at texture coordinate `uv`, as shaders/shared/texture.glsl
-    /// `sample_texture` reads it (wrap modes, bilinear or nearest, sRGB decoded).
+    /// The linear colour (or data) at texture coordinate `uv`, as shaders/shared/texture.glsl
+    /// `sample_texture` reads it (wrap modes, bilinear or nearest, sRGB decoded unless
+    /// `linear`).
     pub fn sample(&self, uv: [f32; 2]) -> Vec3 {
         let wrap = |i: i64, n: u32, w: Wrap| -> u32 {
             let m = n as i64;
@@ -133,7 +141,11 @@ impl Texture {
                     ((w >> 16) & 0xff) as f32 / 255.0,
                 )
             };
-            Vec3::new(decode(c.x), decode(c.y), decode(c.z))
+            if self.linear {
+                c
+            } else {
+                Vec3::new(decode(c.x), decode(c.y), decode(c.z))
+            }
         };
         let reduce = |u: f32, w: Wrap| {
             let u = if w == Wrap::ClampToEdge {
@@ -327,9 +339,13 @@ impl Scene {
             }
         }
         for (i, m) in self.materials.iter().enumerate() {
-            for t in [m.base_color_texture, m.emissive_texture]
-                .into_iter()
-                .flatten()
+            for t in [
+                m.base_color_texture,
+                m.emissive_texture,
+                m.metallic_roughness_texture,
+            ]
+            .into_iter()
+            .flatten()
             {
                 if t as usize >= self.textures.len() {
                     anyhow::bail!(
@@ -526,7 +542,27 @@ pub fn spot_falloff(cos_theta: f32, cos_inner: f32, cos_outer: f32) -> f32 {
 
 #[cfg(test)]
 mod tests {
-    use super::spot_falloff;
+    use super::{spot_falloff, Texture, Wrap};
+
+    /// A colour texture's texels are sRGB-decoded, a data texture's (`linear`) read as
+    /// stored: the kernel's texture.glsl `texel` does the same.
+    #[test]
+    fn data_textures_are_read_as_stored() {
+        let mut t = Texture {
+            width: 1,
+            height: 1,
+            words: vec![128 | 64 << 8 | 255 << 16],
+            wide: false,
+            nearest: false,
+            wrap: [Wrap::Repeat; 2],
+            linear: true,
+        };
+        let v = t.sample([0.3, 0.7]);
+        assert_eq!(v, glam::Vec3::new(128.0, 64.0, 255.0) / 255.0);
+        t.linear = false;
+        let c = t.sample([0.3, 0.7]);
+        assert!((c.x - 0.2158).abs() < 1e-3 && (c.y - 0.0513).abs() < 1e-3 && c.z == 1.0);
+    }
 
     /// The ramp is the file's: halfway through a narrow one (cones 0.07 and 0.08 rad, 7.5e-4
     /// apart in cos θ) the falloff is ((c − c_o)/(c_i − c_o))², which the extension's 1e-3
