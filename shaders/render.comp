@@ -64,7 +64,10 @@ const uint DIRECTIONAL_COUNT = (SCENE_FLAGS >> 8u) & 0xffu;
 // 8: smooth triangles, whose corners' normals (in tri_uv after the texture coordinates) are
 // interpolated into the shading normal (texture.glsl shading_normal).
 const bool SCENE_SMOOTH = (SCENE_FLAGS & 8u) != 0u;
-#define TRI_ATTR_STRIDE (SCENE_SMOOTH ? 9u : 6u)
+// Normal textures: tangent frames after the normals (texture.glsl mapped_normal); always with
+// SCENE_SMOOTH.
+const bool SCENE_NORMAL_MAPPED = (SCENE_FLAGS & 16u) != 0u;
+#define TRI_ATTR_STRIDE (SCENE_NORMAL_MAPPED ? 13u : SCENE_SMOOTH ? 9u : 6u)
 // --max-depth 1 (RenderSettings::max_depth is fixed for a session): direct light alone, the
 // BSDF sampling and MIS code compiled out (lavapipe runs the code after a uniform `break`
 // too). The push constant max_depth stays the loop's bound.
@@ -417,7 +420,17 @@ bool path_vertex(inout Path st, uint depth) {
     vec3 n_geo = n;
     if (SCENE_SMOOTH) {
         vec3 ns = shading_normal(tri.prim, x, tri.v0, tri.e1, tri.e2);
-        ns = dot(ns, n_geo) < 0.0 ? -ns : ns;
+        if (SCENE_NORMAL_MAPPED && m.normal_texture != NO_TEXTURE) {
+            // The texture's normal in the frame of the front (the vertex normals', else the
+            // winding's), turned whole to the side shaded: glTF reverses the normal of a
+            // back face after the map, not the frame before it.
+            vec3 base = ns == vec3(0.0) ? ng : ns;
+            vec2 uv = triangle_uv(tri.prim, x, tri.v0, tri.e1, tri.e2);
+            ns = mapped_normal(tri.prim, x, tri.v0, tri.e1, tri.e2, base, uv, m.normal_texture, m.normal_scale);
+            ns = dot(base, n_geo) < 0.0 ? -ns : ns;
+        } else {
+            ns = dot(ns, n_geo) < 0.0 ? -ns : ns;
+        }
         if (dot(ns, st.dir) < 0.0) n = ns;
     }
     // How far rays leave x: by x's scale and the rounding of x = origin + t·dir and of the

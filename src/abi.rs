@@ -281,6 +281,12 @@ pub struct GpuMaterial {
     /// Index of the metallic-roughness texture (linear; green × roughness, blue × metallic),
     /// `u32::MAX` for none.
     pub metallic_roughness_texture: u32,
+    /// Index of the normal texture (linear, tangent space), `u32::MAX` for none, and the
+    /// scale of its X and Y.
+    pub normal_texture: u32,
+    pub normal_scale: f32,
+    pub pad0: u32,
+    pub pad1: u32,
 }
 
 /// One query of `bsdf.comp` (tests): a material seen from `v` at normal `n`, a direction `l`

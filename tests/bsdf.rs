@@ -39,6 +39,10 @@ fn material(
         roughness,
         emissive_texture: u32::MAX,
         metallic_roughness_texture: u32::MAX,
+        normal_texture: u32::MAX,
+        normal_scale: 1.0,
+        pad0: 0,
+        pad1: 0,
     }
 }
 

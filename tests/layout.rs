@@ -212,7 +212,11 @@ fn host_and_shader_structs_match() {
             metallic,
             roughness,
             emissive_texture,
-            metallic_roughness_texture
+            metallic_roughness_texture,
+            normal_texture,
+            normal_scale,
+            pad0,
+            pad1
         }),
         rust_layout!(GpuTexture {
             offset,

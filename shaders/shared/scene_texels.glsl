@@ -25,9 +25,9 @@ GpuLight light_at(uint i) {
     return l;
 }
 
-// Material i: four texels, as GpuMaterial.
+// Material i: five texels, as GpuMaterial.
 GpuMaterial material_at(uint i) {
-    int t = int(4u * i);
+    int t = int(5u * i);
     uvec4 a = texelFetch(material_texels, t);
     uvec4 b = texelFetch(material_texels, t + 1);
     uvec4 c = texelFetch(material_texels, t + 2);
@@ -43,6 +43,11 @@ GpuMaterial material_at(uint i) {
     m.roughness = uintBitsToFloat(d.y);
     m.emissive_texture = d.z;
     m.metallic_roughness_texture = d.w;
+    uvec4 e = texelFetch(material_texels, t + 4);
+    m.normal_texture = e.x;
+    m.normal_scale = uintBitsToFloat(e.y);
+    m.pad0 = e.z;
+    m.pad1 = e.w;
     return m;
 }
 

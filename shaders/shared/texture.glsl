@@ -66,7 +66,8 @@ vec3 sample_texture(uint index, vec2 uv) {
 }
 
 // Words of a triangle's attributes in tri_uv (src/render/gpu_scene.rs triangle_attributes):
-// six texture-coordinate floats as bits, then in a smooth scene three packed normals.
+// six texture-coordinate floats as bits, then in a smooth scene three packed normals, and in a
+// normal-mapped one three packed tangents and their signs.
 #ifndef TRI_ATTR_STRIDE
 #define TRI_ATTR_STRIDE 6u
 #endif
@@ -116,6 +117,30 @@ vec3 shading_normal(uint prim, vec3 x, vec3 v0, vec3 e1, vec3 e2) {
     vec3 n = (1.0 - b.x - b.y) * unpack_normal(tri_uv[o]) + b.x * unpack_normal(tri_uv[o + 1u]) + b.y * unpack_normal(tri_uv[o + 2u]);
     float l = length(n);
     return l > 0.0 ? n / l : vec3(0.0);
+}
+
+// The normal at x of normal-mapped triangle `prim` (glTF normalTexture): the texture's
+// tangent-space normal (2c − 1, its X and Y × scale) in the frame of the corners' tangents
+// (interpolated, made orthogonal to `base`), their bitangent cross(base, t) × sign, and
+// `base`; unit. `base` itself where the triangle has no frame (TriUv words 9–12: three
+// octahedral tangents, 0 for none, and the signs' bits).
+vec3 mapped_normal(uint prim, vec3 x, vec3 v0, vec3 e1, vec3 e2, vec3 base, vec2 uv, uint tex, float scale) {
+    uint o = TRI_ATTR_STRIDE * prim + 9u;
+    if (tri_uv[o] == 0u) return base;
+    vec2 b = triangle_bary(x, v0, e1, e2);
+    vec3 w3 = vec3(1.0 - b.x - b.y, b.x, b.y);
+    vec3 t = w3.x * unpack_normal(tri_uv[o]) + w3.y * unpack_normal(tri_uv[o + 1u]) + w3.z * unpack_normal(tri_uv[o + 2u]);
+    uint signs = tri_uv[o + 3u];
+    float w = dot(w3, vec3((signs & 1u) != 0u ? -1.0 : 1.0, (signs & 2u) != 0u ? -1.0 : 1.0, (signs & 4u) != 0u ? -1.0 : 1.0));
+    t -= base * dot(base, t);
+    float l = length(t);
+    if (!(l > 1e-6)) return base;
+    t /= l;
+    vec3 bt = cross(base, t) * (w < 0.0 ? -1.0 : 1.0);
+    vec3 c = 2.0 * sample_texture(tex, uv) - 1.0;
+    vec3 n = scale * (c.x * t + c.y * bt) + c.z * base;
+    float ln = length(n);
+    return ln > 0.0 ? n / ln : base;
 }
 
 #endif

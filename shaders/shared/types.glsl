@@ -131,6 +131,7 @@ struct GpuMaterial {
     vec3 emission; uint texture;
     vec3 specular_color; float specular;
     float metallic; float roughness; uint emissive_texture; uint metallic_roughness_texture;
+    uint normal_texture; float normal_scale; uint pad0; uint pad1;
 };
 
 struct GpuTexture {

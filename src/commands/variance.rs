@@ -94,10 +94,13 @@ fn check(a: &VarianceRequest) -> Result<()> {
 /// The scene's exact terms need a BRDF the CPU evaluates: base colour / π.
 fn check_scene(scene: &Scene) -> Result<()> {
     if let Some(m) = scene.materials.iter().find(|m| {
-        !m.is_lambertian() || m.base_color_texture.is_some() || m.emissive_texture.is_some()
+        !m.is_lambertian()
+            || m.base_color_texture.is_some()
+            || m.emissive_texture.is_some()
+            || m.normal_texture.is_some()
     }) {
         bail!(
-            "{}: material '{}' is glossy or textured; `variance` evaluates untextured Lambertian materials only (give it KHR_materials_specular specularFactor 0, metallicFactor 0 and no baseColorTexture or emissiveTexture)",
+            "{}: material '{}' is glossy or textured; `variance` evaluates untextured Lambertian materials only (give it KHR_materials_specular specularFactor 0, metallicFactor 0 and no baseColorTexture, emissiveTexture or normalTexture)",
             scene.source,
             m.name
         );

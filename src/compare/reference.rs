@@ -120,6 +120,15 @@ fn hash_content(h: &mut Fnv, scene: &Scene) {
             h.bytes(b"emissive");
             h.bytes(&t.to_le_bytes());
         }
+        if let Some(t) = m.metallic_roughness_texture {
+            h.bytes(b"metallic-roughness");
+            h.bytes(&t.to_le_bytes());
+        }
+        if let Some(t) = m.normal_texture {
+            h.bytes(b"normal");
+            h.bytes(&t.to_le_bytes());
+            h.bytes(&m.normal_scale.to_le_bytes());
+        }
         // glTF's BRDF parameters only for non-Lambertian materials, so Lambertian scenes keep
         // the keys they had before there were other materials.
         if !m.is_lambertian() {
@@ -130,6 +139,16 @@ fn hash_content(h: &mut Fnv, scene: &Scene) {
     }
     h.bytes(bytemuck::cast_slice(&lights::gpu_lights(scene)));
     // Only where there are any, so scenes without keep their keys.
+    if !scene.triangle_tangents.is_empty() {
+        h.bytes(b"tangents");
+        // As the kernels read them: packed, and the signs.
+        for t in &scene.triangle_tangents {
+            for v in t {
+                h.bytes(&crate::render::pack_normal(v.truncate()).to_le_bytes());
+                h.bytes(&[(v.w < 0.0) as u8]);
+            }
+        }
+    }
     if !scene.triangle_normals.is_empty() {
         h.bytes(b"normals");
         // As the kernels read them (packed): normals that pack the same render the same
@@ -153,6 +172,9 @@ fn hash_content(h: &mut Fnv, scene: &Scene) {
         h.bytes(bytemuck::cast_slice(&t.words));
         if t.wide || t.nearest {
             h.bytes(&[t.wide as u8, t.nearest as u8]);
+        }
+        if t.linear {
+            h.bytes(b"linear");
         }
     }
     if !scene.textures.is_empty() {

@@ -177,6 +177,10 @@ impl GpuScene {
                 roughness: m.roughness,
                 emissive_texture: m.emissive_texture.unwrap_or(u32::MAX),
                 metallic_roughness_texture: m.metallic_roughness_texture.unwrap_or(u32::MAX),
+                normal_texture: m.normal_texture.unwrap_or(u32::MAX),
+                normal_scale: m.normal_scale,
+                pad0: 0,
+                pad1: 0,
             })
             .collect();
         // Texture table and texels; one dummy entry each when there are none (a buffer is
@@ -223,10 +227,12 @@ impl GpuScene {
         let light_tree_seconds = t0.elapsed().as_secs_f64();
         let kernel_flags = kernel_flags(&materials)
             | directional_flags(scene)?
-            | if scene.triangle_normals.is_empty() {
-                0
-            } else {
+            | if !scene.triangle_tangents.is_empty() {
+                SCENE_SMOOTH | SCENE_NORMAL_MAPPED
+            } else if !scene.triangle_normals.is_empty() {
                 SCENE_SMOOTH
+            } else {
+                0
             };
         // The directional lights after the sampled ones (render.comp reads them from
         // light_count on; no sampler sees them).
@@ -281,14 +287,21 @@ pub const SCENE_SMOOTH: u32 = 8;
 /// emitters a ray hits compiled in).
 pub const SCENE_EMISSIVE_TEXTURED: u32 = 4;
 
+/// `render.comp` SCENE_FLAGS: normal textures (`Scene::triangle_tangents`: each triangle's
+/// tangent frames after its normals, TRI_ATTR_STRIDE 13; always with [`SCENE_SMOOTH`]).
+pub const SCENE_NORMAL_MAPPED: u32 = 16;
+
 /// Words a triangle's attributes take in `TriUv` (render.comp TRI_ATTR_STRIDE): its
-/// corners' texture coordinates (6 floats, as bits), and in a smooth scene their normals
-/// (3 octahedral words, [`pack_normal`]).
+/// corners' texture coordinates (6 floats, as bits), in a smooth scene their normals
+/// (3 octahedral words, [`pack_normal`]), and in a normal-mapped one their tangents (3
+/// octahedral words) and the tangents' signs (bit k set: corner k's w is −1).
 pub fn tri_attr_stride(scene: &Scene) -> usize {
-    if scene.triangle_normals.is_empty() {
-        6
-    } else {
+    if !scene.triangle_tangents.is_empty() {
+        13
+    } else if !scene.triangle_normals.is_empty() {
         9
+    } else {
+        6
     }
 }
 
@@ -306,8 +319,13 @@ fn triangle_attributes(scene: &Scene) -> Vec<u32> {
         out.extend(uv.iter().flatten().map(|f| f.to_bits()));
         if let Some(ns) = scene.triangle_normals.get(i) {
             out.extend(ns.iter().map(|&v| pack_normal(v)));
-        } else if stride == 9 {
+        } else if stride >= 9 {
             out.extend([0; 3]);
+        }
+        if stride == 13 {
+            let t = scene.triangle_tangents[i];
+            out.extend(t.iter().map(|v| pack_normal(v.truncate())));
+            out.push((0..3).map(|k| ((t[k].w < 0.0) as u32) << k).sum());
         }
     }
     out

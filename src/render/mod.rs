@@ -32,7 +32,7 @@ pub use cuts::{
 };
 pub use gpu_scene::{
     check_fits, hit_epsilon, pack_normal, ray_epsilon, surface_epsilon, GpuScene,
-    SCENE_EMISSIVE_TEXTURED, SCENE_GLOSSY, SCENE_SMOOTH, SCENE_TEXTURED,
+    SCENE_EMISSIVE_TEXTURED, SCENE_GLOSSY, SCENE_NORMAL_MAPPED, SCENE_SMOOTH, SCENE_TEXTURED,
 };
 pub use learned_state::{touched_list, HostReduction};
 pub use passes::{FOLD_BINDINGS, RENDER_BINDINGS};

@@ -56,7 +56,8 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
                 .and_then(|m| {
                     // As gltf_mesh::coordinate_map: an emissive texture's set only where the
                     // material emits (a texture under a zero factor is never read), a
-                    // metallic-roughness texture's only under a GGX layer.
+                    // metallic-roughness texture's only under a GGX layer, else a normal
+                    // texture's.
                     let strength = (m.extensions.as_ref())
                         .and_then(|e| e.emissive_strength.as_ref())
                         .map_or(1.0, |s| s.emissive_strength.0);
@@ -66,16 +67,26 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
                         .and_then(|e| e.specular.as_ref())
                         .map_or(1.0, |s| s.specular_factor.0);
                     let glossy = !(pbr.metallic_factor.0 == 0.0 && specular == 0.0);
+                    // KHR_texture_transform's texCoord overrides the textureInfo's.
+                    let set = |t: &gltf::json::texture::Info| {
+                        (t.extensions.as_ref())
+                            .and_then(|e| e.texture_transform.as_ref())
+                            .and_then(|tt| tt.tex_coord)
+                            .unwrap_or(t.tex_coord)
+                    };
+                    // A normal texture's extension is JSON to the crate (UvMap::of_normal).
+                    let normal_set = |n: &gltf::json::material::NormalTexture| {
+                        (n.extensions.as_ref())
+                            .and_then(|e| e.others.get("KHR_texture_transform"))
+                            .and_then(|tt| tt.get("texCoord"))
+                            .and_then(|c| c.as_u64())
+                            .map_or(n.tex_coord, |c| c as u32)
+                    };
                     (pbr.base_color_texture.as_ref())
                         .or(m.emissive_texture.as_ref().filter(|_| emits))
                         .or(pbr.metallic_roughness_texture.as_ref().filter(|_| glossy))
-                })
-                // KHR_texture_transform's texCoord overrides the textureInfo's.
-                .map(|t| {
-                    (t.extensions.as_ref())
-                        .and_then(|e| e.texture_transform.as_ref())
-                        .and_then(|tt| tt.tex_coord)
-                        .unwrap_or(t.tex_coord)
+                        .map(set)
+                        .or(m.normal_texture.as_ref().map(normal_set))
                 });
             let mut used: Vec<(String, usize, bool)> = prim
                 .attributes

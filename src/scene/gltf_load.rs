@@ -294,6 +294,7 @@ impl Document {
             textures: Vec::new(),
             triangle_uv: Vec::new(),
             triangle_normals: Vec::new(),
+            triangle_tangents: Vec::new(),
             source: name.to_string(),
             grid_box: None,
             camera_aspect: None,
@@ -356,6 +357,7 @@ impl Document {
             triangles,
             triangle_uv,
             triangle_normals,
+            triangle_tangents,
             triangle_material,
             skipped_primitives,
             lost_to_position,
@@ -416,6 +418,11 @@ impl Document {
         if !triangle_normals.is_empty() {
             scene.triangle_normals = (local.kept.iter())
                 .map(|&i| triangle_normals.get(i).copied().unwrap_or([Vec3::ZERO; 3]))
+                .collect();
+        }
+        if !triangle_tangents.is_empty() {
+            scene.triangle_tangents = (local.kept.iter())
+                .map(|&i| (triangle_tangents.get(i).copied()).unwrap_or([glam::Vec4::ZERO; 3]))
                 .collect();
         }
         scene.triangle_material = local

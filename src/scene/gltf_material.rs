@@ -1,6 +1,6 @@
 //! glTF materials → ours: metallic-roughness factors, KHR_materials_specular,
-//! KHR_materials_emissive_strength, the base-colour, emissive and metallic-roughness textures;
-//! what is ignored is said once.
+//! KHR_materials_emissive_strength, the base-colour, emissive, metallic-roughness and normal
+//! textures; what is ignored is said once.
 
 use std::collections::HashMap;
 
@@ -107,21 +107,12 @@ impl<'a> MaterialTable<'a> {
                  specularColorFactor {specular_color}; use a factor in [0, 1] and colours ≥ 0"
             );
         }
-        let ignored = [
-            (m.normal_texture().is_some(), "a normal texture"),
-            (
-                m.specular().is_some_and(|sp| {
-                    sp.specular_texture().is_some() || sp.specular_color_texture().is_some()
-                }),
-                "a specular texture",
-            ),
-        ];
-        for (present, what) in ignored {
-            if present {
-                warn(format!(
-                    "'{file}': {label} has {what}; lightlearn uses the material's factors only"
-                ));
-            }
+        if m.specular().is_some_and(|sp| {
+            sp.specular_texture().is_some() || sp.specular_color_texture().is_some()
+        }) {
+            warn(format!(
+                "'{file}': {label} has a specular texture; lightlearn uses the material's factors only"
+            ));
         }
         // glTF: roughness = roughnessFactor × the texture's green, metallic = metallicFactor ×
         // its blue, both linear. Read only where the BRDF has a GGX layer (a Lambertian
@@ -141,14 +132,31 @@ impl<'a> MaterialTable<'a> {
             }
             _ => None,
         };
+        // glTF normalTexture: a tangent-space normal (linear), on the triangles' one
+        // coordinate mapping.
+        let normal_info = match m.normal_texture() {
+            Some(n) => match super::gltf_mesh::UvMap::of_normal(&n) {
+                Err(why) => {
+                    warn(format!("'{file}': {label}: its normal texture: {why}; it is shaded without it (fix the extension's values)"));
+                    None
+                }
+                Ok(map) if super::gltf_mesh::coordinate_map(m).is_some_and(|c| c != map) => {
+                    warn(format!(
+                        "'{file}': {label}: its normal texture reads another texture coordinate set or KHR_texture_transform than its other textures; lightlearn maps a triangle's coordinates once, so it is shaded without it (give the textures one set and transform)"
+                    ));
+                    None
+                }
+                Ok(_) => Some(n),
+            },
+            None => None,
+        };
         // One texture, decoded once for every material naming it with the same sampler and
         // as the same kind (colour or data).
         let mut load = |warn: &mut dyn FnMut(String),
-                        info: gltf::texture::Info,
+                        t: gltf::Texture,
                         what: &str,
                         fallback: &str,
                         linear: bool| {
-            let t = info.texture();
             let key = (texture_key(&t), linear);
             if let Some(&known) = texture_index.get(&key) {
                 // One that could not be used was said for its first role only: an image
@@ -183,8 +191,15 @@ impl<'a> MaterialTable<'a> {
         // The set the file's base-colour texture names, loaded or not: the mesh reads (and the
         // loader checks) that set whenever there is one.
         let base_map = base_info.as_ref().map(super::gltf_mesh::UvMap::of);
-        let base_color_texture =
-            base_info.and_then(|info| load(warn, info, "base-colour", "baseColorFactor", false));
+        let base_color_texture = base_info.and_then(|info| {
+            load(
+                warn,
+                info.texture(),
+                "base-colour",
+                "baseColorFactor",
+                false,
+            )
+        });
         // Only an emitting material's texture is read (glTF: emission = factor × texture, so
         // with a zero factor the texture changes nothing). A triangle holds one coordinate set,
         // so an emissive texture on another set than the base colour's is left out, said.
@@ -203,7 +218,7 @@ impl<'a> MaterialTable<'a> {
                     ));
                     None
                 } else {
-                    load(warn, info, "emissive", "emissiveFactor", false)
+                    load(warn, info.texture(), "emissive", "emissiveFactor", false)
                 }
             }
             _ => None,
@@ -211,9 +226,22 @@ impl<'a> MaterialTable<'a> {
         let metallic_roughness_texture = metallic_roughness_info.and_then(|info| {
             load(
                 warn,
-                info,
+                info.texture(),
                 "metallic-roughness",
                 "metallicFactor and roughnessFactor",
+                true,
+            )
+        });
+        let normal_scale = normal_info.as_ref().map_or(1.0, |n| n.scale());
+        if !normal_scale.is_finite() {
+            bail!("'{file}': {label} has normalTexture.scale {normal_scale}; give a finite number (1: as the texture is)");
+        }
+        let normal_texture = normal_info.and_then(|n| {
+            load(
+                warn,
+                n.texture(),
+                "normal",
+                "the surface's own normals",
                 true,
             )
         });
@@ -230,6 +258,8 @@ impl<'a> MaterialTable<'a> {
             base_color_texture,
             emissive_texture,
             metallic_roughness_texture,
+            normal_texture,
+            normal_scale,
         });
         index.insert(m.index(), slot);
         Ok(slot)

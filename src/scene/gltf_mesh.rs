@@ -3,7 +3,7 @@
 //! primitive, and triangles that lose their area are counted for the loader's messages.
 
 use anyhow::{anyhow, bail, Result};
-use glam::{DMat4, DVec3, Vec3};
+use glam::{DMat4, DVec3, DVec4, Vec3, Vec4};
 use gltf::mesh::Mode;
 
 use super::gltf_material::MaterialTable;
@@ -22,6 +22,9 @@ pub(super) struct Meshes {
     /// Shading normals (world space, unit), kept from the first smooth triangle on (earlier
     /// ones get zeros: flat), so flat-shaded scenes never hold them.
     pub triangle_normals: Vec<[Vec3; 3]>,
+    /// Tangent frames of the triangles of normal-mapped materials, kept from the first one on
+    /// (others get zeros), so scenes without normal textures never hold them.
+    pub triangle_tangents: Vec<[Vec4; 3]>,
     pub triangle_material: Vec<u32>,
     /// Point and line primitives, skipped with a warning.
     pub skipped_primitives: usize,
@@ -117,7 +120,8 @@ impl Meshes {
             let material = &table.materials[mat as usize];
             let map = (material.base_color_texture.is_some()
                 || material.emissive_texture.is_some()
-                || material.metallic_roughness_texture.is_some())
+                || material.metallic_roughness_texture.is_some()
+                || material.normal_texture.is_some())
             .then(|| coordinate_map(&prim.material()))
             .flatten();
             let uvs: Vec<[f32; 2]> = match map {
@@ -163,6 +167,21 @@ impl Meshes {
             } else {
                 Vec::new()
             };
+            // A normal texture's frames: the file's TANGENT, else computed from the
+            // coordinates it reads (glTF asks for MikkTSpace's; ours are its core, below).
+            let normal_mapped = material.normal_texture.is_some() && regular && !uvs.is_empty();
+            let tangents = if normal_mapped {
+                match file_tangents(&prim, &reader, world, positions.len(), buffers) {
+                    Ok(Some(t)) => Tangents::File(t),
+                    Ok(None) => Tangents::Computed(UvFrames::new(&world_pos, &uvs, &tris)),
+                    Err(why) => {
+                        warn(format!("'{name}': {mesh_label} has tangents (TANGENT) lightlearn cannot read ({why}); they are computed from its texture coordinates"));
+                        Tangents::Computed(UvFrames::new(&world_pos, &uvs, &tris))
+                    }
+                }
+            } else {
+                Tangents::None
+            };
             for [a, b, c] in tris {
                 let get = |i: u32| {
                     world_pos.get(i as usize).copied().ok_or_else(|| {
@@ -199,12 +218,30 @@ impl Meshes {
                     });
                 }
                 let corners = if flip { [a, c, b] } else { [a, b, c] };
-                if let Some(n) = smooth_corners(&normals, corners, &tri) {
+                // A normal-mapped triangle keeps its vertex normals, flat or not: they are its
+                // frames' normals, as the tangents were made for them.
+                let kept = smooth_corners(&normals, corners, &tri).or_else(|| {
+                    normal_mapped
+                        .then(|| usable_corners(&normals, corners))
+                        .flatten()
+                });
+                if let Some(n) = kept {
                     self.triangle_normals
                         .resize(self.triangles.len() - 1, [Vec3::ZERO; 3]);
                     self.triangle_normals.push(n);
                 } else if !self.triangle_normals.is_empty() {
                     self.triangle_normals.push([Vec3::ZERO; 3]);
+                }
+                // The frame's normal at each corner: the kept vertex normal, else the
+                // triangle's own (the kernel's for a flat triangle: its winding's).
+                let face = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
+                let base = kept.map_or([face; 3], |n| n.map(|v| v.as_dvec3()));
+                if let Some(t) = tangents.corners([a, b, c], base, flip) {
+                    self.triangle_tangents
+                        .resize(self.triangles.len() - 1, [Vec4::ZERO; 3]);
+                    self.triangle_tangents.push(t);
+                } else if !self.triangle_tangents.is_empty() {
+                    self.triangle_tangents.push([Vec4::ZERO; 3]);
                 }
                 self.triangle_material.push(mat);
                 if self.triangles.len() > MAX_TRIANGLES {
@@ -271,9 +308,38 @@ pub(super) struct UvMap {
 
 impl UvMap {
     pub fn of(info: &gltf::texture::Info) -> UvMap {
-        let Some(t) = info.texture_transform() else {
+        let t = info.texture_transform();
+        UvMap::from_parts(
+            info.tex_coord(),
+            t.map(|t| (t.offset(), t.rotation(), t.scale(), t.tex_coord())),
+        )
+    }
+
+    /// A normal texture's mapping: the gltf crate gives its KHR_texture_transform only as
+    /// JSON, read here as the extension's schema reads it (a malformed one is an error,
+    /// as the crate's parser makes it for the other textures).
+    pub fn of_normal(info: &gltf::material::NormalTexture) -> Result<UvMap, String> {
+        let t = match info.extension_value("KHR_texture_transform") {
+            None => None,
+            Some(v) => Some(
+                serde_json::from_value::<gltf::json::extensions::texture::TextureTransform>(
+                    v.clone(),
+                )
+                .map_err(|e| format!("its KHR_texture_transform is malformed ({e})"))?,
+            ),
+        };
+        Ok(UvMap::from_parts(
+            info.tex_coord(),
+            t.map(|t| (t.offset.0, t.rotation.0, t.scale.0, t.tex_coord)),
+        ))
+    }
+
+    /// The textureInfo's set, and KHR_texture_transform's (offset, rotation, scale, texCoord)
+    /// where it is given.
+    fn from_parts(set: u32, transform: Option<([f32; 2], f32, [f32; 2], Option<u32>)>) -> UvMap {
+        let Some(([ox, oy], r, [sx, sy], tex_coord)) = transform else {
             return UvMap {
-                set: info.tex_coord(),
+                set,
                 m: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
             };
         };
@@ -281,10 +347,9 @@ impl UvMap {
         // in the sense three.js's `setUvTransform` turns (u' = cos·u + sin·v), which the
         // extension README's GLSL listing, read column-major, turns the other way; not
         // checked here against the TextureTransformTest model.
-        let ([ox, oy], r, [sx, sy]) = (t.offset(), t.rotation(), t.scale());
         let (sin, cos) = r.sin_cos();
         UvMap {
-            set: t.tex_coord().unwrap_or(info.tex_coord()),
+            set: tex_coord.unwrap_or(set),
             m: [cos * sx, sin * sy, ox, -sin * sx, cos * sy, oy],
         }
     }
@@ -297,7 +362,7 @@ impl UvMap {
 
 /// The coordinate mapping a material's textures read: its base-colour texture's, else (an
 /// emitting material's) its emissive texture's, else (a material with a GGX layer) its
-/// metallic-roughness texture's.
+/// metallic-roughness texture's, else its normal texture's.
 pub(super) fn coordinate_map(m: &gltf::Material) -> Option<UvMap> {
     // As gltf_material decides it: emissiveFactor × emissiveStrength (both refused when
     // negative); a GGX layer unless metallicFactor and specularFactor are both 0.
@@ -310,6 +375,7 @@ pub(super) fn coordinate_map(m: &gltf::Material) -> Option<UvMap> {
         .or_else(|| m.emissive_texture().filter(|_| emits))
         .or_else(|| pbr.metallic_roughness_texture().filter(|_| glossy))
         .map(|info| UvMap::of(&info))
+        .or_else(|| m.normal_texture().and_then(|n| UvMap::of_normal(&n).ok()))
 }
 
 /// Whether the gltf reader can read accessor `a` without panicking or exhausting memory: its
@@ -339,6 +405,168 @@ fn smooth_corners(normals: &[DVec3], corners: [u32; 3], tri: &[DVec3; 3]) -> Opt
     let face = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
     let lean = face != DVec3::ZERO && n.iter().any(|v| v.dot(face).abs() < COS_10);
     (differ || lean).then(|| n.map(|v| v.as_vec3()))
+}
+
+/// A triangle's corner normals as they are (unit, finite), where all three are usable.
+fn usable_corners(normals: &[DVec3], corners: [u32; 3]) -> Option<[Vec3; 3]> {
+    let n = corners.map(|i| normals.get(i as usize).copied().unwrap_or(DVec3::ZERO));
+    n.iter()
+        .all(|v| v.is_finite() && v.length_squared() >= 0.5)
+        .then(|| n.map(|v| v.as_vec3()))
+}
+
+/// A primitive's TANGENT in world space (xyz by the node's transform, unit; w ±1, negated by
+/// a mirroring transform, which turns cross(normal, tangent) around): None where it has none.
+fn file_tangents<'a, 's, F>(
+    prim: &gltf::Primitive,
+    reader: &gltf::mesh::Reader<'a, 's, F>,
+    world: DMat4,
+    vertices: usize,
+    buffers: &[Vec<u8>],
+) -> std::result::Result<Option<Vec<DVec4>>, String>
+where
+    F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
+{
+    use gltf::accessor::{DataType, Dimensions};
+    let Some(a) = prim.get(&gltf::Semantic::Tangents) else {
+        return Ok(None);
+    };
+    if a.dimensions() != Dimensions::Vec4 || a.data_type() != DataType::F32 || a.normalized() {
+        return Err(format!(
+            "{:?} {:?}{}, not float VEC4",
+            a.data_type(),
+            a.dimensions(),
+            if a.normalized() { " normalized" } else { "" }
+        ));
+    }
+    if a.count() != vertices {
+        return Err(format!("{} tangents for {vertices} vertices", a.count()));
+    }
+    if !readable(&a, buffers) {
+        return Err("its accessor's stride or sparse part is malformed".to_string());
+    }
+    let Some(t) = reader.read_tangents() else {
+        return Err("its buffer view lies outside the buffer".to_string());
+    };
+    let m = glam::DMat3::from_mat4(world);
+    let mirror = if world.determinant() < 0.0 { -1.0 } else { 1.0 };
+    Ok(Some(
+        t.map(|v| {
+            let d =
+                (m * glam::DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)).normalize_or_zero();
+            let w = if v[3] < 0.0 { -1.0 } else { 1.0 };
+            d.extend(w * mirror)
+        })
+        .collect(),
+    ))
+}
+
+/// A normal texture's frames for one primitive.
+enum Tangents {
+    None,
+    File(Vec<DVec4>),
+    Computed(UvFrames),
+}
+
+impl Tangents {
+    /// The frames at a triangle's corners (file vertices `v`; stored in the order the
+    /// triangle is, reversed after `flip`): each tangent made orthogonal to its corner's
+    /// normal `base`, and its sign; None where there is no frame or one is degenerate.
+    fn corners(&self, v: [u32; 3], base: [DVec3; 3], flip: bool) -> Option<[Vec4; 3]> {
+        let order = if flip { [0, 2, 1] } else { [0, 1, 2] };
+        let mut out = [Vec4::ZERO; 3];
+        for (k, &c) in order.iter().enumerate() {
+            let (i, n) = (v[c] as usize, base[k]);
+            let (t, w) = match self {
+                Tangents::None => return None,
+                Tangents::File(t) => {
+                    let t = t.get(i)?;
+                    (t.truncate(), t.w)
+                }
+                Tangents::Computed(f) => {
+                    let h = f.handedness(v)?;
+                    let (t, b) = (f.t.get(i)?[h], f.b.get(i)?[h]);
+                    // The bitangent runs up the image (glTF: +Y is up; v grows downwards).
+                    let w = if n.cross(t).dot(-b) < 0.0 { -1.0 } else { 1.0 };
+                    (t, w)
+                }
+            };
+            let t = (t - n * n.dot(t)).normalize_or_zero();
+            if t == DVec3::ZERO || !t.is_finite() {
+                return None;
+            }
+            out[k] = t.as_vec3().extend(w as f32);
+        }
+        Some(out)
+    }
+}
+
+/// Tangents (∂p/∂u) and bitangents (∂p/∂v) of a primitive's vertices, summed over the
+/// triangles around each, weighted by area, apart for triangles of either handedness (a
+/// mirrored half of a model shares its seam's vertices with the other half, and their sum
+/// would cancel: MikkTSpace splits them the same way).
+struct UvFrames {
+    t: Vec<[DVec3; 2]>,
+    b: Vec<[DVec3; 2]>,
+    pos: Vec<DVec3>,
+    uv: Vec<[f64; 2]>,
+}
+
+impl UvFrames {
+    fn new(pos: &[DVec3], uvs: &[[f32; 2]], tris: &[[u32; 3]]) -> UvFrames {
+        let mut f = UvFrames {
+            t: vec![[DVec3::ZERO; 2]; pos.len()],
+            b: vec![[DVec3::ZERO; 2]; pos.len()],
+            pos: pos.to_vec(),
+            uv: uvs.iter().map(|c| [c[0] as f64, c[1] as f64]).collect(),
+        };
+        for &v in tris {
+            let (Some((t, b)), Some(h)) = (f.face(v), f.handedness(v)) else {
+                continue;
+            };
+            let area = f.area(v);
+            for i in v {
+                f.t[i as usize][h] += t.normalize_or_zero() * area;
+                f.b[i as usize][h] += b.normalize_or_zero() * area;
+            }
+        }
+        f
+    }
+
+    fn corner(&self, i: u32) -> Option<(DVec3, [f64; 2])> {
+        Some((*self.pos.get(i as usize)?, *self.uv.get(i as usize)?))
+    }
+
+    fn area(&self, v: [u32; 3]) -> f64 {
+        match v.map(|i| self.corner(i)) {
+            [Some(a), Some(b), Some(c)] => 0.5 * (b.0 - a.0).cross(c.0 - a.0).length(),
+            _ => 0.0,
+        }
+    }
+
+    /// ∂p/∂u and ∂p/∂v over a triangle, where its coordinates span an area.
+    fn face(&self, v: [u32; 3]) -> Option<(DVec3, DVec3)> {
+        let [a, b, c] = v.map(|i| self.corner(i));
+        let (a, b, c) = (a?, b?, c?);
+        let (e1, e2) = (b.0 - a.0, c.0 - a.0);
+        let (du1, dv1) = (b.1[0] - a.1[0], b.1[1] - a.1[1]);
+        let (du2, dv2) = (c.1[0] - a.1[0], c.1[1] - a.1[1]);
+        let r = du1 * dv2 - du2 * dv1;
+        if r == 0.0 || !r.is_finite() {
+            return None;
+        }
+        let t = (e1 * dv2 - e2 * dv1) / r;
+        let b = (e2 * du1 - e1 * du2) / r;
+        (t.is_finite() && b.is_finite()).then_some((t, b))
+    }
+
+    /// 0 or 1: which side of its winding's normal the triangle's (∂p/∂u, −∂p/∂v) frame turns.
+    fn handedness(&self, v: [u32; 3]) -> Option<usize> {
+        let (t, b) = self.face(v)?;
+        let [a, p, c] = v.map(|i| self.corner(i).map(|x| x.0));
+        let n = (p? - a?).cross(c? - a?);
+        Some((n.cross(t).dot(-b) < 0.0) as usize)
+    }
 }
 
 /// Triangles of a primitive as index triples.

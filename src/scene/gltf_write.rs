@@ -142,6 +142,26 @@ impl GltfBuilder {
             json!({"index": texture});
     }
 
+    /// Gives a material a normal texture (linear, tangent space) of `scale`.
+    pub fn set_normal_texture(&mut self, material: usize, texture: usize, scale: f32) {
+        self.materials[material]["normalTexture"] = json!({"index": texture, "scale": scale});
+    }
+
+    /// Gives the last mesh's primitive a VEC4 float attribute (e.g. TANGENT), one a vertex.
+    pub fn attribute_on_last_mesh(&mut self, semantic: &str, values: &[glam::Vec4]) {
+        let bytes: Vec<u8> = (values.iter())
+            .flat_map(|v| v.to_array())
+            .flat_map(f32::to_le_bytes)
+            .collect();
+        let v = self.push_view(&bytes, Some(34962));
+        self.accessors.push(json!({
+            "bufferView": v, "componentType": 5126, "count": values.len(), "type": "VEC4"
+        }));
+        let a = self.accessors.len() - 1;
+        let mesh = self.meshes.last_mut().expect("a mesh");
+        mesh["primitives"][0]["attributes"][semantic] = json!(a);
+    }
+
     fn push_view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
         while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);

@@ -58,6 +58,12 @@ pub struct Material {
     /// `metallicRoughnessTexture`, linear: its green channel multiplies `roughness`, its blue
     /// `metallic`). It reads the triangles' one coordinate set, as the emissive texture does.
     pub metallic_roughness_texture: Option<u32>,
+    /// Index into `Scene::textures` of the normal texture (glTF `normalTexture`, linear: a
+    /// tangent-space normal, +X along the tangent, +Y along cross(normal, tangent) × its
+    /// sign), on the triangles' one coordinate set; its frames are `Scene::triangle_tangents`.
+    pub normal_texture: Option<u32>,
+    /// glTF `normalTexture.scale`: the texture's X and Y are multiplied by it.
+    pub normal_scale: f32,
 }
 
 impl Material {
@@ -272,6 +278,12 @@ pub struct Scene {
     /// order as `triangles`), interpolated across it where they differ from the triangle's own
     /// (smooth shading); zeros for a flat triangle. Empty when no triangle is smooth.
     pub triangle_normals: Vec<[Vec3; 3]>,
+    /// Tangents of each triangle's three corners where its material has a normal texture
+    /// (xyz unit, world space; w ±1, the bitangent's sign: cross(normal, tangent) × w), the
+    /// file's TANGENT or computed from the texture coordinates; zeros where there is none.
+    /// Such triangles keep their vertex normals in `triangle_normals` (the frame's normal).
+    /// Empty when no material has a normal texture.
+    pub triangle_tangents: Vec<[glam::Vec4; 3]>,
     /// Where the scene came from (file path or generator), for reports.
     pub source: String,
     /// The box the region grid covers when it is not the scene's own bounds: an animation's
@@ -343,6 +355,7 @@ impl Scene {
                 m.base_color_texture,
                 m.emissive_texture,
                 m.metallic_roughness_texture,
+                m.normal_texture,
             ]
             .into_iter()
             .flatten()
@@ -374,6 +387,26 @@ impl Scene {
             anyhow::bail!(
                 "triangle {t} has normals {:?}; give three unit normals (or three zeros: flat)",
                 self.triangle_normals[t]
+            );
+        }
+        if !(self.triangle_tangents.is_empty() || self.triangle_tangents.len() == n) {
+            anyhow::bail!(
+                "the scene has {n} triangles but {} triangle tangents; give one a triangle (none: zeros), or none",
+                self.triangle_tangents.len()
+            );
+        }
+        // All three unit with a sign of ±1, or all zero (no frame: the kernel tests the
+        // first corner alone).
+        let frame = |c: &[glam::Vec4; 3]| {
+            c.iter().all(|v| *v == glam::Vec4::ZERO)
+                || c.iter().all(|v| {
+                    v.is_finite() && (v.truncate().length() - 1.0).abs() < 1e-3 && v.w.abs() == 1.0
+                })
+        };
+        if let Some(t) = self.triangle_tangents.iter().position(|c| !frame(c)) {
+            anyhow::bail!(
+                "triangle {t} has tangents {:?}; give three unit tangents with w ±1 (or three zeros: none)",
+                self.triangle_tangents[t]
             );
         }
         Ok(())
