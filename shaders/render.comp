@@ -67,6 +67,9 @@ const bool SCENE_SMOOTH = (SCENE_FLAGS & 8u) != 0u;
 // Normal textures: tangent frames after the normals (texture.glsl mapped_normal); always with
 // SCENE_SMOOTH.
 const bool SCENE_NORMAL_MAPPED = (SCENE_FLAGS & 16u) != 0u;
+// 32: a material of alphaMode MASK: the alpha test at every triangle a ray meets
+// (alpha.glsl).
+const bool SCENE_ALPHA_MASK = (SCENE_FLAGS & 32u) != 0u;
 #define TRI_ATTR_STRIDE (SCENE_NORMAL_MAPPED ? 13u : SCENE_SMOOTH ? 9u : 6u)
 // --max-depth 1 (RenderSettings::max_depth is fixed for a session): direct light alone, the
 // BSDF sampling and MIS code compiled out (lavapipe runs the code after a uniform `break`
@@ -188,14 +191,15 @@ void mark_touched(uint slot) {
 // from a spread that a split would not sort out.
 layout(std430, set = 1, binding = 8) buffer SideCounts { uint side_counts[]; };
 
-#include "bvh.glsl"
 #include "scene_texels.glsl"
+#include "texture.glsl"
+#include "alpha.glsl"
+#include "bvh.glsl"
 #include "lights.glsl"
 #include "light_tree.glsl"
 #include "regions.glsl"
 #define HAS_ALIAS_TABLE
 #include "light_pmf.glsl"
-#include "texture.glsl"
 
 // Random-number dimensions of one pixel sample: the jitter, then DIMS_PER_VERTEX per vertex
 // (the first vertex keeps the dimensions the direct-light kernel always used).

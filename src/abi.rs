@@ -260,12 +260,15 @@ pub struct FoldPush {
 }
 
 pub const MATERIAL_TWO_SIDED: u32 = 1;
+/// `GpuMaterial::flags`: glTF alphaMode MASK (a surface where alpha < `alpha_cutoff` is not
+/// there: rays pass it).
+pub const MATERIAL_ALPHA_MASK: u32 = 2;
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
     pub base_color: [f32; 3],
-    /// `MATERIAL_TWO_SIDED` when emission leaves both faces.
+    /// `MATERIAL_TWO_SIDED` when emission leaves both faces, `MATERIAL_ALPHA_MASK`.
     pub flags: u32,
     pub emission: [f32; 3],
     /// Index of the base-colour texture in the texture table, `u32::MAX` for none.
@@ -285,8 +288,10 @@ pub struct GpuMaterial {
     /// scale of its X and Y.
     pub normal_texture: u32,
     pub normal_scale: f32,
-    pub pad0: u32,
-    pub pad1: u32,
+    /// With `MATERIAL_ALPHA_MASK`: glTF alphaCutoff, and baseColorFactor's alpha (× the
+    /// base-colour texture's alpha where there is one).
+    pub alpha_cutoff: f32,
+    pub alpha: f32,
 }
 
 /// One query of `bsdf.comp` (tests): a material seen from `v` at normal `n`, a direction `l`

@@ -41,8 +41,8 @@ fn material(
         metallic_roughness_texture: u32::MAX,
         normal_texture: u32::MAX,
         normal_scale: 1.0,
-        pad0: 0,
-        pad1: 0,
+        alpha_cutoff: 0.0,
+        alpha: 1.0,
     }
 }
 

@@ -642,10 +642,11 @@ fn features_rendered_without_are_warned_about() {
         "{}",
         stderr(&o)
     );
+    // BLEND is transparency, rendered opaque; MASK cutouts are read (tests/alpha_mask.rs).
     warned(
-        "cutout.gltf",
-        &|g| g["materials"][0]["alphaMode"] = "MASK".into(),
-        &["material 0", "alphaMode MASK", "opaque"],
+        "see-through.gltf",
+        &|g| g["materials"][0]["alphaMode"] = "BLEND".into(),
+        &["material 0", "alphaMode BLEND", "opaque"],
     );
     warned(
         "painted.gltf",

@@ -215,8 +215,8 @@ fn host_and_shader_structs_match() {
             metallic_roughness_texture,
             normal_texture,
             normal_scale,
-            pad0,
-            pad1
+            alpha_cutoff,
+            alpha
         }),
         rust_layout!(GpuTexture {
             offset,

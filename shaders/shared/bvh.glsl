@@ -2,7 +2,8 @@
 // `bvh_tri_texels` (usamplerBuffer: BvhNode[] and BvhTri[] as RGBA32UI texels,
 // src/gpu/buffer.rs Buffer::texels, which says why texels and not storage buffers). Same loop
 // as Bvh::traverse in src/accel/bvh.rs (here the leaves of all four children in one inner
-// loop, tested in the same order: the same hits).
+// loop, tested in the same order: the same hits), but for the alpha test a kernel may define
+// as BVH_ALPHA_TEST (render.comp: alpha.glsl's glTF cutouts).
 #ifndef BVH_GLSL
 #define BVH_GLSL
 
@@ -141,8 +142,15 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
             uint k = 0u;
             do {
                 uint i = k < na ? fa + k : (k < nab ? fb + (k - na) : (k < nabc ? fc + (k - nab) : fd + (k - nabc)));
+#ifdef BVH_ALPHA_TEST
+                // A cut-out point is no hit (alpha.glsl).
+                BvhTri tri = bvh_tri(i);
+                float t = intersect_tri(tri, o, d, tmin, best_t);
+                if (t >= 0.0 && BVH_ALPHA_TEST(tri, o + t * d)) { best_t = t; best = i; }
+#else
                 float t = intersect_tri(bvh_tri(i), o, d, tmin, best_t);
                 if (t >= 0.0) { best_t = t; best = i; }
+#endif
                 if (any_hit && best != NO_HIT) break;
                 ++k;
             } while (k < nabc + nd);

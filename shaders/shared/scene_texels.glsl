@@ -46,8 +46,8 @@ GpuMaterial material_at(uint i) {
     uvec4 e = texelFetch(material_texels, t + 4);
     m.normal_texture = e.x;
     m.normal_scale = uintBitsToFloat(e.y);
-    m.pad0 = e.z;
-    m.pad1 = e.w;
+    m.alpha_cutoff = uintBitsToFloat(e.z);
+    m.alpha = uintBitsToFloat(e.w);
     return m;
 }
 

@@ -30,22 +30,23 @@ uint wrap_index(int i, uint n, uint w) {
     return uint(clamp(floor_mod(i, m), 0, m - 1));
 }
 
-vec3 texel(GpuTexture t, int x, int y) {
+// A texel's colour (decoded) and alpha (linear in glTF, as stored).
+vec4 texel(GpuTexture t, int x, int y) {
     uint ix = wrap_index(x, t.width, t.wrap & 0xffu);
     uint iy = wrap_index(y, t.height, (t.wrap >> 8) & 0xffu);
     uint i = iy * t.width + ix;
-    vec3 c;
+    vec4 c;
     if ((t.wrap & TEXTURE_16_BIT) != 0u) {
-        c = vec3(unpackUnorm2x16(texels[t.offset + 2u * i]), unpackUnorm2x16(texels[t.offset + 2u * i + 1u]).x);
+        c = vec4(unpackUnorm2x16(texels[t.offset + 2u * i]), unpackUnorm2x16(texels[t.offset + 2u * i + 1u]));
     } else {
-        c = unpackUnorm4x8(texels[t.offset + i]).rgb;
+        c = unpackUnorm4x8(texels[t.offset + i]);
     }
     if ((t.wrap & TEXTURE_LINEAR) != 0u) return c;
-    return vec3(srgb_to_linear(c.r), srgb_to_linear(c.g), srgb_to_linear(c.b));
+    return vec4(srgb_to_linear(c.r), srgb_to_linear(c.g), srgb_to_linear(c.b), c.a);
 }
 
-// Bilinear between the four nearest texel centres (decoded to linear first).
-vec3 sample_texture(uint index, vec2 uv) {
+// Bilinear between the four nearest texel centres (decoded to linear first): colour and alpha.
+vec4 sample_texture4(uint index, vec2 uv) {
     GpuTexture t = textures[index];
     // Coordinates far outside [0, 1] are reduced first so that the integer texel
     // coordinates stay exact (repeat and mirror have periods 1 and 2).
@@ -63,6 +64,10 @@ vec3 sample_texture(uint index, vec2 uv) {
     int y = int(f.y);
     return mix(mix(texel(t, x, y), texel(t, x + 1, y), w.x),
                mix(texel(t, x, y + 1), texel(t, x + 1, y + 1), w.x), w.y);
+}
+
+vec3 sample_texture(uint index, vec2 uv) {
+    return sample_texture4(index, uv).rgb;
 }
 
 // Words of a triangle's attributes in tri_uv (src/render/gpu_scene.rs triangle_attributes):

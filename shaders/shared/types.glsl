@@ -123,6 +123,7 @@ struct LearnParams {
 };
 
 #define MATERIAL_TWO_SIDED 1u
+#define MATERIAL_ALPHA_MASK 2u
 
 #define NO_TEXTURE 0xffffffffu
 
@@ -131,7 +132,7 @@ struct GpuMaterial {
     vec3 emission; uint texture;
     vec3 specular_color; float specular;
     float metallic; float roughness; uint emissive_texture; uint metallic_roughness_texture;
-    uint normal_texture; float normal_scale; uint pad0; uint pad1;
+    uint normal_texture; float normal_scale; float alpha_cutoff; float alpha;
 };
 
 struct GpuTexture {

@@ -98,9 +98,10 @@ fn check_scene(scene: &Scene) -> Result<()> {
             || m.base_color_texture.is_some()
             || m.emissive_texture.is_some()
             || m.normal_texture.is_some()
+            || m.alpha_cutoff.is_some()
     }) {
         bail!(
-            "{}: material '{}' is glossy or textured; `variance` evaluates untextured Lambertian materials only (give it KHR_materials_specular specularFactor 0, metallicFactor 0 and no baseColorTexture, emissiveTexture or normalTexture)",
+            "{}: material '{}' is glossy or textured; `variance` evaluates untextured Lambertian materials only (give it KHR_materials_specular specularFactor 0, metallicFactor 0 and no baseColorTexture, emissiveTexture, normalTexture or alphaMode MASK)",
             scene.source,
             m.name
         );

@@ -124,6 +124,12 @@ fn hash_content(h: &mut Fnv, scene: &Scene) {
             h.bytes(b"metallic-roughness");
             h.bytes(&t.to_le_bytes());
         }
+        if let Some(c) = m.alpha_cutoff {
+            h.bytes(b"mask");
+            h.bytes(&c.to_le_bytes());
+            h.bytes(&m.alpha.to_le_bytes());
+            // The cutout reads the base-colour texture's alpha: which one, hashed below.
+        }
         if let Some(t) = m.normal_texture {
             h.bytes(b"normal");
             h.bytes(&t.to_le_bytes());

@@ -9,8 +9,8 @@ use glam::Vec3;
 
 use crate::accel::Bvh;
 use crate::gpu::layout::{
-    GpuLight, GpuMaterial, GpuTexture, LIGHT_DIRECTIONAL, MATERIAL_TWO_SIDED, TEXTURE_16_BIT,
-    TEXTURE_LINEAR, TEXTURE_NEAREST,
+    GpuLight, GpuMaterial, GpuTexture, LIGHT_DIRECTIONAL, MATERIAL_ALPHA_MASK, MATERIAL_TWO_SIDED,
+    TEXTURE_16_BIT, TEXTURE_LINEAR, TEXTURE_NEAREST,
 };
 use crate::gpu::{Buffer, Context};
 use crate::learning::stats_file;
@@ -168,6 +168,10 @@ impl GpuScene {
                     MATERIAL_TWO_SIDED
                 } else {
                     0
+                } | if m.alpha_cutoff.is_some() {
+                    MATERIAL_ALPHA_MASK
+                } else {
+                    0
                 },
                 emission: (m.emission * emission_scale).to_array(),
                 texture: m.base_color_texture.unwrap_or(u32::MAX),
@@ -179,8 +183,8 @@ impl GpuScene {
                 metallic_roughness_texture: m.metallic_roughness_texture.unwrap_or(u32::MAX),
                 normal_texture: m.normal_texture.unwrap_or(u32::MAX),
                 normal_scale: m.normal_scale,
-                pad0: 0,
-                pad1: 0,
+                alpha_cutoff: m.alpha_cutoff.unwrap_or(0.0),
+                alpha: m.alpha,
             })
             .collect();
         // Texture table and texels; one dummy entry each when there are none (a buffer is
@@ -287,6 +291,10 @@ pub const SCENE_SMOOTH: u32 = 8;
 /// emitters a ray hits compiled in).
 pub const SCENE_EMISSIVE_TEXTURED: u32 = 4;
 
+/// `render.comp` SCENE_FLAGS: a material of alphaMode MASK (the alpha test on every triangle
+/// a ray meets compiled in: shaders/shared/alpha.glsl).
+pub const SCENE_ALPHA_MASK: u32 = 32;
+
 /// `render.comp` SCENE_FLAGS: normal textures (`Scene::triangle_tangents`: each triangle's
 /// tangent frames after its normals, TRI_ATTR_STRIDE 13; always with [`SCENE_SMOOTH`]).
 pub const SCENE_NORMAL_MAPPED: u32 = 16;
@@ -390,7 +398,9 @@ fn kernel_flags(materials: &[GpuMaterial]) -> u32 {
         .iter()
         .any(|m| m.texture != u32::MAX || m.metallic_roughness_texture != u32::MAX);
     let emissive = materials.iter().any(|m| m.emissive_texture != u32::MAX);
+    let masked = materials.iter().any(|m| m.flags & MATERIAL_ALPHA_MASK != 0);
     (glossy as u32 * SCENE_GLOSSY)
+        | (masked as u32 * SCENE_ALPHA_MASK)
         | ((textured || emissive) as u32 * SCENE_TEXTURED)
         | (emissive as u32 * SCENE_EMISSIVE_TEXTURED)
 }

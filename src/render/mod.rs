@@ -31,7 +31,7 @@ pub use cuts::{
     build_cuts, check_region_index_fits, check_resume, initial_stats, stats_header, BOUNCE_RAYS,
 };
 pub use gpu_scene::{
-    check_fits, hit_epsilon, pack_normal, ray_epsilon, surface_epsilon, GpuScene,
+    check_fits, hit_epsilon, pack_normal, ray_epsilon, surface_epsilon, GpuScene, SCENE_ALPHA_MASK,
     SCENE_EMISSIVE_TEXTURED, SCENE_GLOSSY, SCENE_NORMAL_MAPPED, SCENE_SMOOTH, SCENE_TEXTURED,
 };
 pub use learned_state::{touched_list, HostReduction};

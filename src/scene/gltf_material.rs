@@ -245,6 +245,17 @@ impl<'a> MaterialTable<'a> {
                 true,
             )
         });
+        // glTF alphaMode MASK: the surface is there where alpha (the factor's × the
+        // base-colour texture's) is at least alphaCutoff (default 0.5); BLEND is warned about
+        // (gltf_warn) and rendered opaque.
+        let alpha = base[3];
+        let alpha_cutoff = (m.alpha_mode() == gltf::material::AlphaMode::Mask)
+            .then(|| m.alpha_cutoff().unwrap_or(0.5));
+        if alpha_cutoff
+            .is_some_and(|c| !(c >= 0.0 && c.is_finite() && (0.0..=1.0).contains(&alpha)))
+        {
+            bail!("'{file}': {label} has baseColorFactor alpha {alpha} and alphaCutoff {}; use an alpha in [0, 1] and a cutoff ≥ 0", alpha_cutoff.unwrap_or(0.5));
+        }
         let slot = materials.len() as u32;
         materials.push(Material {
             name: m.name().unwrap_or("").to_string(),
@@ -260,6 +271,8 @@ impl<'a> MaterialTable<'a> {
             metallic_roughness_texture,
             normal_texture,
             normal_scale,
+            alpha_cutoff,
+            alpha,
         });
         index.insert(m.index(), slot);
         Ok(slot)

@@ -296,6 +296,9 @@ where
     )
 }
 
+/// KHR_texture_transform's (offset, rotation, scale, texCoord).
+type Transform = ([f32; 2], f32, [f32; 2], Option<u32>);
+
 /// How a texture reads a triangle's coordinates: the TEXCOORD set (KHR_texture_transform's
 /// `texCoord` overrides the textureInfo's) and the affine map the extension applies to them,
 /// u' = m0 u + m1 v + m2, v' = m3 u + m4 v + m5 (its offset, rotation and scale; the identity
@@ -336,7 +339,7 @@ impl UvMap {
 
     /// The textureInfo's set, and KHR_texture_transform's (offset, rotation, scale, texCoord)
     /// where it is given.
-    fn from_parts(set: u32, transform: Option<([f32; 2], f32, [f32; 2], Option<u32>)>) -> UvMap {
+    fn from_parts(set: u32, transform: Option<Transform>) -> UvMap {
         let Some(([ox, oy], r, [sx, sy], tex_coord)) = transform else {
             return UvMap {
                 set,

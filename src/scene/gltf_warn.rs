@@ -29,17 +29,16 @@ pub fn unsupported_features(doc: &gltf::Document, name: &str) -> Vec<String> {
     // One line a kind, however many elements (a file of 500 cutout leaves gave 500 lines).
     let mut see_through = Vec::new();
     for m in doc.materials() {
-        let mode = match m.alpha_mode() {
-            gltf::material::AlphaMode::Opaque => continue,
-            gltf::material::AlphaMode::Mask => "MASK",
-            gltf::material::AlphaMode::Blend => "BLEND",
-        };
+        // MASK is read since 2026-12-07 (cutouts); BLEND is transparency.
+        if m.alpha_mode() != gltf::material::AlphaMode::Blend {
+            continue;
+        }
         let i = m.index().unwrap_or(0);
-        see_through.push(format!("{i} ('{}', {mode})", m.name().unwrap_or("")));
+        see_through.push(format!("{i} ('{}')", m.name().unwrap_or("")));
     }
     if !see_through.is_empty() {
         out.push(format!(
-            "'{name}': {} alphaMode MASK or BLEND; lightlearn renders every surface opaque (no cutouts or transparency)",
+            "'{name}': {} alphaMode BLEND; lightlearn renders it opaque (no transparency; MASK cutouts are read)",
             listed("material", "has", "have", &see_through)
         ));
     }

@@ -142,6 +142,17 @@ impl GltfBuilder {
             json!({"index": texture});
     }
 
+    /// Makes a material a cutout (alphaMode MASK) of baseColorFactor alpha `alpha` and
+    /// `cutoff` (None: glTF's default 0.5).
+    pub fn set_alpha_mask(&mut self, material: usize, alpha: f32, cutoff: Option<f32>) {
+        let m = &mut self.materials[material];
+        m["alphaMode"] = json!("MASK");
+        m["pbrMetallicRoughness"]["baseColorFactor"][3] = json!(alpha);
+        if let Some(c) = cutoff {
+            m["alphaCutoff"] = json!(c);
+        }
+    }
+
     /// Gives a material a normal texture (linear, tangent space) of `scale`.
     pub fn set_normal_texture(&mut self, material: usize, texture: usize, scale: f32) {
         self.materials[material]["normalTexture"] = json!({"index": texture, "scale": scale});

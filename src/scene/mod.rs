@@ -64,6 +64,11 @@ pub struct Material {
     pub normal_texture: Option<u32>,
     /// glTF `normalTexture.scale`: the texture's X and Y are multiplied by it.
     pub normal_scale: f32,
+    /// glTF alphaMode MASK's `alphaCutoff` (None: opaque): where the alpha (`alpha` × the
+    /// base-colour texture's alpha) is below it the surface is not there.
+    pub alpha_cutoff: Option<f32>,
+    /// glTF baseColorFactor's alpha.
+    pub alpha: f32,
 }
 
 impl Material {

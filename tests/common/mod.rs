@@ -269,6 +269,19 @@ pub fn png_rgb(w: u32, h: u32, rgb: &[[u8; 3]]) -> Vec<u8> {
     out
 }
 
+/// An 8-bit RGBA PNG of `w`×`h` texels, row by row.
+pub fn png_rgba(w: u32, h: u32, rgba: &[[u8; 4]]) -> Vec<u8> {
+    let mut out = Vec::new();
+    let mut e = png::Encoder::new(&mut out, w, h);
+    e.set_color(png::ColorType::Rgba);
+    e.set_depth(png::BitDepth::Eight);
+    let mut wr = e.write_header().unwrap();
+    wr.write_image_data(&rgba.iter().flatten().copied().collect::<Vec<u8>>())
+        .unwrap();
+    wr.finish().unwrap();
+    out
+}
+
 /// The mean image of `sampler` on a `size` film at `depth`, `spp` samples of independent
 /// numbers (`--stratify off`, so seeds' differences measure the noise), seed `seed`.
 pub fn render_mean(
