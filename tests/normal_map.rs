@@ -32,6 +32,8 @@ enum Frames {
     File(f32),
     /// u = |x|: the left half's coordinates mirror the right's, sharing the seam's vertices.
     Mirrored,
+    /// Every vertex at (0.5, 0.5): no frame.
+    Degenerate,
 }
 
 /// A grey Lambertian floor over [−1, 1]² (two quads sharing the seam x = 0) seen from
@@ -54,6 +56,7 @@ fn scene(frames: Frames, texel: [u8; 3], scale: f32, sun: bool) -> GltfBuilder {
         .iter()
         .map(|q| match frames {
             Frames::Mirrored => [q.x.abs(), (q.z + 1.0) / 2.0],
+            Frames::Degenerate => [0.5, 0.5],
             _ => [(q.x + 1.0) / 2.0, (q.z + 1.0) / 2.0],
         })
         .collect();
@@ -214,6 +217,50 @@ fn unusable_tangents_and_mappings_are_said() {
         assert!((p[0] - q[0]).abs() <= 1e-3 * q[0], "{p:?} {q:?}");
     }
 
+    // TANGENT values it cannot use (NaN, zero, w = 0): those corners computed, said (the map
+    // vanished without a word: an audit, 2026-12-07).
+    for bad in [
+        Vec4::new(f32::NAN, 0.0, 0.0, 1.0),
+        Vec4::ZERO,
+        Vec4::new(1.0, 0.0, 0.0, 0.0),
+        Vec4::new(0.0, 1.0, 0.0, 1.0),
+    ] {
+        let mut g = scene(Frames::WithNormals, texel, 1.0, true);
+        g.attribute_on_last_mesh("TANGENT", &[bad; 6]);
+        let (s, w) = common::load_warned(&g.to_glb(), "bad.glb");
+        assert!(
+            w.iter()
+                .any(|w| w.contains("TANGENT values lightlearn cannot use")
+                    && w.contains("at 12 triangle corners")),
+            "{bad}: {w:?}"
+        );
+        let a = render(&s);
+        for (p, q) in a.iter().zip(&b) {
+            assert!((p[0] - q[0]).abs() <= 1e-3 * q[0], "{bad}: {p:?} {q:?}");
+        }
+    }
+    // Coordinates of no area: no frame, said (silent before).
+    let (s, w) = common::load_warned(
+        &scene(Frames::Degenerate, texel, 1.0, true).to_glb(),
+        "degenerate.glb",
+    );
+    assert!(s.triangle_tangents.is_empty());
+    assert!(
+        w.iter()
+            .any(|w| w.contains("4 triangles of its normal-mapped material have no tangent frame")),
+        "{w:?}"
+    );
+    // No coordinates at all: the warning says the map is not applied.
+    let bytes = common::edit_glb(&scene(Frames::Computed, texel, 1.0, true).to_glb(), |j| {
+        let attributes = &mut j["meshes"][0]["primitives"][0]["attributes"];
+        attributes.as_object_mut().unwrap().remove("TEXCOORD_0");
+    });
+    let (_, w) = common::load_warned(&bytes, "no-uv.glb");
+    assert!(
+        w.iter()
+            .any(|w| w.contains("no TEXCOORD_0") && w.contains("normal texture is not applied")),
+        "{w:?}"
+    );
     let mut g = scene(Frames::Computed, texel, 1.0, true);
     let base = g.texture_png(&common::png_rgb(1, 1, &[[255, 255, 255]]), [10497, 10497]);
     g.set_base_color_texture(0, base);

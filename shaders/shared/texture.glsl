@@ -143,7 +143,13 @@ vec3 mapped_normal(uint prim, vec3 x, vec3 v0, vec3 e1, vec3 e2, vec3 base, vec2
     t /= l;
     vec3 bt = cross(base, t) * (w < 0.0 ? -1.0 : 1.0);
     vec3 c = 2.0 * sample_texture(tex, uv) - 1.0;
-    vec3 n = scale * (c.x * t + c.y * bt) + c.z * base;
+    // Divided by its largest component first: at a scale of 1e20 the length overflowed to
+    // ∞ and the map vanished (an audit, 2026-12-07).
+    vec3 ts = vec3(scale * c.xy, c.z);
+    float big = max(max(abs(ts.x), abs(ts.y)), abs(ts.z));
+    if (!(big > 0.0) || isinf(big)) return base;
+    ts /= big;
+    vec3 n = ts.x * t + ts.y * bt + ts.z * base;
     float ln = length(n);
     return ln > 0.0 ? n / ln : base;
 }

@@ -144,8 +144,16 @@ impl Meshes {
                         uvs
                     }
                     None => {
+                        // A normal texture needs the coordinates for its frames too: without
+                        // them it is not applied (an audit, 2026-12-07, found this said as
+                        // "sampled at (0, 0)").
+                        let normal = if material.normal_texture.is_some() {
+                            "; its normal texture is not applied (its frames need them)"
+                        } else {
+                            ""
+                        };
                         warn(format!(
-                            "'{name}': {mesh_label} has a texture but no TEXCOORD_{}; it samples the texture at (0, 0)",
+                            "'{name}': {mesh_label} has a texture but no TEXCOORD_{}; it samples the texture at (0, 0){normal}",
                             set
                         ));
                         Vec::new()
@@ -172,7 +180,7 @@ impl Meshes {
             let normal_mapped = material.normal_texture.is_some() && regular && !uvs.is_empty();
             let tangents = if normal_mapped {
                 match file_tangents(&prim, &reader, world, positions.len(), buffers) {
-                    Ok(Some(t)) => Tangents::File(t),
+                    Ok(Some(t)) => Tangents::File(t, UvFrames::new(&world_pos, &uvs, &tris)),
                     Ok(None) => Tangents::Computed(UvFrames::new(&world_pos, &uvs, &tris)),
                     Err(why) => {
                         warn(format!("'{name}': {mesh_label} has tangents (TANGENT) lightlearn cannot read ({why}); they are computed from its texture coordinates"));
@@ -182,6 +190,7 @@ impl Meshes {
             } else {
                 Tangents::None
             };
+            let mut frames = FrameCounts::default();
             for [a, b, c] in tris {
                 let get = |i: u32| {
                     world_pos.get(i as usize).copied().ok_or_else(|| {
@@ -236,7 +245,7 @@ impl Meshes {
                 // triangle's own (the kernel's for a flat triangle: its winding's).
                 let face = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero();
                 let base = kept.map_or([face; 3], |n| n.map(|v| v.as_dvec3()));
-                if let Some(t) = tangents.corners([a, b, c], base, flip) {
+                if let Some(t) = tangents.corners([a, b, c], base, flip, &mut frames) {
                     self.triangle_tangents
                         .resize(self.triangles.len() - 1, [Vec4::ZERO; 3]);
                     self.triangle_tangents.push(t);
@@ -249,6 +258,14 @@ impl Meshes {
                         "'{name}' has more than {MAX_TRIANGLES} triangles, the most lightlearn supports; simplify the scene"
                     );
                 }
+            }
+            // Said, where they were silent (an audit, 2026-12-07: NaN, zero or Inf tangents
+            // and coordinates of no area lost the map without a word).
+            if frames.computed > 0 {
+                warn(format!("'{name}': {mesh_label} has TANGENT values lightlearn cannot use (zero, not finite, along the normal, or w not ±1) at {} triangle corners; their tangents are computed from the texture coordinates", frames.computed));
+            }
+            if frames.missing > 0 {
+                warn(format!("'{name}': {mesh_label}: {} triangles of its normal-mapped material have no tangent frame (texture coordinates that span no area); they are shaded without the normal texture", frames.missing));
             }
         }
         Ok(())
@@ -453,51 +470,83 @@ where
     };
     let m = glam::DMat3::from_mat4(world);
     let mirror = if world.determinant() < 0.0 { -1.0 } else { 1.0 };
+    // As the file gives them (Tangents::corners judges them): w kept, for its sign or its
+    // being unusable (0, NaN).
     Ok(Some(
         t.map(|v| {
-            let d =
-                (m * glam::DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)).normalize_or_zero();
-            let w = if v[3] < 0.0 { -1.0 } else { 1.0 };
-            d.extend(w * mirror)
+            let d = m * glam::DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
+            d.extend(v[3] as f64 * mirror)
         })
         .collect(),
     ))
 }
 
-/// A normal texture's frames for one primitive.
+/// A normal texture's frames for one primitive: the file's TANGENT (with the computed ones
+/// for its unusable values), or computed.
 enum Tangents {
     None,
-    File(Vec<DVec4>),
+    File(Vec<DVec4>, UvFrames),
     Computed(UvFrames),
+}
+
+/// What [`Tangents::corners`] could not take as given, for the primitive's warnings.
+#[derive(Default)]
+struct FrameCounts {
+    /// File tangents replaced by computed ones.
+    computed: usize,
+    /// Triangles left without a frame.
+    missing: usize,
 }
 
 impl Tangents {
     /// The frames at a triangle's corners (file vertices `v`; stored in the order the
     /// triangle is, reversed after `flip`): each tangent made orthogonal to its corner's
-    /// normal `base`, and its sign; None where there is no frame or one is degenerate.
-    fn corners(&self, v: [u32; 3], base: [DVec3; 3], flip: bool) -> Option<[Vec4; 3]> {
+    /// normal `base`, and its sign; a file tangent that is zero, not finite, along the
+    /// normal or of w not ±1 is replaced by the computed one; None (counted) where there is
+    /// no frame.
+    fn corners(
+        &self,
+        v: [u32; 3],
+        base: [DVec3; 3],
+        flip: bool,
+        counts: &mut FrameCounts,
+    ) -> Option<[Vec4; 3]> {
         let order = if flip { [0, 2, 1] } else { [0, 1, 2] };
         let mut out = [Vec4::ZERO; 3];
+        let orthogonal = |t: DVec3, n: DVec3| {
+            let (len, o) = (t.length(), t - n * n.dot(t));
+            // Along the normal (or zero): nothing is left but rounding.
+            let l = o.length();
+            (len.is_finite() && l > 1e-6 * len && l > 0.0).then(|| o / l)
+        };
+        let computed = |f: &UvFrames, i: usize, n: DVec3| -> Option<(DVec3, f64)> {
+            let h = f.handedness(v)?;
+            let (t, b) = (f.t.get(i)?[h], f.b.get(i)?[h]);
+            let t = orthogonal(t, n)?;
+            // The bitangent runs up the image (glTF: +Y is up; v grows downwards).
+            Some((t, if n.cross(t).dot(-b) < 0.0 { -1.0 } else { 1.0 }))
+        };
         for (k, &c) in order.iter().enumerate() {
             let (i, n) = (v[c] as usize, base[k]);
-            let (t, w) = match self {
+            let frame = match self {
                 Tangents::None => return None,
-                Tangents::File(t) => {
-                    let t = t.get(i)?;
-                    (t.truncate(), t.w)
+                Tangents::File(t, f) => {
+                    let given = t.get(i).and_then(|t| {
+                        let (d, w) = (t.truncate(), t.w);
+                        let usable = w.is_finite() && w != 0.0 && d.length() > 1e-6;
+                        orthogonal(d, n).filter(|_| usable).map(|t| (t, w.signum()))
+                    });
+                    if given.is_none() {
+                        counts.computed += 1;
+                    }
+                    given.or_else(|| computed(f, i, n))
                 }
-                Tangents::Computed(f) => {
-                    let h = f.handedness(v)?;
-                    let (t, b) = (f.t.get(i)?[h], f.b.get(i)?[h]);
-                    // The bitangent runs up the image (glTF: +Y is up; v grows downwards).
-                    let w = if n.cross(t).dot(-b) < 0.0 { -1.0 } else { 1.0 };
-                    (t, w)
-                }
+                Tangents::Computed(f) => computed(f, i, n),
             };
-            let t = (t - n * n.dot(t)).normalize_or_zero();
-            if t == DVec3::ZERO || !t.is_finite() {
+            let Some((t, w)) = frame else {
+                counts.missing += 1;
                 return None;
-            }
+            };
             out[k] = t.as_vec3().extend(w as f32);
         }
         Some(out)
