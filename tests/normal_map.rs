@@ -34,15 +34,30 @@ enum Frames {
     Mirrored,
     /// Every vertex at (0.5, 0.5): no frame.
     Degenerate,
+    /// TANGENT (+X, w −1) without NORMAL: glTF says to ignore it (tangents computed).
+    TangentOnly,
 }
 
 /// A grey Lambertian floor over [−1, 1]² (two quads sharing the seam x = 0) seen from
 /// straight above, with a one-texel normal texture `texel` of `scale`; u = (x + 1)/2 (or |x|),
 /// v = (z + 1)/2; a dim point light, and the sun where asked.
 fn scene(frames: Frames, texel: [u8; 3], scale: f32, sun: bool) -> GltfBuilder {
+    scene_with(frames, &[texel], scale, sun, false)
+}
+
+/// [`scene`] with a row of texels (NEAREST, clamped: the left half of the floor's u reads the
+/// first of two), seen (and lit by the sun) from below where asked.
+fn scene_with(
+    frames: Frames,
+    texels: &[[u8; 3]],
+    scale: f32,
+    sun: bool,
+    below: bool,
+) -> GltfBuilder {
     let mut g = GltfBuilder::new();
     let grey = g.material("grey", Vec3::splat(ALBEDO), Vec3::ZERO, false);
-    let t = g.texture_png(&common::png_rgb(1, 1, &[texel]), [10497, 10497]);
+    let png = common::png_rgb(texels.len() as u32, 1, texels);
+    let t = g.texture_png_filtered(&png, [33071, 33071], Some(9728));
     g.set_normal_texture(grey, t, scale);
     let p = [
         Vec3::new(-1.0, 0.0, -1.0),
@@ -70,15 +85,24 @@ fn scene(frames: Frames, texel: [u8; 3], scale: f32, sun: bool) -> GltfBuilder {
         &[0, 1, 2, 0, 2, 3, 3, 2, 4, 3, 4, 5],
         grey,
     );
-    if let Frames::File(w) = frames {
-        g.attribute_on_last_mesh("TANGENT", &[Vec4::new(1.0, 0.0, 0.0, w); 6]);
+    match frames {
+        Frames::File(w) => g.attribute_on_last_mesh("TANGENT", &[Vec4::new(1.0, 0.0, 0.0, w); 6]),
+        Frames::TangentOnly => {
+            g.attribute_on_last_mesh("TANGENT", &[Vec4::new(1.0, 0.0, 0.0, -1.0); 6])
+        }
+        _ => {}
     }
     g.point_light("dim", Vec3::new(-0.3, 3.0, 0.2), Vec3::ONE, 0.5);
+    let flip = if below {
+        Vec3::new(1.0, -1.0, 1.0)
+    } else {
+        Vec3::ONE
+    };
     if sun {
-        g.directional_light("sun", sun_direction(), Vec3::ONE, SUN);
+        g.directional_light("sun", sun_direction() * flip, Vec3::ONE, SUN);
     }
     g.camera(
-        Vec3::new(0.0, 40.0, 1e-3),
+        Vec3::new(0.0, 40.0, 1e-3) * flip,
         Vec3::ZERO,
         2.0 * (1.0f32 / 40.0).atan(),
     );
@@ -105,8 +129,9 @@ fn render(scene: &Scene) -> Vec<[f32; 3]> {
 
 /// What the sun adds is albedo/π · E · (n · towards the sun) with n the texel's normal in
 /// each half's frame (x < 0 the left columns), to 1e-3: tilts along the tangent and the
-/// bitangent, a scale, normals given or not, a TANGENT of either sign, and mirrored
-/// coordinates (whose halves' tangents point apart).
+/// bitangent, a scale, normals given or not, a TANGENT of either sign, mirrored
+/// coordinates (whose halves' tangents point apart), and a TANGENT without NORMAL, which
+/// glTF says to ignore (w −1 there would turn the bitangent).
 #[test]
 fn the_texture_turns_the_normal_the_sun_sees() {
     let towards = -sun_direction();
@@ -116,6 +141,7 @@ fn the_texture_turns_the_normal_the_sun_sees() {
         Frames::File(1.0),
         Frames::File(-1.0),
         Frames::Mirrored,
+        Frames::TangentOnly,
     ] {
         for (texel, scale) in [
             (lean(30.0, 1.0, 0.0), 1.0),
@@ -150,6 +176,91 @@ fn the_texture_turns_the_normal_the_sun_sees() {
                 );
             }
         }
+    }
+}
+
+/// What the one-texel test cannot see: the coordinates the texture is read at (a two-texel
+/// map, a lean along the tangent on the left half and along the bitangent on the right), a
+/// TANGENT under a mirroring and under a rotating node (the tangent transformed, w negated
+/// by the mirror; computed tangents alike), and the back face seen from below, lit from
+/// below (glTF: the whole mapped normal reversed). A review, 2026-12-07.
+#[test]
+fn coordinates_node_transforms_and_back_faces() {
+    let (x, y) = (lean(30.0, 1.0, 0.0), lean(30.0, 0.0, 1.0));
+    // What the sun adds, pixel by pixel: the scene `g(sun)` rendered with and without it,
+    // its JSON edited by `edit` alike.
+    let added = |g: &dyn Fn(bool) -> GltfBuilder, edit: &dyn Fn(&mut serde_json::Value)| {
+        let load = |sun: bool| {
+            let bytes = common::edit_glb(&g(sun).to_glb(), edit);
+            render(&common::load_warned(&bytes, "node").0)
+        };
+        let (a, b) = (load(true), load(false));
+        a.iter()
+            .zip(&b)
+            .map(|(p, q)| p[0] - q[0])
+            .collect::<Vec<f32>>()
+    };
+    let want =
+        |n: Vec3, towards: Vec3| ALBEDO / std::f32::consts::PI * SUN * n.dot(towards).max(0.0);
+    let check = |d: &[f32], want: &dyn Fn(usize) -> f32, what: &str| {
+        for (i, d) in d.iter().enumerate() {
+            let w = want(i);
+            assert!(
+                (d - w).abs() <= 1e-3 * w,
+                "{what} pixel {i}: the sun added {d}, want {w}"
+            );
+        }
+    };
+    let towards = -sun_direction();
+    let none = |_: &mut serde_json::Value| {};
+    // Two texels: each half its own lean.
+    let d = added(
+        &|sun| scene_with(Frames::Computed, &[x, y], 1.0, sun, false),
+        &none,
+    );
+    let left = want(world_normal(x, 1.0, Vec3::X, -Vec3::Z), towards);
+    let right = want(world_normal(y, 1.0, Vec3::X, -Vec3::Z), towards);
+    check(
+        &d,
+        &|i| if i % 32 < 16 { left } else { right },
+        "two texels",
+    );
+    // Nodes: the floor's node (the first) mirrored in x, or turned 90° about +Y.
+    let turn = std::f32::consts::FRAC_1_SQRT_2;
+    for frames in [Frames::File(1.0), Frames::WithNormals] {
+        let mirror = |j: &mut serde_json::Value| {
+            j["nodes"][0]["scale"] = serde_json::json!([-1.0, 1.0, 1.0])
+        };
+        for texel in [x, y] {
+            let d = added(
+                &|sun| scene_with(frames, &[texel], 1.0, sun, false),
+                &mirror,
+            );
+            let w = want(world_normal(texel, 1.0, Vec3::NEG_X, -Vec3::Z), towards);
+            check(&d, &|_| w, &format!("{frames:?} mirrored, texel {texel:?}"));
+        }
+        let rotate = |j: &mut serde_json::Value| {
+            j["nodes"][0]["rotation"] = serde_json::json!([0.0, turn, 0.0, turn])
+        };
+        for texel in [x, y] {
+            let d = added(
+                &|sun| scene_with(frames, &[texel], 1.0, sun, false),
+                &rotate,
+            );
+            // +X turns to −Z, and −Z (the bitangent) to −X.
+            let w = want(world_normal(texel, 1.0, Vec3::NEG_Z, Vec3::NEG_X), towards);
+            check(&d, &|_| w, &format!("{frames:?} turned, texel {texel:?}"));
+        }
+    }
+    // From below, the sun from below: the front's mapped normal, reversed.
+    for texel in [x, y] {
+        let d = added(
+            &|sun| scene_with(Frames::Computed, &[texel], 1.0, sun, true),
+            &none,
+        );
+        let front = world_normal(texel, 1.0, Vec3::X, -Vec3::Z);
+        let w = want(-front, towards * Vec3::new(1.0, -1.0, 1.0));
+        check(&d, &|_| w, &format!("below, texel {texel:?}"));
     }
 }
 

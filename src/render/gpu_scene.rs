@@ -318,7 +318,12 @@ pub fn tri_attr_stride(scene: &Scene) -> usize {
 fn triangle_attributes(scene: &Scene) -> Vec<u32> {
     let stride = tri_attr_stride(scene);
     let n = scene.triangles.len();
-    if scene.triangle_uv.is_empty() && scene.triangle_normals.is_empty() {
+    // (A normal-mapped triangle's frames need its words too: a hand-built scene of
+    // tangents alone got one triangle's, a review, 2026-12-07.)
+    if scene.triangle_uv.is_empty()
+        && scene.triangle_normals.is_empty()
+        && scene.triangle_tangents.is_empty()
+    {
         return vec![0; stride];
     }
     let mut out = Vec::with_capacity(n * stride);

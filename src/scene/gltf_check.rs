@@ -75,18 +75,23 @@ pub fn check(root: &Root, name: &str) -> Result<()> {
                             .unwrap_or(t.tex_coord)
                     };
                     // A normal texture's extension is JSON to the crate (UvMap::of_normal).
+                    // A malformed one: the loader leaves the map out and reads no set for it.
                     let normal_set = |n: &gltf::json::material::NormalTexture| {
-                        (n.extensions.as_ref())
+                        use gltf::json::extensions::texture::TextureTransform;
+                        match (n.extensions.as_ref())
                             .and_then(|e| e.others.get("KHR_texture_transform"))
-                            .and_then(|tt| tt.get("texCoord"))
-                            .and_then(|c| c.as_u64())
-                            .map_or(n.tex_coord, |c| c as u32)
+                        {
+                            None => Some(n.tex_coord),
+                            Some(v) => serde_json::from_value::<TextureTransform>(v.clone())
+                                .ok()
+                                .map(|t| t.tex_coord.unwrap_or(n.tex_coord)),
+                        }
                     };
                     (pbr.base_color_texture.as_ref())
                         .or(m.emissive_texture.as_ref().filter(|_| emits))
                         .or(pbr.metallic_roughness_texture.as_ref().filter(|_| glossy))
                         .map(set)
-                        .or(m.normal_texture.as_ref().map(normal_set))
+                        .or_else(|| m.normal_texture.as_ref().and_then(normal_set))
                 });
             let mut used: Vec<(String, usize, bool)> = prim
                 .attributes

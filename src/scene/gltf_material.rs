@@ -248,13 +248,18 @@ impl<'a> MaterialTable<'a> {
         // glTF alphaMode MASK: the surface is there where alpha (the factor's × the
         // base-colour texture's) is at least alphaCutoff (default 0.5); BLEND is warned about
         // (gltf_warn) and rendered opaque.
-        let alpha = base[3];
         let alpha_cutoff = (m.alpha_mode() == gltf::material::AlphaMode::Mask)
             .then(|| m.alpha_cutoff().unwrap_or(0.5));
-        if alpha_cutoff
-            .is_some_and(|c| !(c >= 0.0 && c.is_finite() && (0.0..=1.0).contains(&alpha)))
-        {
-            bail!("'{file}': {label} has baseColorFactor alpha {alpha} and alphaCutoff {}; use an alpha in [0, 1] and a cutoff ≥ 0", alpha_cutoff.unwrap_or(0.5));
+        if alpha_cutoff.is_some_and(|c| !(c >= 0.0 && c.is_finite())) {
+            bail!(
+                "'{file}': {label} has alphaCutoff {}; use a cutoff ≥ 0 (0.5 by default)",
+                alpha_cutoff.unwrap_or(0.5)
+            );
+        }
+        // As baseColorFactor's colour above: clamped and said (a review, 2026-12-07).
+        let alpha = base[3].clamp(0.0, 1.0);
+        if alpha_cutoff.is_some() && alpha != base[3] {
+            warn(format!("'{file}': {label} has baseColorFactor alpha {} outside [0, 1]; its cutout uses it clamped to {alpha}", base[3]));
         }
         // Light samples draw points over the whole triangle, cut out or not, while rays pass
         // the cut: the two estimates of its light would disagree. Said, not mended (rare).

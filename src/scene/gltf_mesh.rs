@@ -179,7 +179,14 @@ impl Meshes {
             // coordinates it reads (glTF asks for MikkTSpace's; ours are its core, below).
             let normal_mapped = material.normal_texture.is_some() && regular && !uvs.is_empty();
             let tangents = if normal_mapped {
-                match file_tangents(&prim, &reader, world, positions.len(), buffers) {
+                // glTF: without NORMAL, TANGENT is ignored (flat normals are computed, and
+                // the tangents with them: a review, 2026-12-07).
+                let file = if normals.is_empty() {
+                    Ok(None)
+                } else {
+                    file_tangents(&prim, &reader, world, positions.len(), buffers)
+                };
+                match file {
                     Ok(Some(t)) => Tangents::File(t, UvFrames::new(&world_pos, &uvs, &tris)),
                     Ok(None) => Tangents::Computed(UvFrames::new(&world_pos, &uvs, &tris)),
                     Err(why) => {
@@ -262,7 +269,7 @@ impl Meshes {
             // Said, where they were silent (an audit, 2026-12-07: NaN, zero or Inf tangents
             // and coordinates of no area lost the map without a word).
             if frames.computed > 0 {
-                warn(format!("'{name}': {mesh_label} has TANGENT values lightlearn cannot use (zero, not finite, along the normal, or w not ±1) at {} triangle corners; their tangents are computed from the texture coordinates", frames.computed));
+                warn(format!("'{name}': {mesh_label} has TANGENT values lightlearn cannot use (zero, not finite, along the normal, or w zero or not finite) at {} triangle corners; their tangents are computed from the texture coordinates", frames.computed));
             }
             if frames.missing > 0 {
                 warn(format!("'{name}': {mesh_label}: {} triangles of its normal-mapped material have no tangent frame (texture coordinates that span no area); they are shaded without the normal texture", frames.missing));
@@ -502,8 +509,8 @@ impl Tangents {
     /// The frames at a triangle's corners (file vertices `v`; stored in the order the
     /// triangle is, reversed after `flip`): each tangent made orthogonal to its corner's
     /// normal `base`, and its sign; a file tangent that is zero, not finite, along the
-    /// normal or of w not ±1 is replaced by the computed one; None (counted) where there is
-    /// no frame.
+    /// normal or of w zero or not finite is replaced by the computed one (another w is
+    /// taken by its sign, as glTF's ±1 would be); None (counted) where there is no frame.
     fn corners(
         &self,
         v: [u32; 3],
