@@ -4,6 +4,7 @@
 
 use anyhow::{anyhow, bail, Result};
 use glam::{DMat4, DVec3, DVec4, Vec3, Vec4};
+use gltf::accessor::Dimensions;
 use gltf::mesh::Mode;
 
 use super::gltf_material::MaterialTable;
@@ -279,6 +280,37 @@ impl Meshes {
     }
 }
 
+/// Whether the primitive has attribute `semantic` (false: it has none) as lightlearn reads
+/// it: plain floats of `dims`, one a vertex, an accessor the reader can read; else why not.
+fn float_attribute(
+    prim: &gltf::Primitive,
+    semantic: &gltf::Semantic,
+    dims: gltf::accessor::Dimensions,
+    what: &str,
+    vertices: usize,
+    buffers: &[Vec<u8>],
+) -> std::result::Result<bool, String> {
+    let Some(a) = prim.get(semantic) else {
+        return Ok(false);
+    };
+    if a.dimensions() != dims || a.data_type() != gltf::accessor::DataType::F32 || a.normalized() {
+        return Err(format!(
+            "{:?} {:?}{}, not float {}",
+            a.data_type(),
+            a.dimensions(),
+            if a.normalized() { " normalized" } else { "" },
+            format!("{dims:?}").to_uppercase()
+        ));
+    }
+    if a.count() != vertices {
+        return Err(format!("{} {what} for {vertices} vertices", a.count()));
+    }
+    if !readable(&a, buffers) {
+        return Err("its accessor's stride or sparse part is malformed".to_string());
+    }
+    Ok(true)
+}
+
 /// A primitive's vertex normals (NORMAL) in world space, unit (the inverse transpose of the
 /// node's transform), where it has plain f32 normals, one a vertex; else none (flat shading;
 /// the normals the warnings below read are the same).
@@ -292,23 +324,16 @@ fn world_normals<'a, 's, F>(
 where
     F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
 {
-    use gltf::accessor::{DataType, Dimensions};
-    let Some(a) = prim.get(&gltf::Semantic::Normals) else {
+    let normals = gltf::Semantic::Normals;
+    if !float_attribute(
+        prim,
+        &normals,
+        Dimensions::Vec3,
+        "normals",
+        vertices,
+        buffers,
+    )? {
         return Ok(Vec::new());
-    };
-    if a.dimensions() != Dimensions::Vec3 || a.data_type() != DataType::F32 || a.normalized() {
-        return Err(format!(
-            "{:?} {:?}{}, not float VEC3",
-            a.data_type(),
-            a.dimensions(),
-            if a.normalized() { " normalized" } else { "" }
-        ));
-    }
-    if a.count() != vertices {
-        return Err(format!("{} normals for {vertices} vertices", a.count()));
-    }
-    if !readable(&a, buffers) {
-        return Err("its accessor's stride or sparse part is malformed".to_string());
     }
     let Some(n) = reader.read_normals() else {
         return Err("its buffer view lies outside the buffer".to_string());
@@ -454,23 +479,16 @@ fn file_tangents<'a, 's, F>(
 where
     F: Clone + Fn(gltf::Buffer<'a>) -> Option<&'s [u8]>,
 {
-    use gltf::accessor::{DataType, Dimensions};
-    let Some(a) = prim.get(&gltf::Semantic::Tangents) else {
+    let tangents = gltf::Semantic::Tangents;
+    if !float_attribute(
+        prim,
+        &tangents,
+        Dimensions::Vec4,
+        "tangents",
+        vertices,
+        buffers,
+    )? {
         return Ok(None);
-    };
-    if a.dimensions() != Dimensions::Vec4 || a.data_type() != DataType::F32 || a.normalized() {
-        return Err(format!(
-            "{:?} {:?}{}, not float VEC4",
-            a.data_type(),
-            a.dimensions(),
-            if a.normalized() { " normalized" } else { "" }
-        ));
-    }
-    if a.count() != vertices {
-        return Err(format!("{} tangents for {vertices} vertices", a.count()));
-    }
-    if !readable(&a, buffers) {
-        return Err("its accessor's stride or sparse part is malformed".to_string());
     }
     let Some(t) = reader.read_tangents() else {
         return Err("its buffer view lies outside the buffer".to_string());

@@ -258,26 +258,21 @@ pub fn fold_pipeline(
 
 /// An 8-bit RGB PNG of `w`×`h` texels, row by row.
 pub fn png_rgb(w: u32, h: u32, rgb: &[[u8; 3]]) -> Vec<u8> {
-    let mut out = Vec::new();
-    let mut e = png::Encoder::new(&mut out, w, h);
-    e.set_color(png::ColorType::Rgb);
-    e.set_depth(png::BitDepth::Eight);
-    let mut wr = e.write_header().unwrap();
-    wr.write_image_data(&rgb.iter().flatten().copied().collect::<Vec<u8>>())
-        .unwrap();
-    wr.finish().unwrap();
-    out
+    png_of(w, h, png::ColorType::Rgb, rgb.as_flattened())
 }
 
 /// An 8-bit RGBA PNG of `w`×`h` texels, row by row.
 pub fn png_rgba(w: u32, h: u32, rgba: &[[u8; 4]]) -> Vec<u8> {
+    png_of(w, h, png::ColorType::Rgba, rgba.as_flattened())
+}
+
+fn png_of(w: u32, h: u32, color: png::ColorType, bytes: &[u8]) -> Vec<u8> {
     let mut out = Vec::new();
     let mut e = png::Encoder::new(&mut out, w, h);
-    e.set_color(png::ColorType::Rgba);
+    e.set_color(color);
     e.set_depth(png::BitDepth::Eight);
     let mut wr = e.write_header().unwrap();
-    wr.write_image_data(&rgba.iter().flatten().copied().collect::<Vec<u8>>())
-        .unwrap();
+    wr.write_image_data(bytes).unwrap();
     wr.finish().unwrap();
     out
 }
