@@ -17,6 +17,7 @@ pub mod gltf_load;
 mod gltf_material;
 mod gltf_mesh;
 pub(crate) mod gltf_parse;
+mod gltf_tangents;
 mod gltf_warn;
 pub mod gltf_write;
 
