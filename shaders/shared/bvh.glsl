@@ -169,20 +169,25 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
         COMPARE_EXCHANGE(0, 2)
         COMPARE_EXCHANGE(1, 3)
         COMPARE_EXCHANGE(1, 2)
-        // A shadow ray (any_hit) ends at its first hit, so best_t stays tmax and every stacked
-        // entry (key ≤ best_t) is visited: it stores no distances (a constant after inlining;
-        // `uniform` direct light 0.97-0.99× the time on rooms and city, the same images).
+        // Shadow rays (any_hit) stack distances too, although until their first hit (where
+        // they end) best_t stays tmax and every entry passes: with the distance stores
+        // compiled out for them, lavapipe ran a shadow ray 2.4x slower than with them (rooms,
+        // `lightlearn profile --sampler uniform --max-depth 1`: 0.325 -> 0.135 s of shadow
+        // rays in a 0.505 -> 0.30 s pass; 6.2 nodes and 1.1 triangles a ray either way, the
+        // same images; docs/results.md, thirty-sixth session). Its compiler turns each
+        // access to these arrays into per-lane loads and masked stores; why the variant
+        // without distances cost so much more is not known.
         if (m > 0u) {
-            if (m > 3u) { stack[sp] = rf[3]; if (!any_hit) stack_t[sp] = key[3]; sp++; }
-            if (m > 2u) { stack[sp] = rf[2]; if (!any_hit) stack_t[sp] = key[2]; sp++; }
-            if (m > 1u) { stack[sp] = rf[1]; if (!any_hit) stack_t[sp] = key[1]; sp++; }
+            if (m > 3u) { stack[sp] = rf[3]; stack_t[sp] = key[3]; sp++; }
+            if (m > 2u) { stack[sp] = rf[2]; stack_t[sp] = key[2]; sp++; }
+            if (m > 1u) { stack[sp] = rf[1]; stack_t[sp] = key[1]; sp++; }
             node = rf[0];
         } else {
             // Pop the next child that can still hold a closer hit.
             bool found = false;
             while (sp > 0u && !found) {
                 sp--;
-                found = any_hit || stack_t[sp] <= best_t;
+                found = stack_t[sp] <= best_t;
                 node = stack[sp];
             }
             if (!found) break;
