@@ -604,12 +604,7 @@ fn render_floor(
         let t = g.texture_image(png, mime, wrap, mag);
         g.set_base_color_texture(m, t);
     }
-    let c = [
-        Vec3::new(-1.0, 0.0, -1.0),
-        Vec3::new(-1.0, 0.0, 1.0),
-        Vec3::new(1.0, 0.0, 1.0),
-        Vec3::new(1.0, 0.0, -1.0),
-    ];
+    let c = common::FLOOR;
     let uv = [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]];
     g.mesh_uv("floor", &c, Some(&uv), &[0, 1, 2, 0, 2, 3], m);
     g.point_light("bulb", Vec3::new(0.3, 3.0, -0.2), Vec3::ONE, 5.0);

@@ -20,16 +20,7 @@ const ALBEDO: f32 = 0.5;
 fn scene(sun: Option<f32>, far: Option<f32>) -> GltfBuilder {
     let mut g = GltfBuilder::new();
     let grey = g.material("grey", Vec3::splat(ALBEDO), Vec3::ZERO, false);
-    g.quad(
-        "floor",
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        grey,
-    );
+    g.quad("floor", common::FLOOR, grey);
     // Faces down (counter-clockwise seen from below).
     g.quad(
         "blocker",
@@ -152,16 +143,7 @@ fn the_sun_is_a_point_light_at_infinity() {
 fn suns_alone_are_refused_and_counted() {
     let mut g = GltfBuilder::new();
     let grey = g.material("grey", Vec3::splat(0.5), Vec3::ZERO, false);
-    g.quad(
-        "floor",
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        grey,
-    );
+    g.quad("floor", common::FLOOR, grey);
     g.directional_light("sun", Vec3::NEG_Y, Vec3::ONE, 3.0);
     let dir = tempfile::tempdir().unwrap();
     let alone = dir.path().join("alone.glb");

@@ -271,16 +271,7 @@ fn a_flat_texel_changes_nothing() {
     let mapped = common::load(&scene(Frames::Computed, [128, 128, 255], 1.0, true), "m");
     let mut g = GltfBuilder::new();
     let grey = g.material("grey", Vec3::splat(ALBEDO), Vec3::ZERO, false);
-    g.quad(
-        "floor",
-        [
-            Vec3::new(-1.0, 0.0, -1.0),
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, 1.0),
-            Vec3::new(1.0, 0.0, -1.0),
-        ],
-        grey,
-    );
+    g.quad("floor", common::FLOOR, grey);
     g.point_light("dim", Vec3::new(-0.3, 3.0, 0.2), Vec3::ONE, 0.5);
     g.directional_light("sun", sun_direction(), Vec3::ONE, SUN);
     g.camera(

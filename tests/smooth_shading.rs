@@ -19,12 +19,7 @@ const ALBEDO: f32 = 0.5;
 fn scene(normals: Option<[Vec3; 4]>, sun: Option<f32>, panel: bool) -> GltfBuilder {
     let mut g = GltfBuilder::new();
     let grey = g.material("grey", Vec3::splat(ALBEDO), Vec3::ZERO, false);
-    let c = [
-        Vec3::new(-1.0, 0.0, -1.0),
-        Vec3::new(-1.0, 0.0, 1.0),
-        Vec3::new(1.0, 0.0, 1.0),
-        Vec3::new(1.0, 0.0, -1.0),
-    ];
+    let c = common::FLOOR;
     g.mesh_with(
         "floor",
         &c,

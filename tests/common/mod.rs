@@ -37,6 +37,14 @@ pub fn load_warned(bytes: &[u8], name: &str) -> (Scene, Vec<String>) {
     (scene, warnings)
 }
 
+/// The floor many tests light: y = 0 over [−1, 1]², its corners in this order.
+pub const FLOOR: [glam::Vec3; 4] = [
+    glam::Vec3::new(-1.0, 0.0, -1.0),
+    glam::Vec3::new(-1.0, 0.0, 1.0),
+    glam::Vec3::new(1.0, 0.0, 1.0),
+    glam::Vec3::new(1.0, 0.0, -1.0),
+];
+
 pub fn exe() -> &'static str {
     env!("CARGO_BIN_EXE_lightlearn")
 }
