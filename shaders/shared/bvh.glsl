@@ -2,16 +2,17 @@
 // `bvh_tri_texels` (usamplerBuffer: BvhNode[] and BvhTri[] as RGBA32UI texels,
 // src/gpu/buffer.rs Buffer::texels, which says why texels and not storage buffers). Same loop
 // as Bvh::traverse in src/accel/bvh.rs (here the leaves of all four children in one inner
-// loop, tested in the same order: the same hits), but for the alpha test a kernel may define
-// as BVH_ALPHA_TEST (render.comp: alpha.glsl's glTF cutouts).
+// loop, tested in the same order; the same sibling entries: the same nodes and hits), but for
+// the alpha test a kernel may define as BVH_ALPHA_TEST (render.comp: alpha.glsl's glTF
+// cutouts).
 #ifndef BVH_GLSL
 #define BVH_GLSL
 
 #include "types.glsl"
 
-// Far children waiting to be visited; the builder caps the depth so this cannot overflow
-// (src/accel/bvh.rs STACK_SIZE says why 72 is enough).
-#define STACK_SIZE 72
+// Entries of siblings waiting to be visited; the builder caps the depth so this cannot
+// overflow (src/accel/bvh.rs STACK_SIZE says why 24 is enough).
+#define STACK_SIZE 24
 #define NO_HIT 0xffffffffu
 
 // Node i of the BVH: eight texels, in the order of BvhNode's members (tests/layout.rs checks
@@ -106,11 +107,22 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
     vec3 oi = o * inv;
     float best_t = tmax;
     uint best = NO_HIT;
+    // The interior children still to visit of the last node that had two or more, in
+    // registers: their block's first slot (src/accel/bvh.rs flatten gives a node's interior
+    // children consecutive slots), each one's offset in it in two bits of s_ofs (the next in
+    // the low bits), how many, and the next one's entry distance (a lower bound for the
+    // others). The next node with two or more spills the entry to the stack as one word and
+    // that distance: one store site a step instead of a store per child (lavapipe stores to a
+    // run-time-indexed array lane by lane; three child pushes a step cost rooms' pass 0.30 s
+    // against 0.28 s, bench-rays 4.5 against 5.8 Mrays/s: docs/results.md, thirty-seventh
+    // session). Shadow rays keep the distances too: the variant without them ran 2.4× slower
+    // on lavapipe (thirty-sixth session).
     uint stack[STACK_SIZE];
-    // Entry distance of each stacked child: skipped on pop once a closer hit is known.
     float stack_t[STACK_SIZE];
     uint sp = 0u;
     uint node = 0u;
+    uint s_base = 0u, s_ofs = 0u, s_cnt = 0u;
+    float s_k0 = 0.0;
     for (;;) {
         BvhNode n = bvh_node(node);
         float key[4];
@@ -169,26 +181,43 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
         COMPARE_EXCHANGE(0, 2)
         COMPARE_EXCHANGE(1, 3)
         COMPARE_EXCHANGE(1, 2)
-        // Shadow rays (any_hit) stack distances too, although until their first hit (where
-        // they end) best_t stays tmax and every entry passes: with the distance stores
-        // compiled out for them, lavapipe ran a shadow ray 2.4x slower than with them (rooms,
-        // `lightlearn profile --sampler uniform --max-depth 1`: 0.325 -> 0.135 s of shadow
-        // rays in a 0.505 -> 0.30 s pass; 6.2 nodes and 1.1 triangles a ray either way, the
-        // same images; docs/results.md, thirty-sixth session). Its compiler turns each
-        // access to these arrays into per-lane loads and masked stores; why the variant
-        // without distances cost so much more is not known.
         if (m > 0u) {
-            if (m > 3u) { stack[sp] = rf[3]; stack_t[sp] = key[3]; sp++; }
-            if (m > 2u) { stack[sp] = rf[2]; stack_t[sp] = key[2]; sp++; }
-            if (m > 1u) { stack[sp] = rf[1]; stack_t[sp] = key[1]; sp++; }
+            if (m > 1u) {
+                if (s_cnt > 0u) {
+                    stack[sp] = (s_base << 8u) | (s_ofs << 2u) | s_cnt;
+                    stack_t[sp] = s_k0;
+                    sp++;
+                }
+                // Leaf refs carry BVH_LEAF_BIT, so the least ref is the block's first slot.
+                uint base = min(min(rf[0], rf[1]), min(rf[2], rf[3]));
+                s_base = base;
+                s_ofs = ((rf[1] - base) & 3u) | (((rf[2] - base) & 3u) << 2u) | (((rf[3] - base) & 3u) << 4u);
+                s_cnt = m - 1u;
+                s_k0 = key[1];
+            }
             node = rf[0];
         } else {
-            // Pop the next child that can still hold a closer hit.
+            // The nearest sibling left that can still hold a closer hit: from the registers,
+            // else from the stack (its later siblings' distances unknown there: the first's,
+            // a lower bound, stands for them).
             bool found = false;
-            while (sp > 0u && !found) {
-                sp--;
-                found = stack_t[sp] <= best_t;
-                node = stack[sp];
+            while (!found && (s_cnt > 0u || sp > 0u)) {
+                if (s_cnt == 0u) {
+                    sp--;
+                    uint e = stack[sp];
+                    s_base = e >> 8u;
+                    s_ofs = (e >> 2u) & 63u;
+                    s_cnt = e & 3u;
+                    s_k0 = stack_t[sp];
+                }
+                if (s_k0 <= best_t) {
+                    found = true;
+                    node = s_base + (s_ofs & 3u);
+                    s_ofs >>= 2u;
+                    s_cnt--;
+                } else {
+                    s_cnt = 0u;  // sorted: the rest are farther still
+                }
             }
             if (!found) break;
         }

@@ -14,8 +14,13 @@ const MAX_LEAF: usize = 4;
 pub const MAX_DEPTH: usize = 48;
 /// Entries of the traversal stack (`STACK_SIZE` in `shaders/shared/bvh.glsl`): a 4-wide node
 /// spans two binary levels wherever it has interior children, so a path has at most
-/// MAX_DEPTH / 2 nodes, and each pushes at most three children: 3 · (24 − 1) = 69 ≤ 72.
-pub const STACK_SIZE: usize = 72;
+/// MAX_DEPTH / 2 = 24 nodes; each node on it with two or more interior children leaves one
+/// entry of siblings to visit (the latest in registers, the others stacked), and the last
+/// node has none: at most 24 − 2 = 22 on the stack.
+pub const STACK_SIZE: usize = 24;
+/// The most nodes a BVH may have: a stack entry packs a slot below 2^24 into its high bits
+/// (`Siblings`). Devices whose texel buffers hold 2^27 texels cannot hold more anyway.
+pub const MAX_NODES: usize = 1 << 24;
 const BINS: usize = 16;
 
 #[derive(Clone, Debug)]
@@ -153,6 +158,9 @@ impl Bvh {
         let mut stack = [(0u32, 0f32); STACK_SIZE];
         let mut sp = 0usize;
         let mut node = 0u32;
+        // The kernel's sibling entry: the interior children still to visit of the last node
+        // that had two or more, in registers; the next such node stacks it.
+        let mut sib = Siblings::default();
         loop {
             let kids = children(&self.nodes[node as usize]);
             // All four boxes against the distance known on arrival (-1: missed), then the
@@ -174,7 +182,7 @@ impl Bvh {
             for i in 0..4 {
                 let inner = key[i] >= 0.0 && refs[i] & BVH_LEAF_BIT == 0 && key[i] <= best_t;
                 key[i] = if inner { key[i] } else { f32::INFINITY };
-                m += inner as usize;
+                m += inner as u32;
             }
             for (i, j) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
                 if key[j] < key[i] {
@@ -183,18 +191,39 @@ impl Bvh {
                 }
             }
             if m > 0 {
-                for j in (1..m).rev() {
-                    stack[sp] = (refs[j], key[j]);
-                    sp += 1;
+                if m > 1 {
+                    if sib.count > 0 {
+                        stack[sp] = (sib.pack(), sib.key);
+                        sp += 1;
+                    }
+                    // Leaf refs carry BVH_LEAF_BIT: the least ref is the block's first slot.
+                    let base = refs.iter().copied().min().unwrap_or(0);
+                    sib = Siblings {
+                        base,
+                        offsets: (1..4).fold(0, |o, j| {
+                            o | ((refs[j].wrapping_sub(base) & 3) << (2 * (j - 1)))
+                        }),
+                        count: m - 1,
+                        key: key[1],
+                    };
                 }
                 node = refs[0];
             } else {
-                // Pop the next child that can still hold a closer hit.
+                // The nearest sibling left that can still hold a closer hit.
                 let mut found = false;
-                while sp > 0 && !found {
-                    sp -= 1;
-                    found = stack[sp].1 <= best_t;
-                    node = stack[sp].0;
+                while !found && (sib.count > 0 || sp > 0) {
+                    if sib.count == 0 {
+                        sp -= 1;
+                        sib = Siblings::unpack(stack[sp].0, stack[sp].1);
+                    }
+                    if sib.key <= best_t {
+                        found = true;
+                        node = sib.base + (sib.offsets & 3);
+                        sib.offsets >>= 2;
+                        sib.count -= 1;
+                    } else {
+                        sib.count = 0; // sorted: the rest are farther still
+                    }
                 }
                 if !found {
                     break;
@@ -225,6 +254,33 @@ impl Bvh {
             }
         }
         hit
+    }
+}
+
+/// Interior children of one node still to visit, nearest first: they sit in consecutive slots
+/// from `base` (flatten), and `offsets` holds each one's slot − base in two bits, the next in
+/// the low bits. On the stack as one word, base · 256 | offsets · 4 | count (base below
+/// MAX_NODES), and the next one's entry distance, a lower bound for the others'.
+#[derive(Clone, Copy, Default)]
+struct Siblings {
+    base: u32,
+    offsets: u32,
+    count: u32,
+    key: f32,
+}
+
+impl Siblings {
+    fn pack(&self) -> u32 {
+        (self.base << 8) | (self.offsets << 2) | self.count
+    }
+
+    fn unpack(word: u32, key: f32) -> Siblings {
+        Siblings {
+            base: word >> 8,
+            offsets: (word >> 2) & 63,
+            count: word & 3,
+            key,
+        }
     }
 }
 
@@ -374,8 +430,9 @@ fn set_child(n: &mut BvhNode, i: usize, (lo, hi, r, count): Child) {
 /// it adds no test).
 const EMPTY_CHILD: Child = ([1e30; 3], [1e30; 3], BVH_LEAF_BIT, 0);
 
-/// Lays out the 4-wide nodes depth-first (a node, then its children's subtrees in order) and
-/// the triangles in leaf order. A node's children are its binary node's grandchildren, or the
+/// Lays out the 4-wide nodes with each node's interior children in one block of consecutive
+/// slots (subtrees filled depth-first, a block allocated as its parent is filled) and the
+/// triangles in leaf order. A node's children are its binary node's grandchildren, or the
 /// child itself where that is a leaf.
 fn flatten(nodes: &[BuildNode], ids: &[u32], triangles: &[[Vec3; 3]]) -> Bvh {
     let tris = ids
@@ -427,29 +484,33 @@ fn flatten(nodes: &[BuildNode], ids: &[u32], triangles: &[[Vec3; 3]]) -> Bvh {
             })
             .collect()
     };
-    // Each interior node gets its slot before its children (pre-order).
-    let mut stack = vec![(0usize, usize::MAX, 0usize)]; // (build node, parent slot, child)
-    while let Some((n, parent, i)) = stack.pop() {
-        let node = &nodes[n];
-        let (child_ref, count) = match node.kids {
-            Some(_) => (out.len() as u32, 0),
-            None => (BVH_LEAF_BIT | node.first as u32, node.count as u32),
-        };
-        if parent != usize::MAX {
+    // A node's interior children take consecutive slots (one block, allocated when the node
+    // is filled), so the traversal names any of them by the block's first slot and an offset
+    // below 4 (`Siblings`).
+    out.push(empty());
+    let mut work = vec![(0usize, 0usize)]; // (interior build node, its slot)
+    while let Some((n, slot)) = work.pop() {
+        let kids = wide_children(n);
+        let mut next = out.len();
+        let inner = kids.iter().filter(|&&c| nodes[c].kids.is_some()).count();
+        out.extend((0..inner).map(|_| empty()));
+        for (i, &c) in kids.iter().enumerate() {
+            let node = &nodes[c];
+            let (child_ref, count) = match node.kids {
+                Some(_) => {
+                    work.push((c, next));
+                    next += 1;
+                    ((next - 1) as u32, 0)
+                }
+                None => (BVH_LEAF_BIT | node.first as u32, node.count as u32),
+            };
             let child = (
                 node.bounds.lo.to_array(),
                 node.bounds.hi.to_array(),
                 child_ref,
                 count,
             );
-            set_child(&mut out[parent], i, child);
-        }
-        if node.kids.is_some() {
-            let slot = out.len();
-            out.push(empty());
-            for (i, &c) in wide_children(n).iter().enumerate().rev() {
-                stack.push((c, slot, i));
-            }
+            set_child(&mut out[slot], i, child);
         }
     }
     Bvh { nodes: out, tris }
@@ -470,6 +531,40 @@ mod tests {
                 [v(), v(), v()]
             })
             .collect()
+    }
+
+    /// The traversal names a node's interior children by the first one's slot and an offset
+    /// below 4 (`Siblings`), so they must take consecutive slots, and every node but the root
+    /// must be some node's child exactly once.
+    #[test]
+    fn interior_children_take_consecutive_slots() {
+        let bvh = Bvh::build(&random_soup(3000, 11));
+        let mut parents = vec![0u32; bvh.nodes.len()];
+        for n in &bvh.nodes {
+            let mut inner: Vec<u32> = [n.a_ref, n.b_ref, n.c_ref, n.d_ref]
+                .into_iter()
+                .filter(|r| r & BVH_LEAF_BIT == 0)
+                .collect();
+            inner.sort_unstable();
+            for (i, &r) in inner.iter().enumerate() {
+                assert_eq!(
+                    r,
+                    inner[0] + i as u32,
+                    "children {inner:?} are not one block"
+                );
+                parents[r as usize] += 1;
+            }
+        }
+        assert!(
+            bvh.nodes.len() > 500,
+            "too small a tree: {}",
+            bvh.nodes.len()
+        );
+        assert_eq!(parents[0], 0, "the root is nobody's child");
+        assert!(
+            parents[1..].iter().all(|&p| p == 1),
+            "a node with no or two parents"
+        );
     }
 
     /// A ray from near f32's limit (a glTF camera at 3e38) meets boxes at t = ∞: it must
@@ -550,8 +645,9 @@ mod tests {
         }
     }
 
-    /// The most stack entries a traversal can hold below `node`: descending into a child
-    /// leaves at most the other interior children on the stack.
+    /// The most sibling entries a traversal can hold at and below `node` (registers and
+    /// stack together), and the depth in nodes: descending from a node with two or more
+    /// interior children leaves one entry of its others.
     fn stack_need(bvh: &Bvh, node: u32) -> (usize, usize) {
         let n = &bvh.nodes[node as usize];
         let inner: Vec<u32> = [n.a_ref, n.b_ref, n.c_ref, n.d_ref]
@@ -559,11 +655,7 @@ mod tests {
             .filter(|r| r & BVH_LEAF_BIT == 0)
             .collect();
         let below = inner.iter().map(|&c| stack_need(bvh, c));
-        let need = below
-            .clone()
-            .map(|(s, _)| s + inner.len() - 1)
-            .max()
-            .unwrap_or(0);
+        let need = below.clone().map(|(s, _)| s).max().unwrap_or(0) + (inner.len() > 1) as usize;
         (need, 1 + below.map(|(_, d)| d).max().unwrap_or(0))
     }
 
@@ -583,16 +675,18 @@ mod tests {
             })
             .collect();
         let bvh = Bvh::build(&tris);
-        let (need, depth) = stack_need(&bvh, 0);
+        let (entries, depth) = stack_need(&bvh, 0);
+        // The latest entry is held in registers.
+        let need = entries.saturating_sub(1);
         eprintln!("4-wide depth {depth}, stack need {need}");
         assert!(
             depth >= 16,
             "the tree is too shallow ({depth}) to test deep paths"
         );
-        // The bound STACK_SIZE rests on: at most three entries a level, at most MAX_DEPTH / 2
-        // levels.
+        // The bound STACK_SIZE rests on: at most MAX_DEPTH / 2 levels, one entry a level but
+        // the last, one of them in registers.
         assert!(
-            depth <= MAX_DEPTH / 2 && need <= 3 * (depth - 1),
+            depth <= MAX_DEPTH / 2 && need + 2 <= depth,
             "depth {depth}, need {need}"
         );
         assert!(need <= STACK_SIZE, "stack need {need} > {STACK_SIZE}");

@@ -145,6 +145,15 @@ impl GpuScene {
     ) -> Result<GpuScene> {
         scene.check_indices()?;
         check_fits(ctx, scene)?;
+        if bvh.nodes.len() > crate::accel::bvh::MAX_NODES {
+            anyhow::bail!(
+                "'{}': its {} triangles need {} BVH nodes, more than the traversal addresses ({}); use fewer triangles",
+                scene.source,
+                scene.triangles.len(),
+                bvh.nodes.len(),
+                crate::accel::bvh::MAX_NODES
+            );
+        }
         let weights = lights::power_weights(scene);
         // The kernels' units count the suns too (their irradiance over the scene's cross-
         // section): a sun of 1000 beside a light of 1e-36 W/sr was scaled by 2^120 into an
