@@ -1,10 +1,10 @@
 // BVH traversal over 4-wide nodes. The including kernel declares `bvh_node_texels` and
 // `bvh_tri_texels` (usamplerBuffer: BvhNode[] and BvhTri[] as RGBA32UI texels,
-// src/gpu/buffer.rs Buffer::texels, which says why texels and not storage buffers). Same loop
-// as Bvh::traverse in src/accel/bvh.rs (here the leaves of all four children in one inner
-// loop, tested in the same order; the same sibling entries: the same nodes and hits), but for
-// the alpha test a kernel may define as BVH_ALPHA_TEST (render.comp: alpha.glsl's glTF
-// cutouts).
+// src/gpu/buffer.rs Buffer::texels, which says why texels and not storage buffers). The same
+// steps as Bvh::traverse in src/accel/bvh.rs (a node's hit leaves tested after the next node
+// is chosen, here all four children's in one loop, in the same order; the same sibling
+// entries: the same nodes and hits), but for the alpha test a kernel may define as
+// BVH_ALPHA_TEST (render.comp: alpha.glsl's glTF cutouts).
 #ifndef BVH_GLSL
 #define BVH_GLSL
 
@@ -105,7 +105,9 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
     vec3 dd = mix(d, mix(vec3(1e-20), vec3(-1e-20), lessThan(d, vec3(0.0))), lessThan(abs(d), vec3(1e-20)));
     vec3 inv = 1.0 / dd;
     vec3 oi = o * inv;
-    float best_t = tmax;
+    // At most the largest float, as Bvh::traverse: with tmax = ∞ (trace.comp's callers may
+    // pass it) a box entered at t = ∞ would count as an interior child to visit.
+    float best_t = min(tmax, uintBitsToFloat(0x7f7fffffu));
     uint best = NO_HIT;
     // The interior children still to visit of the last node that had two or more, in
     // registers: their block's first slot (src/accel/bvh.rs flatten gives a node's interior
@@ -114,7 +116,7 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
     // others). The next node with two or more spills the entry to the stack as one word and
     // that distance: one store site a step instead of a store per child (lavapipe stores to a
     // run-time-indexed array lane by lane; three child pushes a step cost rooms' pass 0.30 s
-    // against 0.28 s, bench-rays 4.5 against 5.8 Mrays/s: docs/results.md, thirty-seventh
+    // against 0.28 s, bench-rays 4.3–4.5 against 5.6–5.7 Mrays/s: docs/results.md, thirty-seventh
     // session). Shadow rays keep the distances too: the variant without them ran 2.4× slower
     // on lavapipe (thirty-sixth session).
     uint stack[STACK_SIZE];
@@ -123,36 +125,104 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
     uint node = 0u;
     uint s_base = 0u, s_ofs = 0u, s_cnt = 0u;
     float s_k0 = 0.0;
-    for (;;) {
-        BvhNode n = bvh_node(node);
-        float key[4];
-        uint rf[4];
-        key[0] = slab(n.a_min, n.a_max, oi, inv, tmin, best_t);
-        key[1] = slab(n.b_min, n.b_max, oi, inv, tmin, best_t);
-        key[2] = slab(n.c_min, n.c_max, oi, inv, tmin, best_t);
-        key[3] = slab(n.d_min, n.d_max, oi, inv, tmin, best_t);
-        rf[0] = n.a_ref;
-        rf[1] = n.b_ref;
-        rf[2] = n.c_ref;
-        rf[3] = n.d_ref;
-        // The triangles of every child that is a hit leaf, in one loop (a's first, then b, c,
-        // d): one copy of the intersection code, so SIMD lanes with leaves in different
-        // children run it together.
-        uint na = key[0] >= 0.0 && (n.a_ref & BVH_LEAF_BIT) != 0u ? n.a_count : 0u;
-        uint nb = key[1] >= 0.0 && (n.b_ref & BVH_LEAF_BIT) != 0u ? n.b_count : 0u;
-        uint nc = key[2] >= 0.0 && (n.c_ref & BVH_LEAF_BIT) != 0u ? n.c_count : 0u;
-        uint nd = key[3] >= 0.0 && (n.d_ref & BVH_LEAF_BIT) != 0u ? n.d_count : 0u;
-        uint nab = na + nb;
-        uint nabc = nab + nc;
-        if (nabc + nd > 0u) {
-            uint fa = n.a_ref & ~BVH_LEAF_BIT;
-            uint fb = n.b_ref & ~BVH_LEAF_BIT;
-            uint fc = n.c_ref & ~BVH_LEAF_BIT;
-            uint fd = n.d_ref & ~BVH_LEAF_BIT;
-            // Bottom-tested (nabc + nd > 0 here): a top test costs lavapipe one more masked
-            // triangle test per node (render.comp main says why).
-            uint k = 0u;
-            do {
+    bool more_nodes = true;
+    // The hit leaves of the last node visited: four triangle ranges (first, count), a's first.
+    uint fa = 0u, fb = 0u, fc = 0u, fd = 0u;
+    uint na = 0u, nab = 0u, nabc = 0u, nall = 0u;
+    // Node steps until this lane holds leaves to test or has no node left, the group stepping
+    // on while any lane does; then the leaves' triangles (Aila and Laine's "while-while").
+    // lavapipe runs the body of every `if` for the whole SIMD group of 8 and a loop body at
+    // least once, so the leaf loop inside each node step ran a masked triangle test (three
+    // texel fetches) at every step, for rooms' shadow rays five wasted rounds in six steps:
+    // this loop took rooms' direct-light pass 0.29 -> 0.24 s, city's 0.095 -> 0.080 s and
+    // bench-rays 5.7 -> 7.1 Mrays/s (docs/results.md, thirty-seventh session).
+    do {
+        do {
+            if (nall == 0u && more_nodes) {
+                BvhNode n = bvh_node(node);
+                float key[4];
+                uint rf[4];
+                key[0] = slab(n.a_min, n.a_max, oi, inv, tmin, best_t);
+                key[1] = slab(n.b_min, n.b_max, oi, inv, tmin, best_t);
+                key[2] = slab(n.c_min, n.c_max, oi, inv, tmin, best_t);
+                key[3] = slab(n.d_min, n.d_max, oi, inv, tmin, best_t);
+                rf[0] = n.a_ref;
+                rf[1] = n.b_ref;
+                rf[2] = n.c_ref;
+                rf[3] = n.d_ref;
+                na = key[0] >= 0.0 && (n.a_ref & BVH_LEAF_BIT) != 0u ? n.a_count : 0u;
+                uint nb = key[1] >= 0.0 && (n.b_ref & BVH_LEAF_BIT) != 0u ? n.b_count : 0u;
+                uint nc = key[2] >= 0.0 && (n.c_ref & BVH_LEAF_BIT) != 0u ? n.c_count : 0u;
+                uint nd = key[3] >= 0.0 && (n.d_ref & BVH_LEAF_BIT) != 0u ? n.d_count : 0u;
+                nab = na + nb;
+                nabc = nab + nc;
+                nall = nabc + nd;
+                // (Tested once the next node is chosen, so that choice culls by the distance
+                // known before them: the same hits, a few more steps.)
+                fa = n.a_ref & ~BVH_LEAF_BIT;
+                fb = n.b_ref & ~BVH_LEAF_BIT;
+                fc = n.c_ref & ~BVH_LEAF_BIT;
+                fd = n.d_ref & ~BVH_LEAF_BIT;
+                // Interior children that can still hold a closer hit, nearest first; the others
+                // sort last with key ∞ (a five-exchange sorting network).
+                uint m = 0u;
+                for (int i = 0; i < 4; ++i) {
+                    bool inner = key[i] >= 0.0 && (rf[i] & BVH_LEAF_BIT) == 0u && key[i] <= best_t;
+                    key[i] = inner ? key[i] : uintBitsToFloat(0x7f800000u);  // +inf
+                    m += inner ? 1u : 0u;
+                }
+                COMPARE_EXCHANGE(0, 1)
+                COMPARE_EXCHANGE(2, 3)
+                COMPARE_EXCHANGE(0, 2)
+                COMPARE_EXCHANGE(1, 3)
+                COMPARE_EXCHANGE(1, 2)
+                if (m > 0u) {
+                    if (m > 1u) {
+                        if (s_cnt > 0u) {
+                            stack[sp] = (s_base << 8u) | (s_ofs << 2u) | s_cnt;
+                            stack_t[sp] = s_k0;
+                            sp++;
+                        }
+                        // Leaf refs carry BVH_LEAF_BIT: the least ref is the block's first slot.
+                        uint base = min(min(rf[0], rf[1]), min(rf[2], rf[3]));
+                        s_base = base;
+                        s_ofs = ((rf[1] - base) & 3u) | (((rf[2] - base) & 3u) << 2u) | (((rf[3] - base) & 3u) << 4u);
+                        s_cnt = m - 1u;
+                        s_k0 = key[1];
+                    }
+                    node = rf[0];
+                } else {
+                    // The nearest sibling left that can still hold a closer hit: from the
+                    // registers, else from the stack (the distance stacked with an entry, its
+                    // first's, stands for its later siblings').
+                    bool found = false;
+                    while (!found && (s_cnt > 0u || sp > 0u)) {
+                        if (s_cnt == 0u) {
+                            sp--;
+                            uint e = stack[sp];
+                            s_base = e >> 8u;
+                            s_ofs = (e >> 2u) & 63u;
+                            s_cnt = e & 3u;
+                            s_k0 = stack_t[sp];
+                        }
+                        if (s_k0 <= best_t) {
+                            found = true;
+                            node = s_base + (s_ofs & 3u);
+                            s_ofs >>= 2u;
+                            s_cnt--;
+                        } else {
+                            s_cnt = 0u;  // sorted: the rest are farther still
+                        }
+                    }
+                    more_nodes = found;
+                }
+            }
+        } while (nall == 0u && more_nodes);
+        // One copy of the intersection code for the four ranges, so lanes with leaves in
+        // different children run it together.
+        uint k = 0u;
+        do {
+            if (k < nall) {
                 uint i = k < na ? fa + k : (k < nab ? fb + (k - na) : (k < nabc ? fc + (k - nab) : fd + (k - nabc)));
 #ifdef BVH_ALPHA_TEST
                 // A cut-out point is no hit (alpha.glsl).
@@ -165,63 +235,11 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
 #endif
                 if (any_hit && best != NO_HIT) break;
                 ++k;
-            } while (k < nabc + nd);
-            if (any_hit && best != NO_HIT) break;
-        }
-        // Interior children that can still hold a closer hit, nearest first; the others sort
-        // last with key ∞ (a five-exchange sorting network).
-        uint m = 0u;
-        for (int i = 0; i < 4; ++i) {
-            bool inner = key[i] >= 0.0 && (rf[i] & BVH_LEAF_BIT) == 0u && key[i] <= best_t;
-            key[i] = inner ? key[i] : uintBitsToFloat(0x7f800000u);  // +inf
-            m += inner ? 1u : 0u;
-        }
-        COMPARE_EXCHANGE(0, 1)
-        COMPARE_EXCHANGE(2, 3)
-        COMPARE_EXCHANGE(0, 2)
-        COMPARE_EXCHANGE(1, 3)
-        COMPARE_EXCHANGE(1, 2)
-        if (m > 0u) {
-            if (m > 1u) {
-                if (s_cnt > 0u) {
-                    stack[sp] = (s_base << 8u) | (s_ofs << 2u) | s_cnt;
-                    stack_t[sp] = s_k0;
-                    sp++;
-                }
-                // Leaf refs carry BVH_LEAF_BIT, so the least ref is the block's first slot.
-                uint base = min(min(rf[0], rf[1]), min(rf[2], rf[3]));
-                s_base = base;
-                s_ofs = ((rf[1] - base) & 3u) | (((rf[2] - base) & 3u) << 2u) | (((rf[3] - base) & 3u) << 4u);
-                s_cnt = m - 1u;
-                s_k0 = key[1];
             }
-            node = rf[0];
-        } else {
-            // The nearest sibling left that can still hold a closer hit: from the registers,
-            // else from the stack (its later siblings' distances unknown there: the first's,
-            // a lower bound, stands for them).
-            bool found = false;
-            while (!found && (s_cnt > 0u || sp > 0u)) {
-                if (s_cnt == 0u) {
-                    sp--;
-                    uint e = stack[sp];
-                    s_base = e >> 8u;
-                    s_ofs = (e >> 2u) & 63u;
-                    s_cnt = e & 3u;
-                    s_k0 = stack_t[sp];
-                }
-                if (s_k0 <= best_t) {
-                    found = true;
-                    node = s_base + (s_ofs & 3u);
-                    s_ofs >>= 2u;
-                    s_cnt--;
-                } else {
-                    s_cnt = 0u;  // sorted: the rest are farther still
-                }
-            }
-            if (!found) break;
-        }
-    }
+        } while (k < nall);
+        if (any_hit && best != NO_HIT) break;
+        nall = 0u;
+    } while (more_nodes);
     t_hit = best_t;
     return best;
 }

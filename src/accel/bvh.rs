@@ -161,21 +161,17 @@ impl Bvh {
         // The kernel's sibling entry: the interior children still to visit of the last node
         // that had two or more, in registers; the next such node stacks it.
         let mut sib = Siblings::default();
+        let mut done = false;
         loop {
             let kids = children(&self.nodes[node as usize]);
-            // All four boxes against the distance known on arrival (-1: missed), then the
-            // leaves in order.
+            // All four boxes against the distance known on arrival (-1: missed). The hit
+            // leaves are tested once the next node is chosen, as the kernel's lanes step from
+            // node to node until they hold leaves and then test them.
             let mut key = slab4(&kids, oi, inv, tmin, best_t).to_array();
             let mut refs = kids.map(|k| k.2);
-            for i in 0..4 {
-                if key[i] >= 0.0
-                    && refs[i] & BVH_LEAF_BIT != 0
-                    && self.leaf(refs[i], kids[i].3, o, d, tmin, &mut best_t, &mut best)
-                    && any
-                {
-                    return Some((best_t, best));
-                }
-            }
+            let leaves = std::array::from_fn::<_, 4, _>(|i| {
+                (key[i] >= 0.0 && refs[i] & BVH_LEAF_BIT != 0).then_some((refs[i], kids[i].3))
+            });
             // Interior children that can still hold a closer hit, nearest first (the same
             // five compare-exchanges as the kernel; the others sort last with key ∞).
             let mut m = 0;
@@ -225,9 +221,15 @@ impl Bvh {
                         sib.count = 0; // sorted: the rest are farther still
                     }
                 }
-                if !found {
-                    break;
+                done = !found;
+            }
+            for &(r, count) in leaves.iter().flatten() {
+                if self.leaf(r, count, o, d, tmin, &mut best_t, &mut best) && any {
+                    return Some((best_t, best));
                 }
+            }
+            if done {
+                break;
             }
         }
         (best != u32::MAX).then_some((best_t, best))
@@ -690,6 +692,14 @@ mod tests {
             "depth {depth}, need {need}"
         );
         assert!(need <= STACK_SIZE, "stack need {need} > {STACK_SIZE}");
+        // A bushy tree, where nodes have two to four interior children and entries stack.
+        let soup = Bvh::build(&random_soup(3000, 3));
+        let (entries, soup_depth) = stack_need(&soup, 0);
+        eprintln!(
+            "soup: 4-wide depth {soup_depth}, stack need {}",
+            entries - 1
+        );
+        assert!(entries >= 4 && entries - 1 + 2 <= soup_depth && entries - 1 <= STACK_SIZE);
         for i in [0, 7, 60] {
             let x = 1.3f32.powi(i);
             let o = Vec3::new(0.99 * x, 0.25, 0.25);
