@@ -3,7 +3,7 @@
 // the base-colour texture's, bilinear like the colour) is at least alphaCutoff, and rays pass
 // it elsewhere (camera, path and shadow rays alike). Compiled out (SCENE_ALPHA_MASK false)
 // for scenes without such a material. Mirrors nothing on the host: the CPU BVH
-// (src/accel/bvh.rs, used by the preview's heat map and the coverage of live rows) sees every
+// (src/accel/traverse.rs, used by the preview's heat map and the coverage of live rows) sees every
 // triangle as opaque. The including kernel declares SCENE_ALPHA_MASK, `tri_material`,
 // `material_texels` and what texture.glsl needs.
 #ifndef ALPHA_GLSL

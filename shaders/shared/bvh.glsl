@@ -1,7 +1,7 @@
 // BVH traversal over 4-wide nodes. The including kernel declares `bvh_node_texels` and
 // `bvh_tri_texels` (usamplerBuffer: BvhNode[] and BvhTri[] as RGBA32UI texels,
 // src/gpu/buffer.rs Buffer::texels, which says why texels and not storage buffers). The same
-// steps as Bvh::traverse in src/accel/bvh.rs (a node's hit leaves tested after the next node
+// steps as Bvh::traverse in src/accel/traverse.rs (a node's hit leaves tested after the next node
 // is chosen, here all four children's in one loop, in the same order; the same sibling
 // entries: the same nodes and hits), but for the alpha test a kernel may define as
 // BVH_ALPHA_TEST (render.comp: alpha.glsl's glTF cutouts).
@@ -134,8 +134,8 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
     // lavapipe runs the body of every `if` for the whole SIMD group of 8 and a loop body at
     // least once, so the leaf loop inside each node step ran a masked triangle test (three
     // texel fetches) at every step, for rooms' shadow rays five wasted rounds in six steps:
-    // this loop took rooms' direct-light pass 0.29 -> 0.24 s, city's 0.095 -> 0.080 s and
-    // bench-rays 5.7 -> 7.1 Mrays/s (docs/results.md, thirty-seventh session).
+    // this loop took rooms' direct-light pass 0.28-0.29 -> 0.24 s and city's 0.09 -> 0.08 s
+    // (docs/results.md, thirty-seventh session).
     do {
         do {
             if (nall == 0u && more_nodes) {

@@ -2,5 +2,6 @@
 
 pub mod bvh;
 pub mod gpu_trace;
+mod traverse;
 
 pub use bvh::Bvh;
