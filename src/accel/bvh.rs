@@ -17,8 +17,9 @@ pub const MAX_DEPTH: usize = 48;
 /// entry of siblings to visit (the latest in registers, the others stacked), and the last
 /// node has none: at most 24 − 2 = 22 on the stack.
 pub const STACK_SIZE: usize = 24;
-/// The most nodes a BVH may have: a stack entry packs a slot below 2^24 into its high bits
-/// (`Siblings`). Devices whose texel buffers hold 2^27 texels cannot hold more anyway.
+/// The most nodes a BVH may have: the kernel's stack entry packs a slot below 2^24 into its
+/// high bits (shaders/shared/bvh.glsl). Devices whose texel buffers hold 2^27 texels cannot
+/// hold more anyway.
 pub const MAX_NODES: usize = 1 << 24;
 const BINS: usize = 16;
 

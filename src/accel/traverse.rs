@@ -41,7 +41,7 @@ impl Bvh {
         // The kernel clamps its distance the same way.
         let mut best_t = tmax.min(f32::MAX);
         let mut best = u32::MAX;
-        let mut stack = [(0u32, 0f32); STACK_SIZE];
+        let mut stack = [Siblings::default(); STACK_SIZE];
         let mut sp = 0usize;
         let mut node = 0u32;
         // The kernel's sibling entry: the interior children still to visit of the last node
@@ -75,7 +75,7 @@ impl Bvh {
             if m > 0 {
                 if m > 1 {
                     if sib.count > 0 {
-                        stack[sp] = (sib.pack(), sib.key);
+                        stack[sp] = sib;
                         sp += 1;
                     }
                     // Leaf refs carry BVH_LEAF_BIT: the least ref is the block's first slot.
@@ -96,7 +96,7 @@ impl Bvh {
                 while !found && (sib.count > 0 || sp > 0) {
                     if sib.count == 0 {
                         sp -= 1;
-                        sib = Siblings::unpack(stack[sp].0, stack[sp].1);
+                        sib = stack[sp];
                     }
                     if sib.key <= best_t {
                         found = true;
@@ -147,29 +147,14 @@ impl Bvh {
 
 /// Interior children of one node still to visit, nearest first: they sit in consecutive slots
 /// from `base` (flatten), and `offsets` holds each one's slot − base in two bits, the next in
-/// the low bits. On the stack as one word, base · 256 | offsets · 4 | count (base below
-/// MAX_NODES), and the next one's entry distance, a lower bound for the others'.
+/// the low bits; `key` is the next one's entry distance, a lower bound for the others'. The
+/// kernel stacks it as one word, base · 256 | offsets · 4 | count, and that distance.
 #[derive(Clone, Copy, Default)]
 struct Siblings {
     base: u32,
     offsets: u32,
     count: u32,
     key: f32,
-}
-
-impl Siblings {
-    fn pack(&self) -> u32 {
-        (self.base << 8) | (self.offsets << 2) | self.count
-    }
-
-    fn unpack(word: u32, key: f32) -> Siblings {
-        Siblings {
-            base: word >> 8,
-            offsets: (word >> 2) & 63,
-            count: word & 3,
-            key,
-        }
-    }
 }
 
 /// The ray/box slab test of the four children at once (`oi` = o · inv; SIMD lanes =
