@@ -9,34 +9,34 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// Marks a child reference in [`BvhNode`] as a leaf; the low bits are then the first triangle.
+/// Marks a child reference in [`BvhNode`] as a leaf; the bits below it then hold the leaf's
+/// triangle count (`BVH_LEAF_COUNT_SHIFT`) and its first triangle (`BVH_LEAF_FIRST_MASK`).
 pub const BVH_LEAF_BIT: u32 = 0x8000_0000;
+/// A leaf reference holds its triangle count, at most 255, in bits 23–30.
+pub const BVH_LEAF_COUNT_SHIFT: u32 = 23;
+/// A leaf reference holds its first triangle in bits 0–22: a BVH holds fewer than 2^23
+/// triangles (the glTF loader's MAX_TRIANGLES is 2.5 M).
+pub const BVH_LEAF_FIRST_MASK: u32 = (1 << BVH_LEAF_COUNT_SHIFT) - 1;
 
-/// A 4-wide BVH node that stores the boxes of its (up to) four children, so one 128-byte
-/// fetch tests four boxes and a ray's chain of dependent node fetches is half as long as a
-/// binary tree's (docs/results.md, "BVH nodes in 32 bytes": fewer bytes a node did not help,
-/// a shorter chain did). Children a, b, c, d; a missing one is an empty leaf.
+/// A 4-wide BVH node that stores the boxes of its (up to) four children, so one fetch tests
+/// four boxes and a ray's chain of dependent node fetches is half as long as a binary tree's
+/// (docs/results.md, "BVH nodes in 32 bytes": fewer bytes a node did not help, a shorter
+/// chain did). The boxes plane by plane (`lo_x[i]` is child i's least x), then the four
+/// references: 112 bytes, seven texels, where boxes with a reference and a count beside each
+/// took eight (docs/results.md, thirty-eighth session: each texel a node step fetches costs
+/// lavapipe a gather). A missing child is an empty leaf.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct BvhNode {
-    pub a_min: [f32; 3],
-    /// Interior child: node index. Leaf: `BVH_LEAF_BIT | first triangle`.
-    pub a_ref: u32,
-    pub a_max: [f32; 3],
-    /// Leaf: number of triangles (0 for an empty child). Interior: 0.
-    pub a_count: u32,
-    pub b_min: [f32; 3],
-    pub b_ref: u32,
-    pub b_max: [f32; 3],
-    pub b_count: u32,
-    pub c_min: [f32; 3],
-    pub c_ref: u32,
-    pub c_max: [f32; 3],
-    pub c_count: u32,
-    pub d_min: [f32; 3],
-    pub d_ref: u32,
-    pub d_max: [f32; 3],
-    pub d_count: u32,
+    pub lo_x: [f32; 4],
+    pub lo_y: [f32; 4],
+    pub lo_z: [f32; 4],
+    pub hi_x: [f32; 4],
+    pub hi_y: [f32; 4],
+    pub hi_z: [f32; 4],
+    /// Interior child: node index. Leaf: `BVH_LEAF_BIT | count << BVH_LEAF_COUNT_SHIFT |
+    /// first triangle` (count 0 for an empty child).
+    pub refs: [u32; 4],
 }
 
 /// A triangle in BVH leaf order, pre-transformed for Möller–Trumbore (v0 and two edges).

@@ -166,22 +166,13 @@ fn host_and_shader_structs_match() {
     spv.extend(reflect(kernels::TEXELS));
     let rust = [
         rust_layout!(BvhNode {
-            a_min,
-            a_ref,
-            a_max,
-            a_count,
-            b_min,
-            b_ref,
-            b_max,
-            b_count,
-            c_min,
-            c_ref,
-            c_max,
-            c_count,
-            d_min,
-            d_ref,
-            d_max,
-            d_count
+            lo_x,
+            lo_y,
+            lo_z,
+            hi_x,
+            hi_y,
+            hi_z,
+            refs
         }),
         rust_layout!(BvhTri {
             v0,
@@ -490,6 +481,12 @@ fn glsl_defines_match_the_rust_constants() {
         .collect();
     let mut want: Vec<(String, u32)> = vec![
         ("BVH_LEAF_BIT".into(), BVH_LEAF_BIT),
+        ("BVH_LEAF_COUNT_SHIFT".into(), BVH_LEAF_COUNT_SHIFT),
+        ("BVH_LEAF_FIRST_MASK".into(), BVH_LEAF_FIRST_MASK),
+        (
+            "BVH_STACK_SIZE".into(),
+            lightlearn::accel::bvh::STACK_SIZE as u32,
+        ),
         ("LIGHT_POINT".into(), LIGHT_POINT),
         ("LIGHT_SPOT".into(), LIGHT_SPOT),
         ("LIGHT_TRIANGLE".into(), LIGHT_TRIANGLE),

@@ -10,40 +10,20 @@
 
 #include "types.glsl"
 
-// Entries of siblings waiting to be visited; the builder caps the depth so this cannot
-// overflow (src/accel/bvh.rs STACK_SIZE says why 24 is enough).
-#define STACK_SIZE 24
 #define NO_HIT 0xffffffffu
 
-// Node i of the BVH: eight texels, in the order of BvhNode's members (tests/layout.rs checks
-// the round trip against the host's bytes).
+// Node i of the BVH: seven texels, BvhNode's members in order (tests/layout.rs checks the
+// round trip against the host's bytes).
 BvhNode bvh_node(uint i) {
-    int t = int(8u * i);
-    uvec4 a = texelFetch(bvh_node_texels, t);
-    uvec4 b = texelFetch(bvh_node_texels, t + 1);
-    uvec4 c = texelFetch(bvh_node_texels, t + 2);
-    uvec4 d = texelFetch(bvh_node_texels, t + 3);
-    uvec4 e = texelFetch(bvh_node_texels, t + 4);
-    uvec4 f = texelFetch(bvh_node_texels, t + 5);
-    uvec4 g = texelFetch(bvh_node_texels, t + 6);
-    uvec4 h = texelFetch(bvh_node_texels, t + 7);
+    int t = int(7u * i);
     BvhNode n;
-    n.a_min = uintBitsToFloat(a.xyz);
-    n.a_ref = a.w;
-    n.a_max = uintBitsToFloat(b.xyz);
-    n.a_count = b.w;
-    n.b_min = uintBitsToFloat(c.xyz);
-    n.b_ref = c.w;
-    n.b_max = uintBitsToFloat(d.xyz);
-    n.b_count = d.w;
-    n.c_min = uintBitsToFloat(e.xyz);
-    n.c_ref = e.w;
-    n.c_max = uintBitsToFloat(f.xyz);
-    n.c_count = f.w;
-    n.d_min = uintBitsToFloat(g.xyz);
-    n.d_ref = g.w;
-    n.d_max = uintBitsToFloat(h.xyz);
-    n.d_count = h.w;
+    n.lo_x = uintBitsToFloat(texelFetch(bvh_node_texels, t));
+    n.lo_y = uintBitsToFloat(texelFetch(bvh_node_texels, t + 1));
+    n.lo_z = uintBitsToFloat(texelFetch(bvh_node_texels, t + 2));
+    n.hi_x = uintBitsToFloat(texelFetch(bvh_node_texels, t + 3));
+    n.hi_y = uintBitsToFloat(texelFetch(bvh_node_texels, t + 4));
+    n.hi_z = uintBitsToFloat(texelFetch(bvh_node_texels, t + 5));
+    n.refs = texelFetch(bvh_node_texels, t + 6);
     return n;
 }
 
@@ -63,16 +43,22 @@ BvhTri bvh_tri(uint i) {
     return tri;
 }
 
-// Entry distance of the box if hit within [tmin, tmax], else -1 (callers keep tmin >= 0).
-// `oi` = o * inv, so each plane distance is one fused multiply-add.
-float slab(vec3 lo, vec3 hi, vec3 oi, vec3 inv, float tmin, float tmax) {
-    vec3 t0 = lo * inv - oi;
-    vec3 t1 = hi * inv - oi;
-    vec3 tn = min(t0, t1);
-    vec3 tf = max(t0, t1);
-    float near = max(max(max(tn.x, tn.y), tn.z), tmin);
-    float far = min(min(min(tf.x, tf.y), tf.z), tmax);
-    return near <= far ? near : -1.0;
+// a < b ? a : b and a > b ? a : b, lane by lane: one x86 min/max instruction each, where
+// GLSL's min and max, which must return the number when one side is NaN, took lavapipe three
+// (a compare for NaN and a blend besides; docs/results.md, thirty-eighth session). They are
+// also what the CPU traversal's SSE min and max do (src/accel/traverse.rs slab4).
+vec4 min_x86(vec4 a, vec4 b) { return mix(b, a, lessThan(a, b)); }
+vec4 max_x86(vec4 a, vec4 b) { return mix(b, a, greaterThan(a, b)); }
+
+// Each child's entry distance if its box is hit within [tmin, tmax], else -1 (callers keep
+// tmin >= 0). `oi` = o * inv, so each plane distance is one multiply-add.
+vec4 slab4(BvhNode n, vec3 oi, vec3 inv, float tmin, float tmax) {
+    vec4 x0 = n.lo_x * inv.x - oi.x, x1 = n.hi_x * inv.x - oi.x;
+    vec4 y0 = n.lo_y * inv.y - oi.y, y1 = n.hi_y * inv.y - oi.y;
+    vec4 z0 = n.lo_z * inv.z - oi.z, z1 = n.hi_z * inv.z - oi.z;
+    vec4 near = max_x86(max_x86(max_x86(min_x86(x0, x1), min_x86(y0, y1)), min_x86(z0, z1)), vec4(tmin));
+    vec4 far = min_x86(min_x86(min_x86(max_x86(x0, x1), max_x86(y0, y1)), max_x86(z0, z1)), vec4(tmax));
+    return mix(vec4(-1.0), near, lessThanEqual(near, far));
 }
 
 // Möller–Trumbore, both faces: t of the hit, or -1.
@@ -119,8 +105,8 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
     // against 0.28 s, bench-rays 4.3–4.5 against 5.6–5.7 Mrays/s: docs/results.md, thirty-seventh
     // session). Shadow rays keep the distances too: the variant without them ran 2.4× slower
     // on lavapipe (thirty-sixth session).
-    uint stack[STACK_SIZE];
-    float stack_t[STACK_SIZE];
+    uint stack[BVH_STACK_SIZE];
+    float stack_t[BVH_STACK_SIZE];
     uint sp = 0u;
     uint node = 0u;
     uint s_base = 0u, s_ofs = 0u, s_cnt = 0u;
@@ -140,29 +126,25 @@ uint trace_ray(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out float t
         do {
             if (nall == 0u && more_nodes) {
                 BvhNode n = bvh_node(node);
-                float key[4];
-                uint rf[4];
-                key[0] = slab(n.a_min, n.a_max, oi, inv, tmin, best_t);
-                key[1] = slab(n.b_min, n.b_max, oi, inv, tmin, best_t);
-                key[2] = slab(n.c_min, n.c_max, oi, inv, tmin, best_t);
-                key[3] = slab(n.d_min, n.d_max, oi, inv, tmin, best_t);
-                rf[0] = n.a_ref;
-                rf[1] = n.b_ref;
-                rf[2] = n.c_ref;
-                rf[3] = n.d_ref;
-                na = key[0] >= 0.0 && (n.a_ref & BVH_LEAF_BIT) != 0u ? n.a_count : 0u;
-                uint nb = key[1] >= 0.0 && (n.b_ref & BVH_LEAF_BIT) != 0u ? n.b_count : 0u;
-                uint nc = key[2] >= 0.0 && (n.c_ref & BVH_LEAF_BIT) != 0u ? n.c_count : 0u;
-                uint nd = key[3] >= 0.0 && (n.d_ref & BVH_LEAF_BIT) != 0u ? n.d_count : 0u;
+                vec4 keys = slab4(n, oi, inv, tmin, best_t);
+                float key[4] = float[4](keys.x, keys.y, keys.z, keys.w);
+                uint rf[4] = uint[4](n.refs.x, n.refs.y, n.refs.z, n.refs.w);
+                // Hit leaves' triangle counts (a leaf ref: BVH_LEAF_BIT, the count, the first
+                // triangle; src/abi.rs).
+                uvec4 count = (n.refs >> BVH_LEAF_COUNT_SHIFT) & 255u;
+                na = key[0] >= 0.0 && (rf[0] & BVH_LEAF_BIT) != 0u ? count.x : 0u;
+                uint nb = key[1] >= 0.0 && (rf[1] & BVH_LEAF_BIT) != 0u ? count.y : 0u;
+                uint nc = key[2] >= 0.0 && (rf[2] & BVH_LEAF_BIT) != 0u ? count.z : 0u;
+                uint nd = key[3] >= 0.0 && (rf[3] & BVH_LEAF_BIT) != 0u ? count.w : 0u;
                 nab = na + nb;
                 nabc = nab + nc;
                 nall = nabc + nd;
                 // (Tested once the next node is chosen, so that choice culls by the distance
                 // known before them: the same hits, a few more steps.)
-                fa = n.a_ref & ~BVH_LEAF_BIT;
-                fb = n.b_ref & ~BVH_LEAF_BIT;
-                fc = n.c_ref & ~BVH_LEAF_BIT;
-                fd = n.d_ref & ~BVH_LEAF_BIT;
+                fa = n.refs.x & BVH_LEAF_FIRST_MASK;
+                fb = n.refs.y & BVH_LEAF_FIRST_MASK;
+                fc = n.refs.z & BVH_LEAF_FIRST_MASK;
+                fd = n.refs.w & BVH_LEAF_FIRST_MASK;
                 // Interior children that can still hold a closer hit, nearest first; the others
                 // sort last with key ∞ (a five-exchange sorting network).
                 uint m = 0u;

@@ -4,6 +4,11 @@
 #define TYPES_GLSL
 
 #define BVH_LEAF_BIT 0x80000000u
+#define BVH_LEAF_COUNT_SHIFT 23u
+#define BVH_LEAF_FIRST_MASK 0x7fffffu
+// Entries of the traversal's stack of siblings to visit (bvh.glsl); the builder caps the
+// depth so it cannot overflow (src/accel/bvh.rs STACK_SIZE says why 32 is enough).
+#define BVH_STACK_SIZE 32u
 
 // The light samplers (src/render/mod.rs LightSampler::shader_id).
 #define SAMPLER_UNIFORM 0u
@@ -13,15 +18,15 @@
 #define SAMPLER_DONIKIAN 4u
 #define SAMPLER_BAYES 5u
 
+// The children's boxes plane by plane, then their references (src/abi.rs BvhNode).
 struct BvhNode {
-    vec3 a_min; uint a_ref;
-    vec3 a_max; uint a_count;
-    vec3 b_min; uint b_ref;
-    vec3 b_max; uint b_count;
-    vec3 c_min; uint c_ref;
-    vec3 c_max; uint c_count;
-    vec3 d_min; uint d_ref;
-    vec3 d_max; uint d_count;
+    vec4 lo_x;
+    vec4 lo_y;
+    vec4 lo_z;
+    vec4 hi_x;
+    vec4 hi_y;
+    vec4 hi_z;
+    uvec4 refs;
 };
 
 struct BvhTri {

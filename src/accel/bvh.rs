@@ -5,18 +5,29 @@
 
 use glam::Vec3;
 
-use crate::gpu::layout::{BvhNode, BvhTri, BVH_LEAF_BIT};
+use crate::gpu::layout::{
+    BvhNode, BvhTri, BVH_LEAF_BIT, BVH_LEAF_COUNT_SHIFT, BVH_LEAF_FIRST_MASK,
+};
 
 /// Leaves hold at most this many triangles unless the depth limit forces more.
 const MAX_LEAF: usize = 4;
-/// The builder stops splitting at this binary depth, which bounds the traversal stack.
+/// The builder stops choosing splits by SAH at this binary depth, which bounds the traversal
+/// stack; a deeper node is a leaf where it holds at most `MAX_LEAF_COUNT` triangles, else it
+/// is halved by count, at most `COUNT_SPLIT_LEVELS` times.
 pub const MAX_DEPTH: usize = 48;
-/// Entries of the traversal stack (`STACK_SIZE` in `shaders/shared/bvh.glsl`): a 4-wide node
-/// spans two binary levels wherever it has interior children, so a path has at most
-/// MAX_DEPTH / 2 = 24 nodes; each node on it with two or more interior children leaves one
-/// entry of siblings to visit (the latest in registers, the others stacked), and the last
-/// node has none: at most 24 − 2 = 22 on the stack.
-pub const STACK_SIZE: usize = 24;
+/// The most triangles a leaf holds: its reference has 8 bits for the count (src/abi.rs).
+const MAX_LEAF_COUNT: usize = 255;
+/// The most triangles a BVH holds: a leaf reference has 23 bits for its first triangle.
+pub const MAX_TRIANGLES: usize = BVH_LEAF_FIRST_MASK as usize + 1;
+/// Halvings below MAX_DEPTH that bring any node's triangles down to a leaf's.
+const COUNT_SPLIT_LEVELS: usize = 16;
+const _: () = assert!(MAX_TRIANGLES.div_ceil(1 << COUNT_SPLIT_LEVELS) <= MAX_LEAF_COUNT);
+/// Entries of the traversal stack (`BVH_STACK_SIZE` in `shaders/shared/types.glsl`): a 4-wide
+/// node spans two binary levels wherever it has interior children, so a path has at most
+/// (MAX_DEPTH + COUNT_SPLIT_LEVELS) / 2 = 32 nodes; each node on it with two or more interior
+/// children leaves one entry of siblings to visit (the latest in registers, the others
+/// stacked), and the last node has none: at most 32 − 2 = 30 on the stack.
+pub const STACK_SIZE: usize = (MAX_DEPTH + COUNT_SPLIT_LEVELS) / 2;
 /// The most nodes a BVH may have: the kernel's stack entry packs a slot below 2^24 into its
 /// high bits (shaders/shared/bvh.glsl). Devices whose texel buffers hold 2^27 texels cannot
 /// hold more anyway.
@@ -66,9 +77,19 @@ struct BuildNode {
 impl Bvh {
     /// Builds the BVH over world-space triangles (`prim` = index into `triangles`).
     pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
+        Bvh::build_to(triangles, MAX_DEPTH)
+    }
+
+    /// As `build`, with SAH splits down to binary depth `sah_depth` (≤ MAX_DEPTH; the tests
+    /// take less to reach the forced leaves with few triangles).
+    fn build_to(triangles: &[[Vec3; 3]], sah_depth: usize) -> Bvh {
         assert!(
             !triangles.is_empty(),
             "the loader refuses scenes without triangles"
+        );
+        assert!(
+            triangles.len() <= MAX_TRIANGLES,
+            "the loader refuses scenes of more than gltf_mesh::MAX_TRIANGLES triangles"
         );
         let boxes: Vec<Aabb> = triangles
             .iter()
@@ -96,11 +117,17 @@ impl Bvh {
         let mut work = vec![(0usize, 1usize)]; // (node, depth)
         while let Some((n, depth)) = work.pop() {
             let (first, count) = (nodes[n].first, nodes[n].count);
-            if count <= 1 || depth >= MAX_DEPTH {
+            let forced = depth >= sah_depth;
+            if count <= 1 || (forced && count <= MAX_LEAF_COUNT) {
                 continue;
             }
             let slice = &mut ids[first..first + count];
-            let Some(mid) = split(slice, &boxes, &centroids, &nodes[n].bounds) else {
+            let mid = if forced {
+                Some(count / 2) // past the SAH's depth: halve until a leaf's reference holds it
+            } else {
+                split(slice, &boxes, &centroids, &nodes[n].bounds)
+            };
+            let Some(mid) = mid else {
                 continue; // a leaf is cheaper
             };
             let (l, r) = slice.split_at(mid);
@@ -201,27 +228,41 @@ fn partition(ids: &mut [u32], left: impl Fn(u32) -> bool) -> usize {
     i
 }
 
-/// A child slot of a node: (box min, box max, reference, leaf triangle count).
+/// A child slot of a node: (box min, box max, reference, leaf triangle count), the reference
+/// of a leaf `BVH_LEAF_BIT | first triangle` (its count unpacked into the fourth member).
 pub type Child = ([f32; 3], [f32; 3], u32, u32);
 
 /// A node's four child slots in order.
 pub fn children(n: &BvhNode) -> [Child; 4] {
-    [
-        (n.a_min, n.a_max, n.a_ref, n.a_count),
-        (n.b_min, n.b_max, n.b_ref, n.b_count),
-        (n.c_min, n.c_max, n.c_ref, n.c_count),
-        (n.d_min, n.d_max, n.d_ref, n.d_count),
-    ]
+    std::array::from_fn(|i| {
+        let r = n.refs[i];
+        let (r, count) = if r & BVH_LEAF_BIT != 0 {
+            (
+                BVH_LEAF_BIT | (r & BVH_LEAF_FIRST_MASK),
+                (r & !BVH_LEAF_BIT) >> BVH_LEAF_COUNT_SHIFT,
+            )
+        } else {
+            (r, 0)
+        };
+        (
+            [n.lo_x[i], n.lo_y[i], n.lo_z[i]],
+            [n.hi_x[i], n.hi_y[i], n.hi_z[i]],
+            r,
+            count,
+        )
+    })
 }
 
 fn set_child(n: &mut BvhNode, i: usize, (lo, hi, r, count): Child) {
-    let (min, max, rf, c) = match i {
-        0 => (&mut n.a_min, &mut n.a_max, &mut n.a_ref, &mut n.a_count),
-        1 => (&mut n.b_min, &mut n.b_max, &mut n.b_ref, &mut n.b_count),
-        2 => (&mut n.c_min, &mut n.c_max, &mut n.c_ref, &mut n.c_count),
-        _ => (&mut n.d_min, &mut n.d_max, &mut n.d_ref, &mut n.d_count),
+    [n.lo_x[i], n.lo_y[i], n.lo_z[i]] = lo;
+    [n.hi_x[i], n.hi_y[i], n.hi_z[i]] = hi;
+    n.refs[i] = if r & BVH_LEAF_BIT != 0 {
+        let first = r & !BVH_LEAF_BIT;
+        assert!(first <= BVH_LEAF_FIRST_MASK && count as usize <= MAX_LEAF_COUNT);
+        BVH_LEAF_BIT | count << BVH_LEAF_COUNT_SHIFT | first
+    } else {
+        r
     };
-    (*min, *max, *rf, *c) = (lo, hi, r, count);
 }
 
 /// An empty child: a leaf of no triangles (a point box far away; even where a ray meets it,
@@ -340,7 +381,8 @@ pub(crate) mod tests {
         let bvh = Bvh::build(&random_soup(3000, 11));
         let mut parents = vec![0u32; bvh.nodes.len()];
         for n in &bvh.nodes {
-            let mut inner: Vec<u32> = [n.a_ref, n.b_ref, n.c_ref, n.d_ref]
+            let mut inner: Vec<u32> = n
+                .refs
                 .into_iter()
                 .filter(|r| r & BVH_LEAF_BIT == 0)
                 .collect();
@@ -371,7 +413,8 @@ pub(crate) mod tests {
     /// interior children leaves one entry of its others.
     fn stack_need(bvh: &Bvh, node: u32) -> (usize, usize) {
         let n = &bvh.nodes[node as usize];
-        let inner: Vec<u32> = [n.a_ref, n.b_ref, n.c_ref, n.d_ref]
+        let inner: Vec<u32> = n
+            .refs
             .into_iter()
             .filter(|r| r & BVH_LEAF_BIT == 0)
             .collect();
@@ -426,6 +469,55 @@ pub(crate) mod tests {
                 bvh.intersect(o, Vec3::X, 0.0, f32::INFINITY).map(|h| h.1),
                 Some(i as u32)
             );
+        }
+    }
+
+    /// Past the SAH's depth a node holding more triangles than a leaf reference can count
+    /// (255) is halved until it fits, within the levels STACK_SIZE allows for; the tree then
+    /// finds every hit a brute-force test finds.
+    #[test]
+    fn forced_leaves_fit_their_references() {
+        let tris = random_soup(3000, 9);
+        let bvh = Bvh::build_to(&tris, 2);
+        let leaves: Vec<u32> = bvh
+            .nodes
+            .iter()
+            .flat_map(children)
+            .filter(|c| c.2 & BVH_LEAF_BIT != 0 && c.3 > 0)
+            .map(|c| c.3)
+            .collect();
+        assert_eq!(
+            leaves.iter().sum::<u32>(),
+            3000,
+            "every triangle in one leaf"
+        );
+        let most = *leaves.iter().max().unwrap();
+        assert!(most > 100 && most <= 255, "largest leaf {most}");
+        let (entries, depth) = stack_need(&bvh, 0);
+        assert!(
+            depth <= STACK_SIZE && entries <= STACK_SIZE,
+            "depth {depth}"
+        );
+        let mut r = SplitMix64(4);
+        for _ in 0..300 {
+            let o = Vec3::new(r.range(-6.0, 6.0), r.range(-6.0, 6.0), -8.0);
+            let d = (Vec3::new(r.range(-4.0, 4.0), r.range(-4.0, 4.0), 0.0) - o).normalize();
+            let want = tris
+                .iter()
+                .enumerate()
+                .filter_map(|(i, t)| {
+                    let tri = BvhTri {
+                        v0: t[0].to_array(),
+                        e1: (t[1] - t[0]).to_array(),
+                        e2: (t[2] - t[0]).to_array(),
+                        prim: i as u32,
+                        ..Default::default()
+                    };
+                    super::super::traverse::intersect_tri(&tri, o, d, 0.0, f32::INFINITY)
+                        .map(|t| (t, i as u32))
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            assert_eq!(bvh.intersect(o, d, 0.0, f32::INFINITY), want);
         }
     }
 }

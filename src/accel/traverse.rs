@@ -4,8 +4,8 @@
 
 use glam::{Vec3, Vec4};
 
-use super::bvh::{children, Bvh, Child, STACK_SIZE};
-use crate::gpu::layout::{BvhTri, BVH_LEAF_BIT};
+use super::bvh::{children, Bvh, STACK_SIZE};
+use crate::gpu::layout::{BvhNode, BvhTri, BVH_LEAF_BIT};
 
 impl Bvh {
     /// Closest hit along `o + t d`, t in (tmin, tmax): (t, prim) or None.
@@ -49,11 +49,12 @@ impl Bvh {
         let mut sib = Siblings::default();
         let mut done = false;
         loop {
-            let kids = children(&self.nodes[node as usize]);
+            let n = &self.nodes[node as usize];
+            let kids = children(n);
             // All four boxes against the distance known on arrival (-1: missed). The hit
             // leaves are tested once the next node is chosen, as the kernel's lanes step from
             // node to node until they hold leaves and then test them.
-            let mut key = slab4(&kids, oi, inv, tmin, best_t).to_array();
+            let mut key = slab4(n, oi, inv, tmin, best_t).to_array();
             let mut refs = kids.map(|k| k.2);
             let leaves = std::array::from_fn::<_, 4, _>(|i| {
                 (key[i] >= 0.0 && refs[i] & BVH_LEAF_BIT != 0).then_some((refs[i], kids[i].3))
@@ -159,19 +160,18 @@ struct Siblings {
 
 /// The ray/box slab test of the four children at once (`oi` = o · inv; SIMD lanes =
 /// children): each child's entry distance if its box is hit within [tmin, tmax], else -1
-/// (tmin ≥ 0). The same tests per lane as `slab` in the kernel (whose compiler may fuse the
+/// (tmin ≥ 0). The same tests per lane as `slab4` in the kernel (whose compiler may fuse the
 /// multiply-add: a distance can differ in its last bit, which can only reorder a near tie).
 #[inline]
-fn slab4(kids: &[Child; 4], oi: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> Vec4 {
-    let lane = |f: fn(&Child) -> f32| Vec4::new(f(&kids[0]), f(&kids[1]), f(&kids[2]), f(&kids[3]));
-    let axis = |lo: Vec4, hi: Vec4, oi: f32, inv: f32| {
-        let t0 = lo * inv - Vec4::splat(oi);
-        let t1 = hi * inv - Vec4::splat(oi);
+fn slab4(n: &BvhNode, oi: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> Vec4 {
+    let axis = |lo: [f32; 4], hi: [f32; 4], oi: f32, inv: f32| {
+        let t0 = Vec4::from(lo) * inv - Vec4::splat(oi);
+        let t1 = Vec4::from(hi) * inv - Vec4::splat(oi);
         (t0.min(t1), t0.max(t1))
     };
-    let (nx, fx) = axis(lane(|k| k.0[0]), lane(|k| k.1[0]), oi.x, inv.x);
-    let (ny, fy) = axis(lane(|k| k.0[1]), lane(|k| k.1[1]), oi.y, inv.y);
-    let (nz, fz) = axis(lane(|k| k.0[2]), lane(|k| k.1[2]), oi.z, inv.z);
+    let (nx, fx) = axis(n.lo_x, n.hi_x, oi.x, inv.x);
+    let (ny, fy) = axis(n.lo_y, n.hi_y, oi.y, inv.y);
+    let (nz, fz) = axis(n.lo_z, n.hi_z, oi.z, inv.z);
     let near = nx.max(ny).max(nz).max(Vec4::splat(tmin));
     let far = fx.min(fy).min(fz).min(Vec4::splat(tmax));
     Vec4::select(near.cmple(far), near, Vec4::splat(-1.0))
