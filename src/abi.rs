@@ -14,7 +14,7 @@ use bytemuck::{Pod, Zeroable};
 pub const BVH_LEAF_BIT: u32 = 0x8000_0000;
 /// A leaf reference holds its triangle count, at most 255, in bits 23–30.
 pub const BVH_LEAF_COUNT_SHIFT: u32 = 23;
-/// A leaf reference holds its first triangle in bits 0–22: a BVH holds fewer than 2^23
+/// A leaf reference holds its first triangle in bits 0–22: a BVH holds at most 2^23
 /// triangles (the glTF loader's MAX_TRIANGLES is 2.5 M).
 pub const BVH_LEAF_FIRST_MASK: u32 = (1 << BVH_LEAF_COUNT_SHIFT) - 1;
 

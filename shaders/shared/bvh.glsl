@@ -44,9 +44,10 @@ BvhTri bvh_tri(uint i) {
 }
 
 // a < b ? a : b and a > b ? a : b, lane by lane: one x86 min/max instruction each, where
-// GLSL's min and max, which must return the number when one side is NaN, took lavapipe three
+// lavapipe compiles GLSL's min and max to return the number beside a NaN, three instructions
 // (a compare for NaN and a blend besides; docs/results.md, thirty-eighth session). They are
-// also what the CPU traversal's SSE min and max do (src/accel/traverse.rs slab4).
+// also what the CPU traversal's min and max do on x86 (SSE minps / maxps; src/accel/traverse.rs
+// slab4).
 vec4 min_x86(vec4 a, vec4 b) { return mix(b, a, lessThan(a, b)); }
 vec4 max_x86(vec4 a, vec4 b) { return mix(b, a, greaterThan(a, b)); }
 
