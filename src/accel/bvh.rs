@@ -520,6 +520,12 @@ pub(crate) mod tests {
             most > 64,
             "no large forced leaf ({most}): the test tests nothing"
         );
+        // The halvings stay within the levels STACK_SIZE allows past the SAH's depth.
+        let (entries, depth) = stack_need(&bvh, 0);
+        assert!(
+            depth <= (2 + COUNT_SPLIT_LEVELS) / 2 && entries <= STACK_SIZE,
+            "4-wide depth {depth}, entries {entries}"
+        );
         let mut r = SplitMix64(4);
         let mut hits = 0;
         for _ in 0..300 {
