@@ -248,15 +248,21 @@ fn partition(ids: &mut [u32], left: impl Fn(u32) -> bool) -> usize {
 /// of a leaf `BVH_LEAF_BIT | first triangle` (its count unpacked into the fourth member).
 pub type Child = ([f32; 3], [f32; 3], u32, u32);
 
+/// A leaf reference's first triangle and triangle count (`BvhNode::refs`, src/abi.rs).
+pub fn leaf_range(r: u32) -> (u32, u32) {
+    (
+        r & BVH_LEAF_FIRST_MASK,
+        (r & !BVH_LEAF_BIT) >> BVH_LEAF_COUNT_SHIFT,
+    )
+}
+
 /// A node's four child slots in order.
 pub fn children(n: &BvhNode) -> [Child; 4] {
     std::array::from_fn(|i| {
         let r = n.refs[i];
         let (r, count) = if r & BVH_LEAF_BIT != 0 {
-            (
-                BVH_LEAF_BIT | (r & BVH_LEAF_FIRST_MASK),
-                (r & !BVH_LEAF_BIT) >> BVH_LEAF_COUNT_SHIFT,
-            )
+            let (first, count) = leaf_range(r);
+            (BVH_LEAF_BIT | first, count)
         } else {
             (r, 0)
         };

@@ -4,7 +4,7 @@
 
 use glam::{Vec3, Vec4};
 
-use super::bvh::{children, Bvh, STACK_SIZE};
+use super::bvh::{leaf_range, Bvh, STACK_SIZE};
 use crate::gpu::layout::{BvhNode, BvhTri, BVH_LEAF_BIT};
 
 impl Bvh {
@@ -50,14 +50,15 @@ impl Bvh {
         let mut done = false;
         loop {
             let n = &self.nodes[node as usize];
-            let kids = children(n);
             // All four boxes against the distance known on arrival (-1: missed). The hit
             // leaves are tested once the next node is chosen, as the kernel's lanes step from
             // node to node until they hold leaves and then test them.
             let mut key = slab4(n, oi, inv, tmin, best_t).to_array();
-            let mut refs = kids.map(|k| k.2);
+            // The kernel's references as they are: a leaf's carries BVH_LEAF_BIT, its count
+            // and its first triangle.
+            let mut refs = n.refs;
             let leaves = std::array::from_fn::<_, 4, _>(|i| {
-                (key[i] >= 0.0 && refs[i] & BVH_LEAF_BIT != 0).then_some((refs[i], kids[i].3))
+                (key[i] >= 0.0 && refs[i] & BVH_LEAF_BIT != 0).then(|| leaf_range(refs[i]))
             });
             // Interior children that can still hold a closer hit, nearest first (the same
             // five compare-exchanges as the kernel; the others sort last with key ∞).
@@ -110,8 +111,8 @@ impl Bvh {
                 }
                 done = !found;
             }
-            for &(r, count) in leaves.iter().flatten() {
-                if self.leaf(r, count, o, d, tmin, &mut best_t, &mut best) && any {
+            for &(first, count) in leaves.iter().flatten() {
+                if self.leaf(first, count, o, d, tmin, &mut best_t, &mut best) && any {
                     return Some((best_t, best));
                 }
             }
@@ -125,7 +126,7 @@ impl Bvh {
     #[allow(clippy::too_many_arguments)]
     fn leaf(
         &self,
-        r: u32,
+        first: u32,
         count: u32,
         o: Vec3,
         d: Vec3,
@@ -133,7 +134,7 @@ impl Bvh {
         best_t: &mut f32,
         best: &mut u32,
     ) -> bool {
-        let first = (r & !BVH_LEAF_BIT) as usize;
+        let first = first as usize;
         let mut hit = false;
         for tri in &self.tris[first..first + count as usize] {
             if let Some(t) = intersect_tri(tri, o, d, tmin, *best_t) {
